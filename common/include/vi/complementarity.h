@@ -1,0 +1,74 @@
+#pragma once
+
+#include <array>
+#include <string>
+
+namespace VI
+{
+  /**
+   * A complementarity function (C-function) C : R^2 -> R, characterised by
+   *
+   *   C(a, b) = 0   <=>   a >= 0,  b >= 0,  a b = 0.
+   *
+   * Writing each constraint row of a discrete variational inequality as
+   * C(a_l, b_l) = 0 (for the membranes a_l = X1_l - X2_l, b_l = X3_l) turns
+   * the inequality system into a nonsmooth system of equations, solved by
+   * semismooth Newton. Both functions are semismooth, so Newton converges
+   * locally superlinearly with any element of the generalised Jacobian;
+   * Newton-min converges in finitely many steps on the membrane problem.
+   *
+   * - min(a, b): piecewise linear; Newton-min is the primal-dual active set
+   *   method. Its merit function 1/2 |C|^2 is not differentiable, so it is
+   *   used without line search.
+   * - Fischer-Burmeister: sqrt(a^2 + b^2) - a - b, smooth except at (0, 0);
+   *   1/2 |C|^2 is continuously differentiable, which is what makes a
+   *   backtracking line search on it meaningful.
+   */
+  class ComplementarityFunction
+  {
+  public:
+    enum class Type
+    {
+      min,
+      fischer_burmeister
+    };
+
+    explicit ComplementarityFunction(const Type type = Type::min);
+
+    /// Parse "min" or "fischer-burmeister" (the .prm spelling).
+    static ComplementarityFunction
+    from_name(const std::string &name);
+
+    /// The accepted names, separated by '|', for ParameterHandler patterns.
+    static std::string
+    names();
+
+    Type
+    type() const;
+
+    std::string
+    name() const;
+
+    double
+    value(const double a, const double b) const;
+
+    /**
+     * An element (dC/da, dC/db) of the generalised (Clarke) Jacobian of C at
+     * (a, b). Away from the kink this is the gradient. At the kink:
+     * - min, a == b: (1, 0), a limit of gradients from the side a < b, so the
+     *   constraint a = 0 is enforced (the node is treated as in contact);
+     * - Fischer-Burmeister, (0, 0): (xi - 1, zeta - 1) with
+     *   (xi, zeta) = (1, 1)/sqrt(2) on the unit circle, a limit of gradients
+     *   along the diagonal.
+     */
+    std::array<double, 2>
+    generalized_gradient(const double a, const double b) const;
+
+    /// True if 1/2 |C|^2 is continuously differentiable (Fischer-Burmeister).
+    bool
+    has_smooth_merit_function() const;
+
+  private:
+    Type type_;
+  };
+} // namespace VI

@@ -1,0 +1,78 @@
+#pragma once
+
+#include <deal.II/base/index_set.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/trilinos_sparse_matrix.h>
+#include <deal.II/lac/trilinos_vector.h>
+#include <vector>
+#include <vi/complementarity.h>
+
+namespace VI
+{
+  /**
+   * The complementarity rows of the two-membrane problems: at every node i
+   * that carries a constraint (locally owned, not on the Dirichlet boundary,
+   * not hanging) the pair
+   *
+   *   a_i = X1_i - X2_i >= 0,   b_i = X3_i >= 0,   a_i b_i = 0
+   *
+   * is written as the row C(a_i, b_i) = 0 of the semismooth Newton system, in
+   * the X3 row of node i of the node-interleaved vector X (see NodalFields).
+   */
+  class ContactRows
+  {
+  public:
+    /// The owned nodes not constrained in `u1_constraints`.
+    void
+    reinit(const dealii::IndexSet                  &owned_nodes,
+           const dealii::AffineConstraints<double> &u1_constraints);
+
+    /// Global indices of the constrained nodes owned here.
+    const std::vector<dealii::types::global_dof_index> &
+    nodes() const;
+
+    /**
+     * Overwrite the X3 rows of R with C(a_i, b_i) and return the
+     * dimensionless complementarity residual over all processes,
+     *
+     *   max_i |C(a_i / U, b_i / B)|,   U = max_i max(|X1_i|, |X2_i|),
+     *   B = max(max_i |X3_i|, multiplier_scale),
+     *
+     * which vanishes exactly when the pairs are complementary (both
+     * C-functions keep their zero set under positive scaling of each
+     * argument) and is insensitive to the units of u and lambda.
+     * `multiplier_scale` is the size a multiplier coefficient would have to
+     * balance the load (|F| / max D), so that round-off in X3 is not mistaken
+     * for a violation when there is no contact at all.
+     */
+    double
+    evaluate(const ComplementarityFunction               &C,
+             const dealii::TrilinosWrappers::MPI::Vector &X,
+             const double                                 multiplier_scale,
+             dealii::TrilinosWrappers::MPI::Vector       &R) const;
+
+    /**
+     * Write the rows (dC/da, -dC/da, dC/db) of an element of the generalised
+     * Jacobian into the X3 rows of A (entries that exist in the sparsity
+     * pattern; followed by A.compress(insert) by the caller).
+     */
+    void
+    set_jacobian_rows(const ComplementarityFunction               &C,
+                      const dealii::TrilinosWrappers::MPI::Vector &X,
+                      dealii::TrilinosWrappers::SparseMatrix      &A) const;
+
+    /**
+     * indicator_i = 1 at the nodes in contact (a_i <= b_i: the min-function
+     * enforces u1 = u2 there), 0 elsewhere; a scalar vector over the nodes,
+     * without ghosts. Returns the global number of nodes in contact.
+     */
+    dealii::types::global_dof_index
+    contact_set(const dealii::TrilinosWrappers::MPI::Vector &X,
+                dealii::TrilinosWrappers::MPI::Vector       &indicator) const;
+
+  private:
+    std::vector<dealii::types::global_dof_index> node_indices;
+    /// Position of each node among the locally owned nodes.
+    std::vector<std::size_t> local_positions;
+  };
+} // namespace VI

@@ -1,0 +1,51 @@
+#pragma once
+
+#include <deal.II/base/point.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/grid/tria.h>
+#include <memory>
+#include <string>
+
+namespace VI
+{
+  /**
+   * The domains of the membrane programs ("Mesh/Geometry"):
+   * - square: (0,1)^2, the seed's domain;
+   * - disk: the unit disk centred at the origin, with a spherical manifold
+   *   on the boundary and transfinite interpolation inside, so that refined
+   *   meshes follow the circle; used with a mapping of the element's degree;
+   * - L-shape: (-1,1)^2 without (0,1)^2, with its re-entrant corner at the
+   *   origin.
+   */
+  enum class Geometry
+  {
+    square,
+    disk,
+    L_shape
+  };
+
+  Geometry
+  geometry_from_name(const std::string &name);
+
+  /// Coarse mesh of the domain (to be refined by the caller).
+  template <int dim>
+  void
+  make_coarse_mesh(const Geometry geometry, dealii::Triangulation<dim> &tria);
+
+  /// The point the seed test cases are centred on: (0.5, 0.5) or the origin.
+  template <int dim>
+  dealii::Point<dim>
+  geometry_center(const Geometry geometry);
+
+  /// Diameter h_Omega of the domain.
+  double
+  geometry_diameter(const Geometry geometry);
+
+  /**
+   * Mapping for the domain and element degree p: Q1 on polygons (exact),
+   * Q_p on the disk so that the curved boundary does not limit the rate.
+   */
+  template <int dim>
+  std::unique_ptr<dealii::Mapping<dim>>
+  make_mapping(const Geometry geometry, const unsigned int fe_degree);
+} // namespace VI

@@ -1,0 +1,106 @@
+#pragma once
+
+#include <deal.II/base/parameter_handler.h>
+#include <string>
+#include <vector>
+
+namespace VI
+{
+  /**
+   * The parameter sections shared by the programs (names fixed by
+   * DESIGN.md). Each section declares its entries with documentation and a
+   * pattern, and parses them with the checks a pattern cannot express
+   * (positivity, consistency); a violation throws InputError naming the
+   * parameter. A program declares the sections it needs and may restrict the
+   * accepted values (e.g. the discretisation methods it implements).
+   */
+
+  struct ExpressionParameters
+  {
+    std::string f1, f2, g1, g2;
+    std::string u1, u2, lambda; ///< exact solution; empty = unknown
+    std::string constants;      ///< "name=value, name=value"
+  };
+
+
+  struct ProblemParameters
+  {
+    std::string          test_case = "seed-smooth";
+    double               mu1       = 1.;
+    double               mu2       = 1.;
+    ExpressionParameters expression;
+
+    static void
+    declare(dealii::ParameterHandler &prm,
+            const std::string        &test_cases,
+            const std::string        &default_test_case);
+    void
+    parse(dealii::ParameterHandler &prm);
+  };
+
+
+  struct MeshParameters
+  {
+    std::string  geometry            = "square";
+    unsigned int initial_refinements = 3;
+    std::string  refinement          = "global";
+    unsigned int cycles              = 5;
+
+    static void
+    declare(dealii::ParameterHandler &prm, const std::string &refinements);
+    void
+    parse(dealii::ParameterHandler &prm);
+  };
+
+
+  struct DiscretizationParameters
+  {
+    std::string  method = "fem";
+    unsigned int degree = 1;
+
+    static void
+    declare(dealii::ParameterHandler &prm, const std::string &methods);
+    void
+    parse(dealii::ParameterHandler &prm);
+  };
+
+
+  struct NonlinearSolverParameters
+  {
+    std::string  c_function       = "min";
+    std::string  strategy         = "exact";
+    unsigned int max_iterations   = 50;
+    double       tolerance        = 1e-10;
+    bool         nested_iteration = true;
+
+    static void
+    declare(dealii::ParameterHandler &prm, const std::string &strategies);
+    void
+    parse(dealii::ParameterHandler &prm);
+  };
+
+
+  struct LinearSolverParameters
+  {
+    std::string solver         = "direct";
+    std::string direct_package = "Amesos_Mumps";
+
+    static void
+    declare(dealii::ParameterHandler &prm);
+    void
+    parse(dealii::ParameterHandler &prm);
+  };
+
+
+  struct OutputParameters
+  {
+    std::string directory = "output";
+    bool        write_vtu = true;
+    bool        verbose   = false;
+
+    static void
+    declare(dealii::ParameterHandler &prm);
+    void
+    parse(dealii::ParameterHandler &prm);
+  };
+} // namespace VI

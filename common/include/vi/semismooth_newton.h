@@ -1,0 +1,113 @@
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace VI
+{
+  /**
+   * Norms of the two parts of the semismooth Newton residual
+   * R(X) = [E X - F ; C(X)], each made dimensionless by the problem:
+   * `equations` relative to the load |F|, `complementarity` as the C-function
+   * of the pairs scaled by the size of their arguments (see ContactRows).
+   */
+  struct ResidualNorms
+  {
+    double equations       = 0.;
+    double complementarity = 0.;
+
+    bool
+    is_finite() const;
+  };
+
+
+  /// What one semismooth Newton step did.
+  struct NewtonStep
+  {
+    unsigned int  iteration         = 0;  ///< k = 1, 2, ...
+    ResidualNorms residual          = {}; ///< after the step
+    double        step_length       = 1.; ///< < 1 when the line search cut it
+    unsigned int  linear_iterations = 0;
+  };
+
+
+  struct NewtonReport
+  {
+    unsigned int            iterations        = 0;
+    unsigned int            linear_iterations = 0;
+    ResidualNorms           initial_residual  = {};
+    ResidualNorms           final_residual    = {};
+    std::vector<NewtonStep> steps;
+  };
+
+
+  /**
+   * Semismooth Newton method for a nonsmooth system R(X) = 0 whose rows are
+   * the (linear or nonlinear) balance equations E(X) = F and the
+   * complementarity rows C(X) = 0. At step k it solves
+   *
+   *   A^{k-1} dX = -R(X^{k-1}),   A^{k-1} = [E' ; J_C(X^{k-1})],
+   *
+   * with J_C an element of the generalised Jacobian, which for the linear
+   * membrane problems is the paper's A^{k-1} X^k = B^{k-1} written for the
+   * update. Optionally, the step is cut back until the merit function
+   * theta = 1/2 |R|^2 decreases by the Armijo factor (1 - 2 sigma t): this is
+   * the globalisation used with Fischer-Burmeister, whose merit function is
+   * continuously differentiable.
+   *
+   * The class knows nothing of meshes or finite elements: a problem plugs in
+   * through the three callbacks below, in the manner of deal.II's interfaces
+   * to nonlinear solvers (SUNDIALS::KINSOL, NonlinearSolverSelector). It
+   * stops when both parts of the residual are below the tolerance, and throws
+   * SolverFailure, with the reason, when the iteration limit is reached, a
+   * NaN appears or the line search finds no decrease.
+   */
+  template <typename VectorType>
+  class SemismoothNewton
+  {
+  public:
+    struct AdditionalData
+    {
+      unsigned int max_iterations        = 50;
+      double       tolerance             = 1e-10;
+      bool         line_search           = false;
+      unsigned int max_line_search_steps = 30;
+      double       armijo_parameter      = 1e-4;
+      /// Used in failure messages, e.g. "semismooth Newton-min".
+      std::string name = "semismooth Newton";
+    };
+
+    explicit SemismoothNewton(const AdditionalData &data);
+
+    /// Compute R = R(X) and return its two dimensionless norms.
+    std::function<ResidualNorms(const VectorType &X, VectorType &R)> residual;
+
+    /// Assemble the generalised Jacobian A at X.
+    std::function<void(const VectorType &X)> setup_jacobian;
+
+    /**
+     * Solve A dX = rhs with the Jacobian of the last setup_jacobian() call;
+     * return the number of iterations of the linear solver (0 for a direct
+     * solver). Throws SolverFailure if the linear solver fails.
+     */
+    std::function<unsigned int(const VectorType &rhs, VectorType &dX)>
+      solve_with_jacobian;
+
+    /// Optional: called after every accepted step (progress output).
+    std::function<void(const NewtonStep &)> monitor;
+
+    /// Iterate from the initial guess X; on return X is the converged iterate.
+    NewtonReport
+    solve(VectorType &X) const;
+
+  private:
+    bool
+    converged(const ResidualNorms &norms) const;
+
+    [[noreturn]] void
+    fail(const std::string &reason) const;
+
+    AdditionalData data;
+  };
+} // namespace VI

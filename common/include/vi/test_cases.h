@@ -1,0 +1,61 @@
+#pragma once
+
+#include <deal.II/base/function.h>
+#include <deal.II/base/point.h>
+#include <memory>
+#include <string>
+#include <vi/parameters.h>
+
+namespace VI
+{
+  /**
+   * Data of the two-membrane contact problem
+   *
+   *   -mu1 Lap u1 - lambda = f1,  -mu2 Lap u2 + lambda = f2,
+   *   u1 - u2 >= 0,  lambda >= 0,  (u1 - u2) lambda = 0,
+   *   u1 = g1, u2 = g2 on the boundary,
+   *
+   * and its exact solution where one is known (null pointers otherwise).
+   */
+  template <int dim>
+  struct MembraneData
+  {
+    std::string name;
+    double      mu1 = 1.;
+    double      mu2 = 1.;
+
+    std::shared_ptr<const dealii::Function<dim>> f1, f2, g1, g2;
+    std::shared_ptr<const dealii::Function<dim>> exact_u1, exact_u2,
+      exact_lambda;
+
+    bool
+    has_exact_solution() const
+    {
+      return exact_u1 && exact_u2;
+    }
+  };
+
+
+  /// The names accepted for "Problem/Test case" by the steady programs.
+  std::string
+  membrane_test_case_names();
+
+
+  /**
+   * Build the data of "Problem/Test case":
+   * - seed-smooth: u1 = -u2 = (r^2 - R^2)^6 for r >= R, 0 inside, lambda =
+   *   1000 r^3 (R^2 - r^2)^3 inside (R = 1/3): smooth, contact on a disk;
+   * - seed-jump: u1 = (r^2 - R^2)^2 for r > R, u2 = 0, lambda = 8 R^2
+   *   inside: the multiplier jumps across r = R, u1 is only H^{5/2-eps};
+   * - expression: muparser formulas of Problem/Expression.
+   * r is the distance to `center` (the centre of the domain). The seed's
+   * forces are those of mu1 = mu2 = 1; here they are built for the given
+   * tensions, so the exact solution holds for any mu1, mu2 > 0.
+   * Expressions are parsed and evaluated once at `center`: a malformed
+   * formula or an undefined name throws InputError naming the parameter.
+   */
+  template <int dim>
+  MembraneData<dim>
+  make_membrane_data(const ProblemParameters  &problem,
+                     const dealii::Point<dim> &center);
+} // namespace VI

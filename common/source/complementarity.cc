@@ -1,0 +1,84 @@
+#include <cmath>
+#include <vi/complementarity.h>
+#include <vi/errors.h>
+
+namespace VI
+{
+  ComplementarityFunction::ComplementarityFunction(const Type type)
+      : type_(type)
+  {
+  }
+
+
+  ComplementarityFunction
+  ComplementarityFunction::from_name(const std::string &name)
+  {
+    if (name == "min")
+      return ComplementarityFunction(Type::min);
+    if (name == "fischer-burmeister")
+      return ComplementarityFunction(Type::fischer_burmeister);
+    throw InputError("Unknown C-function <" + name +
+                     ">; accepted values: " + names());
+  }
+
+
+  std::string
+  ComplementarityFunction::names()
+  {
+    return "min|fischer-burmeister";
+  }
+
+
+  ComplementarityFunction::Type
+  ComplementarityFunction::type() const
+  {
+    return type_;
+  }
+
+
+  std::string
+  ComplementarityFunction::name() const
+  {
+    return type_ == Type::min ? "min" : "fischer-burmeister";
+  }
+
+
+  double
+  ComplementarityFunction::value(const double a, const double b) const
+  {
+    if (type_ == Type::min)
+      return std::min(a, b);
+
+    // sqrt(a^2 + b^2) - (a + b) cancels catastrophically when a, b > 0 and
+    // one of them is small; the equivalent form -2ab / (sqrt(a^2+b^2) + a + b)
+    // is exact to round-off there and vanishes exactly when a = 0 or b = 0.
+    // std::hypot avoids overflow for data of extreme size.
+    const double r = std::hypot(a, b);
+    if (a + b > 0)
+      return -2. * a * b / (r + a + b);
+    return r - a - b;
+  }
+
+
+  std::array<double, 2>
+  ComplementarityFunction::generalized_gradient(const double a,
+                                                const double b) const
+  {
+    if (type_ == Type::min)
+      return (a <= b) ? std::array<double, 2>{{1., 0.}} :
+                        std::array<double, 2>{{0., 1.}};
+
+    const double r = std::hypot(a, b);
+    if (r > 0)
+      return {{a / r - 1., b / r - 1.}};
+    const double xi = 1. / std::sqrt(2.);
+    return {{xi - 1., xi - 1.}};
+  }
+
+
+  bool
+  ComplementarityFunction::has_smooth_merit_function() const
+  {
+    return type_ == Type::fischer_burmeister;
+  }
+} // namespace VI

@@ -1,0 +1,124 @@
+#include <cmath>
+#include <deal.II/base/mpi.h>
+#include <limits>
+#include <vi/contact_rows.h>
+#include <vi/nodal_fields.h>
+
+namespace VI
+{
+  using namespace dealii;
+  using NodalFields::n_fields;
+
+  void
+  ContactRows::reinit(const IndexSet                  &owned_nodes,
+                      const AffineConstraints<double> &u1_constraints)
+  {
+    node_indices.clear();
+    local_positions.clear();
+    std::size_t k = 0;
+    for (const types::global_dof_index i : owned_nodes)
+      {
+        if (!u1_constraints.is_constrained(i))
+          {
+            node_indices.push_back(i);
+            local_positions.push_back(k);
+          }
+        ++k;
+      }
+  }
+
+
+  const std::vector<types::global_dof_index> &
+  ContactRows::nodes() const
+  {
+    return node_indices;
+  }
+
+
+  double
+  ContactRows::evaluate(const ComplementarityFunction       &C,
+                        const TrilinosWrappers::MPI::Vector &X,
+                        const double                         multiplier_scale,
+                        TrilinosWrappers::MPI::Vector       &R) const
+  {
+    const double *x = X.begin();
+    double       *r = R.begin();
+
+    double local_scales[2] = {0., 0.};
+    for (const std::size_t k : local_positions)
+      {
+        local_scales[0] = std::max({local_scales[0],
+                                    std::abs(x[n_fields * k]),
+                                    std::abs(x[n_fields * k + 1])});
+        local_scales[1] =
+          std::max(local_scales[1], std::abs(x[n_fields * k + 2]));
+      }
+    double scales[2];
+    Utilities::MPI::max(ArrayView<const double>(local_scales, 2),
+                        X.get_mpi_communicator(),
+                        ArrayView<double>(scales, 2));
+    const double tiny = std::numeric_limits<double>::min();
+    const double U    = std::max(scales[0], tiny);
+    const double B    = std::max({scales[1], multiplier_scale, tiny});
+
+    double residual = 0, not_a_number = 0;
+    for (const std::size_t k : local_positions)
+      {
+        const double a      = x[n_fields * k] - x[n_fields * k + 1];
+        const double b      = x[n_fields * k + 2];
+        r[n_fields * k + 2] = C.value(a, b);
+        const double scaled = std::abs(C.value(a / U, b / B));
+        if (std::isnan(scaled))
+          not_a_number = 1;
+        else
+          residual = std::max(residual, scaled);
+      }
+    double local[2] = {residual, not_a_number}, global[2];
+    Utilities::MPI::max(ArrayView<const double>(local, 2),
+                        X.get_mpi_communicator(),
+                        ArrayView<double>(global, 2));
+    return global[1] > 0 ? std::numeric_limits<double>::quiet_NaN() : global[0];
+  }
+
+
+  void
+  ContactRows::set_jacobian_rows(const ComplementarityFunction       &C,
+                                 const TrilinosWrappers::MPI::Vector &X,
+                                 TrilinosWrappers::SparseMatrix      &A) const
+  {
+    const double *x = X.begin();
+    for (std::size_t n = 0; n < node_indices.size(); ++n)
+      {
+        const std::size_t k = local_positions[n];
+        const double      a = x[n_fields * k] - x[n_fields * k + 1];
+        const double      b = x[n_fields * k + 2];
+        const auto        g = C.generalized_gradient(a, b);
+
+        const types::global_dof_index i          = node_indices[n];
+        const types::global_dof_index columns[3] = {
+          NodalFields::index(i, NodalFields::u1),
+          NodalFields::index(i, NodalFields::u2),
+          NodalFields::index(i, NodalFields::multiplier)};
+        const double values[3] = {g[0], -g[0], g[1]};
+        A.set(columns[2], 3, columns, values, /*elide_zero_values=*/false);
+      }
+  }
+
+
+  types::global_dof_index
+  ContactRows::contact_set(const TrilinosWrappers::MPI::Vector &X,
+                           TrilinosWrappers::MPI::Vector       &indicator) const
+  {
+    const double *x   = X.begin();
+    double       *ind = indicator.begin();
+    std::fill(ind, ind + indicator.locally_owned_size(), 0.);
+    types::global_dof_index n_contact = 0;
+    for (const std::size_t k : local_positions)
+      if (x[n_fields * k] - x[n_fields * k + 1] <= x[n_fields * k + 2])
+        {
+          ind[k] = 1.;
+          ++n_contact;
+        }
+    return Utilities::MPI::sum(n_contact, X.get_mpi_communicator());
+  }
+} // namespace VI

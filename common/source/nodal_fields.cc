@@ -1,0 +1,122 @@
+#include <vi/nodal_fields.h>
+
+namespace VI
+{
+  namespace NodalFields
+  {
+    using namespace dealii;
+
+    IndexSet
+    system_index_set(const IndexSet &nodes)
+    {
+      IndexSet system(n_fields * nodes.size());
+      for (auto interval = nodes.begin_intervals();
+           interval != nodes.end_intervals();
+           ++interval)
+        system.add_range(index(*interval->begin(), 0),
+                         index(interval->last(), n_fields - 1) + 1);
+      system.compress();
+      return system;
+    }
+
+
+    void
+    make_system_constraints(const AffineConstraints<double> &u1_constraints,
+                            const AffineConstraints<double> &u2_constraints,
+                            const IndexSet            &relevant_system_indices,
+                            AffineConstraints<double> &system_constraints)
+    {
+      system_constraints.clear();
+      system_constraints.reinit(relevant_system_indices);
+
+      const auto copy_lines = [&](const AffineConstraints<double> &scalar,
+                                  const unsigned int               field) {
+        for (const auto &line : scalar.get_lines())
+          {
+            const global_dof_index row = index(line.index, field);
+            if (!relevant_system_indices.is_element(row))
+              continue;
+            system_constraints.add_line(row);
+            for (const auto &entry : line.entries)
+              system_constraints.add_entry(row,
+                                           index(entry.first, field),
+                                           entry.second);
+            system_constraints.set_inhomogeneity(row, line.inhomogeneity);
+          }
+      };
+      copy_lines(u1_constraints, u1);
+      copy_lines(u2_constraints, u2);
+
+      for (const auto &line : u1_constraints.get_lines())
+        if (relevant_system_indices.is_element(index(line.index, multiplier)))
+          system_constraints.add_line(index(line.index, multiplier));
+
+      system_constraints.close();
+    }
+
+
+    void
+    make_system_sparsity(const DynamicSparsityPattern &scalar_pattern,
+                         const IndexSet               &owned_nodes,
+                         DynamicSparsityPattern       &system_pattern)
+    {
+      // Every row of the scalar pattern, including the rows of ghost nodes
+      // that assembly on this process writes into: Trilinos needs them to
+      // set up the communication of those entries to their owners.
+      const IndexSet &rows = scalar_pattern.row_index_set();
+      for (const global_dof_index i : rows)
+        for (auto entry = scalar_pattern.begin(i);
+             entry != scalar_pattern.end(i);
+             ++entry)
+          for (const unsigned int field : {u1, u2})
+            system_pattern.add(index(i, field), index(entry->column(), field));
+
+      // The node-local blocks (coupling and contact rows) are only written
+      // by the owner.
+      for (const global_dof_index i : owned_nodes)
+        {
+          const global_dof_index x3 = index(i, multiplier);
+          for (const unsigned int field : {u1, u2, multiplier})
+            {
+              system_pattern.add(x3, index(i, field));
+              system_pattern.add(index(i, field), x3);
+            }
+        }
+    }
+
+
+    void
+    extract(const TrilinosWrappers::MPI::Vector &X,
+            const unsigned int                   field,
+            TrilinosWrappers::MPI::Vector       &field_values)
+    {
+      // Both vectors store their locally owned entries in increasing index
+      // order, and system_index_set() keeps the node order: the k-th owned
+      // node's field value is the (3 k + field)-th owned entry of X.
+      Assert(!X.has_ghost_elements() && !field_values.has_ghost_elements(),
+             ExcMessage("extract() works on vectors without ghost entries."));
+      const double *x     = X.begin();
+      double       *value = field_values.begin();
+      const auto    n     = field_values.locally_owned_size();
+      AssertDimension(X.locally_owned_size(), n_fields * n);
+      for (std::size_t k = 0; k < n; ++k)
+        value[k] = x[n_fields * k + field];
+    }
+
+
+    void
+    insert(const TrilinosWrappers::MPI::Vector &field_values,
+           const unsigned int                   field,
+           TrilinosWrappers::MPI::Vector       &X)
+    {
+      Assert(!X.has_ghost_elements() && !field_values.has_ghost_elements(),
+             ExcMessage("insert() works on vectors without ghost entries."));
+      double       *x     = X.begin();
+      const double *value = field_values.begin();
+      const auto    n     = field_values.locally_owned_size();
+      AssertDimension(X.locally_owned_size(), n_fields * n);
+      for (std::size_t k = 0; k < n; ++k)
+        x[n_fields * k + field] = value[k];
+    }
+  } // namespace NodalFields
+} // namespace VI

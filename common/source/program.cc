@@ -1,0 +1,190 @@
+#include <deal.II/base/config.h>
+#include <deal.II/base/multithread_info.h>
+#include <deal.II/base/utilities.h>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <vi/errors.h>
+#include <vi/program.h>
+#include <vi/version.h>
+
+namespace VI
+{
+  using namespace dealii;
+
+  namespace
+  {
+    /// deal.II's exception text, reduced to one line.
+    std::string
+    one_line(const std::string &text)
+    {
+      std::string line;
+      bool        space = false;
+      for (const char c : text)
+        if (std::isspace(static_cast<unsigned char>(c)))
+          space = !line.empty();
+        else
+          {
+            if (space)
+              line += ' ';
+            line += c;
+            space = false;
+          }
+      return line;
+    }
+
+
+    std::string
+    exception_info(const ExceptionBase &exception)
+    {
+      std::ostringstream info;
+      exception.print_info(info);
+      return one_line(info.str());
+    }
+
+
+    void
+    print_usage(const ProgramDescription &program)
+    {
+      std::cout
+        << program.name << ": " << program.purpose << "\n\n"
+        << "Usage: " << program.name << " [--help | --print-parameters | "
+        << "file.prm]\n\n"
+        << "  file.prm            run the scene described by the parameter "
+           "file\n"
+        << "  --print-parameters  print every parameter with its default "
+           "value and documentation\n"
+        << "  --help              print this message\n\n"
+        << "Parallel runs: mpirun -np N " << program.name << " file.prm\n"
+        << "Exit status: 0 success, 1 bad input, 2 solver failure, 3 "
+           "internal error.\n";
+    }
+
+
+    int
+    report(const MPI_Comm comm, const std::string &message, const int status)
+    {
+      if (Utilities::MPI::this_mpi_process(comm) == 0)
+        std::cerr << message << std::endl;
+      return status;
+    }
+  } // namespace
+
+
+  std::string
+  run_header(const std::string &program, const MPI_Comm comm)
+  {
+    std::ostringstream header;
+    header << program << " " << VI_VERSION << " (" << VI_GIT_REVISION
+           << "), deal.II " << DEAL_II_PACKAGE_VERSION << ", "
+           << Utilities::MPI::n_mpi_processes(comm) << " MPI rank(s) x "
+           << MultithreadInfo::n_threads() << " thread(s)";
+    return header.str();
+  }
+
+
+  void
+  prepare_output_directory(const std::string &directory, const MPI_Comm comm)
+  {
+    std::string error;
+    if (Utilities::MPI::this_mpi_process(comm) == 0)
+      {
+        try
+          {
+            std::filesystem::create_directories(directory);
+            const std::string probe = directory + "/.write-test";
+            std::ofstream     out(probe);
+            out << "x";
+            out.close();
+            if (!out)
+              error = "is not writable";
+            std::filesystem::remove(probe);
+          }
+        catch (const std::filesystem::filesystem_error &e)
+          {
+            error = "cannot be created (" + e.code().message() + ")";
+          }
+      }
+    error = Utilities::MPI::broadcast(comm, error, 0);
+    if (!error.empty())
+      throw InputError("Output/Directory <" + directory + "> " + error);
+  }
+
+
+  int
+  run_program(int argc, char **argv, const ProgramDescription &program)
+  {
+    Utilities::MPI::MPI_InitFinalize mpi(argc, argv);
+    const MPI_Comm                   comm = MPI_COMM_WORLD;
+
+    ParameterHandler prm;
+    program.declare_parameters(prm);
+
+    const std::vector<std::string> arguments(argv + 1, argv + argc);
+    if (arguments.size() == 1 &&
+        (arguments[0] == "--help" || arguments[0] == "-h"))
+      {
+        if (Utilities::MPI::this_mpi_process(comm) == 0)
+          print_usage(program);
+        return 0;
+      }
+    if (arguments.size() == 1 && arguments[0] == "--print-parameters")
+      {
+        if (Utilities::MPI::this_mpi_process(comm) == 0)
+          prm.print_parameters(std::cout, ParameterHandler::PRM);
+        return 0;
+      }
+    if (arguments.size() != 1 || arguments[0].rfind("-", 0) == 0)
+      {
+        if (Utilities::MPI::this_mpi_process(comm) == 0)
+          print_usage(program);
+        return report(comm,
+                      "Error: expected one parameter file (or --help)",
+                      1);
+      }
+
+    const std::string &file = arguments[0];
+    try
+      {
+        if (!std::ifstream(file))
+          throw InputError("cannot open parameter file <" + file + ">");
+        try
+          {
+            prm.parse_input(file);
+          }
+        catch (const ExceptionBase &exception)
+          {
+            throw InputError("in " + file + ": " + exception_info(exception));
+          }
+        program.run(prm, comm);
+      }
+    catch (const InputError &e)
+      {
+        return report(comm, "Error: " + one_line(e.what()), 1);
+      }
+    catch (const SolverFailure &e)
+      {
+        return report(comm, "Solver failure: " + one_line(e.what()), 2);
+      }
+    catch (const ExceptionBase &e)
+      {
+        std::cerr << "Internal error on rank "
+                  << Utilities::MPI::this_mpi_process(comm) << ": "
+                  << exception_info(e) << std::endl;
+        if (Utilities::MPI::n_mpi_processes(comm) > 1)
+          MPI_Abort(comm, 3);
+        return 3;
+      }
+    catch (const std::exception &e)
+      {
+        std::cerr << "Internal error on rank "
+                  << Utilities::MPI::this_mpi_process(comm) << ": "
+                  << one_line(e.what()) << std::endl;
+        if (Utilities::MPI::n_mpi_processes(comm) > 1)
+          MPI_Abort(comm, 3);
+        return 3;
+      }
+    return 0;
+  }
+} // namespace VI

@@ -1,0 +1,138 @@
+#include <cmath>
+#include <deal.II/lac/trilinos_vector.h>
+#include <deal.II/lac/vector.h>
+#include <sstream>
+#include <vi/errors.h>
+#include <vi/semismooth_newton.h>
+
+namespace VI
+{
+  bool
+  ResidualNorms::is_finite() const
+  {
+    return std::isfinite(equations) && std::isfinite(complementarity);
+  }
+
+
+  template <typename VectorType>
+  SemismoothNewton<VectorType>::SemismoothNewton(const AdditionalData &data)
+      : data(data)
+  {
+  }
+
+
+  template <typename VectorType>
+  bool
+  SemismoothNewton<VectorType>::converged(const ResidualNorms &norms) const
+  {
+    return norms.equations <= data.tolerance &&
+           norms.complementarity <= data.tolerance;
+  }
+
+
+  template <typename VectorType>
+  void
+  SemismoothNewton<VectorType>::fail(const std::string &reason) const
+  {
+    throw SolverFailure(data.name + ": " + reason);
+  }
+
+
+  template <typename VectorType>
+  NewtonReport
+  SemismoothNewton<VectorType>::solve(VectorType &X) const
+  {
+    if (!residual || !setup_jacobian || !solve_with_jacobian)
+      fail("the problem did not provide residual, setup_jacobian and "
+           "solve_with_jacobian");
+
+    NewtonReport report;
+
+    VectorType R, rhs, dX, trial;
+    R.reinit(X);
+    rhs.reinit(X);
+    dX.reinit(X);
+
+    ResidualNorms norms     = residual(X, R);
+    report.initial_residual = norms;
+
+    for (unsigned int k = 1;; ++k)
+      {
+        if (!norms.is_finite())
+          fail("the residual is not a number at iteration " +
+               std::to_string(k - 1) + " (NaN or Inf in the data or the " +
+               "iterate)");
+        if (converged(norms))
+          break;
+        if (k > data.max_iterations)
+          {
+            std::ostringstream message;
+            message << "no convergence in " << data.max_iterations
+                    << " iterations (relative residuals: equations "
+                    << norms.equations << ", complementarity "
+                    << norms.complementarity << ", tolerance " << data.tolerance
+                    << ")";
+            fail(message.str());
+          }
+
+        setup_jacobian(X);
+        rhs = R;
+        rhs *= -1.;
+        const unsigned int linear_iterations = solve_with_jacobian(rhs, dX);
+        if (!std::isfinite(dX.l2_norm()))
+          fail("the Newton update is not a number at iteration " +
+               std::to_string(k) + " (singular generalised Jacobian?)");
+
+        double step_length = 1.;
+        if (!data.line_search)
+          {
+            X.add(1., dX);
+            norms = residual(X, R);
+          }
+        else
+          {
+            // Backtracking on theta(X) = 1/2 |R(X)|^2. For the exact Newton
+            // direction, theta'(X; dX) = -2 theta(X), hence the Armijo test.
+            const double theta_0 = 0.5 * R.norm_sqr();
+            trial.reinit(X, /*omit_zeroing_entries=*/true);
+            unsigned int cuts = 0;
+            for (;; ++cuts)
+              {
+                trial = X;
+                trial.add(step_length, dX);
+                norms                = residual(trial, R);
+                const double theta_t = 0.5 * R.norm_sqr();
+                if (std::isfinite(theta_t) &&
+                    theta_t <=
+                      (1. - 2. * data.armijo_parameter * step_length) * theta_0)
+                  break;
+                if (cuts == data.max_line_search_steps)
+                  fail("the line search on the merit function found no "
+                       "decrease after " +
+                       std::to_string(cuts) + " step halvings at iteration " +
+                       std::to_string(k));
+                step_length *= 0.5;
+              }
+            X = trial;
+          }
+
+        NewtonStep step;
+        step.iteration         = k;
+        step.residual          = norms;
+        step.step_length       = step_length;
+        step.linear_iterations = linear_iterations;
+        report.steps.push_back(step);
+        report.iterations = k;
+        report.linear_iterations += linear_iterations;
+        if (monitor)
+          monitor(step);
+      }
+
+    report.final_residual = norms;
+    return report;
+  }
+
+
+  template class SemismoothNewton<dealii::Vector<double>>;
+  template class SemismoothNewton<dealii::TrilinosWrappers::MPI::Vector>;
+} // namespace VI

@@ -1,0 +1,284 @@
+#include <cmath>
+#include <deal.II/base/function_parser.h>
+#include <deal.II/base/utilities.h>
+#include <functional>
+#include <map>
+#include <sstream>
+#include <vi/errors.h>
+#include <vi/test_cases.h>
+
+namespace VI
+{
+  using namespace dealii;
+
+  namespace
+  {
+    /**
+     * phi(|x - center|), with gradient phi'(r) (x - center) / r. The seed's
+     * data are all of this form.
+     */
+    template <int dim>
+    class RadialFunction : public Function<dim>
+    {
+    public:
+      RadialFunction(const Point<dim>                   &center,
+                     const std::function<double(double)> phi,
+                     const std::function<double(double)> dphi = {})
+          : center(center)
+          , phi(phi)
+          , dphi(dphi)
+      {
+      }
+
+      double
+      value(const Point<dim> &p, const unsigned int = 0) const override
+      {
+        return phi(p.distance(center));
+      }
+
+      Tensor<1, dim>
+      gradient(const Point<dim> &p, const unsigned int = 0) const override
+      {
+        Assert(dphi, ExcMessage("This radial function has no gradient."));
+        const double r = p.distance(center);
+        if (r == 0.)
+          return Tensor<1, dim>();
+        return dphi(r) / r * (p - center);
+      }
+
+    private:
+      const Point<dim>                    center;
+      const std::function<double(double)> phi, dphi;
+    };
+
+
+    template <int dim>
+    std::shared_ptr<const Function<dim>>
+    radial(const Point<dim>                   &center,
+           const std::function<double(double)> phi,
+           const std::function<double(double)> dphi = {})
+    {
+      return std::make_shared<RadialFunction<dim>>(center, phi, dphi);
+    }
+
+
+    /*
+     * Seed test 1: u1 = -u2 = s^N outside the contact disk r < R, s = r^2 -
+     * R^2, and lambda = 1000 r^3 (R^2 - r^2)^3 inside. With
+     * -Lap s^N = -4 N s^(N-2) (N r^2 - R^2), the forces follow from the
+     * equations: f1 = -mu1 Lap u1 - lambda, f2 = -mu2 Lap u2 + lambda.
+     */
+    template <int dim>
+    void
+    make_seed_smooth(const Point<dim> &center, MembraneData<dim> &data)
+    {
+      const double R = 1. / 3., N = 6.;
+      const double mu1 = data.mu1, mu2 = data.mu2;
+
+      const auto u = [=](const double r) {
+        return r >= R ? std::pow(r * r - R * R, N) : 0.;
+      };
+      const auto du = [=](const double r) {
+        return r >= R ? 2. * N * r * std::pow(r * r - R * R, N - 1) : 0.;
+      };
+      const auto minus_laplacian_u = [=](const double r) {
+        return r >= R ? -4. * N * std::pow(r * r - R * R, N - 2) *
+                          (N * r * r - R * R) :
+                        0.;
+      };
+      const auto lambda = [=](const double r) {
+        return r < R ? 1000. * std::pow(r, 3) * std::pow(R * R - r * r, 3) : 0.;
+      };
+      const auto dlambda = [=](const double r) {
+        return r < R ?
+                 1000. * (3. * r * r * std::pow(R * R - r * r, 3) -
+                          6. * std::pow(r, 4) * std::pow(R * R - r * r, 2)) :
+                 0.;
+      };
+
+      data.exact_u1 = radial<dim>(center, u, du);
+      data.exact_u2 = radial<dim>(
+        center,
+        [=](const double r) { return -u(r); },
+        [=](const double r) { return -du(r); });
+      data.exact_lambda = radial<dim>(center, lambda, dlambda);
+      data.f1           = radial<dim>(center, [=](const double r) {
+        return mu1 * minus_laplacian_u(r) - lambda(r);
+      });
+      data.f2           = radial<dim>(center, [=](const double r) {
+        return -mu2 * minus_laplacian_u(r) + lambda(r);
+      });
+      data.g1           = data.exact_u1;
+      data.g2           = data.exact_u2;
+    }
+
+
+    /*
+     * Seed test 2: u1 = s^2 for r > R, u2 = 0, lambda = 8 R^2 for r <= R.
+     * -Lap s^2 = 8 R^2 - 16 r^2, so f1 = -8 R^2 inside and
+     * mu1 (8 R^2 - 16 r^2) outside; f2 = lambda.
+     */
+    template <int dim>
+    void
+    make_seed_jump(const Point<dim> &center, MembraneData<dim> &data)
+    {
+      const double R   = 1. / 3.;
+      const double mu1 = data.mu1;
+
+      const auto u = [=](const double r) {
+        return r > R ? std::pow(r * r - R * R, 2) : 0.;
+      };
+      const auto du = [=](const double r) {
+        return r > R ? 4. * r * (r * r - R * R) : 0.;
+      };
+      const auto lambda = [=](const double r) {
+        return r <= R ? 8. * R * R : 0.;
+      };
+
+      data.exact_u1 = radial<dim>(center, u, du);
+      data.exact_u2 = std::make_shared<Functions::ZeroFunction<dim>>();
+      data.exact_lambda =
+        radial<dim>(center, lambda, [](const double) { return 0.; });
+      data.f1 = radial<dim>(center, [=](const double r) {
+        return (r > R ? mu1 * (8. * R * R - 16. * r * r) : 0.) - lambda(r);
+      });
+      data.f2 = radial<dim>(center, lambda);
+      data.g1 = data.exact_u1;
+      data.g2 = data.exact_u2;
+    }
+
+
+    /// "R=0.3333, N=6" -> {R: 0.3333, N: 6}
+    std::map<std::string, double>
+    parse_constants(const std::string &text)
+    {
+      std::map<std::string, double> constants;
+      for (const std::string &item : Utilities::split_string_list(text, ','))
+        {
+          const auto        equal  = item.find('=');
+          const std::string name   = Utilities::trim(item.substr(0, equal));
+          const std::string value  = equal == std::string::npos ?
+                                       "" :
+                                       Utilities::trim(item.substr(equal + 1));
+          char             *end    = nullptr;
+          const double      number = std::strtod(value.c_str(), &end);
+          const bool        valid_name =
+            !name.empty() && (std::isalpha(name[0]) || name[0] == '_') &&
+            name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQ"
+                                   "RSTUVWXYZ0123456789_") == std::string::npos;
+          if (!valid_name || value.empty() || *end != '\0' ||
+              !std::isfinite(number))
+            throw InputError("Problem/Expression/Constants: cannot read <" +
+                             item +
+                             ">; expected name=number pairs separated "
+                             "by commas");
+          constants[name] = number;
+        }
+      return constants;
+    }
+
+
+    /**
+     * A FunctionParser for one formula. Gradients (needed only for exact
+     * solutions) are fourth-order central differences with step 1e-4,
+     * accurate to about 1e-12 relative for smooth functions.
+     */
+    template <int dim>
+    std::shared_ptr<const Function<dim>>
+    parse_expression(const std::string                   &parameter,
+                     const std::string                   &formula,
+                     const std::map<std::string, double> &constants,
+                     const Point<dim>                    &probe)
+    {
+      auto function = std::make_shared<FunctionParser<dim>>(1, 0., /*h=*/1e-4);
+      function->set_formula(AutoDerivativeFunction<dim>::FourthOrder);
+      const std::string variables = dim == 1 ? "x" : dim == 2 ? "x,y" : "x,y,z";
+      try
+        {
+          function->initialize(variables, formula, constants);
+          function->value(probe);
+        }
+      catch (const ExceptionBase &exception)
+        {
+          std::ostringstream info;
+          exception.print_info(info);
+          throw InputError("Problem/Expression/" + parameter +
+                           ": cannot evaluate <" + formula +
+                           ">: " + Utilities::trim(info.str()));
+        }
+      catch (const std::exception &exception)
+        {
+          throw InputError("Problem/Expression/" + parameter +
+                           ": cannot evaluate <" + formula +
+                           ">: " + exception.what());
+        }
+      return function;
+    }
+  } // namespace
+
+
+  std::string
+  membrane_test_case_names()
+  {
+    return "seed-smooth|seed-jump|expression";
+  }
+
+
+  template <int dim>
+  MembraneData<dim>
+  make_membrane_data(const ProblemParameters &problem, const Point<dim> &center)
+  {
+    MembraneData<dim> data;
+    data.name = problem.test_case;
+    data.mu1  = problem.mu1;
+    data.mu2  = problem.mu2;
+
+    if (problem.test_case == "seed-smooth")
+      make_seed_smooth(center, data);
+    else if (problem.test_case == "seed-jump")
+      make_seed_jump(center, data);
+    else if (problem.test_case == "expression")
+      {
+        const ExpressionParameters &e         = problem.expression;
+        const auto                  constants = parse_constants(e.constants);
+        const auto                  parse     = [&](const std::string &name,
+                               const std::string &formula) {
+          return parse_expression<dim>(name, formula, constants, center);
+        };
+        for (const auto &[name, formula] :
+             {std::pair<std::string, std::string>{"f1", e.f1},
+              {"f2", e.f2},
+              {"g1", e.g1},
+              {"g2", e.g2}})
+          if (Utilities::trim(formula).empty())
+            throw InputError("Problem/Expression/" + name +
+                             " is empty; give a formula (e.g. 0)");
+        data.f1 = parse("f1", e.f1);
+        data.f2 = parse("f2", e.f2);
+        data.g1 = parse("g1", e.g1);
+        data.g2 = parse("g2", e.g2);
+
+        const bool has_u1 = !Utilities::trim(e.u1).empty();
+        const bool has_u2 = !Utilities::trim(e.u2).empty();
+        if (has_u1 != has_u2)
+          throw InputError("Problem/Expression: give both exact solutions u1 "
+                           "and u2, or neither");
+        if (has_u1)
+          {
+            data.exact_u1 = parse("u1", e.u1);
+            data.exact_u2 = parse("u2", e.u2);
+          }
+        if (!Utilities::trim(e.lambda).empty())
+          data.exact_lambda = parse("lambda", e.lambda);
+      }
+    else
+      throw InputError("Problem/Test case: unknown test case <" +
+                       problem.test_case +
+                       ">; accepted values: " + membrane_test_case_names());
+    return data;
+  }
+
+
+  template MembraneData<2>
+  make_membrane_data(const ProblemParameters &, const Point<2> &);
+} // namespace VI
