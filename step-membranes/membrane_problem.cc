@@ -64,7 +64,9 @@ namespace StepMembranes
       , prm(prm)
       , comm(comm)
       , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
-      , timer(comm, pcout, TimerOutput::never, TimerOutput::wall_times)
+      // Wall times of rank 0: a TimerOutput without communicator needs no MPI
+    // in its destructor, which also runs when a failure unwinds the stack.
+    , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
       , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
@@ -79,44 +81,72 @@ namespace StepMembranes
   }
 
 
-  // The data must admit a solution: g1 >= g2 on the boundary (otherwise the
-  // constraint u1 >= u2 contradicts the boundary condition). Checked at the
-  // boundary support points of the first mesh, before anything is written.
+  // The data must be finite and admit a solution: g1 >= g2 on the boundary
+  // (otherwise the constraint u1 >= u2 contradicts the boundary condition).
+  // Checked on the first mesh (forces at the quadrature points, boundary
+  // data at the boundary support points) before anything is written.
   template <int dim>
   void
   MembraneProblem<dim>::check_data() const
   {
     std::string violation;
-    const auto &unit_points = fe.get_unit_support_points();
+    const auto  report = [&](const std::string &message) {
+      if (violation.empty())
+        violation = message;
+    };
+
+    const QGauss<dim> quadrature(fe.degree + 2);
+    const auto &      unit_points = fe.get_unit_support_points();
     for (const auto &cell : triangulation.active_cell_iterators())
       if (cell->is_locally_owned() && violation.empty())
-        for (const unsigned int f : cell->face_indices())
-          if (cell->face(f)->at_boundary())
-            for (const auto &unit_point : unit_points)
-              {
-                // Face 2d + s of the unit cell is {x_d = s}.
-                if (std::abs(unit_point[f / 2] - double(f % 2)) > 1e-12)
-                  continue;
-                const Point<dim> p =
-                  mapping->transform_unit_to_real_cell(cell, unit_point);
-                const double g1 = data.g1->value(p), g2 = data.g2->value(p);
-                std::ostringstream message;
-                if (!std::isfinite(g1) || !std::isfinite(g2))
-                  message << "the boundary data are not finite at (" << p
-                          << "): g1 = " << g1 << ", g2 = " << g2;
-                else if (g1 - g2 <
-                         -1e-12 * std::max({1., std::abs(g1), std::abs(g2)}))
-                  message << "g1 < g2 on the boundary at (" << p
-                          << "): g1 = " << g1 << ", g2 = " << g2
-                          << "; the constraint u1 >= u2 cannot hold there";
-                if (violation.empty())
-                  violation = message.str();
-              }
+        {
+          for (const auto &unit_point : quadrature.get_points())
+            {
+              const Point<dim> p =
+                mapping->transform_unit_to_real_cell(cell, unit_point);
+              for (const auto &[name, f] :
+                   {std::pair<const char *, const Function<dim> *>{
+                      "f1", data.f1.get()},
+                    {"f2", data.f2.get()}})
+                if (!std::isfinite(f->value(p)))
+                  {
+                    std::ostringstream message;
+                    message << name << " is not finite at (" << p
+                            << "): " << f->value(p);
+                    report(message.str());
+                  }
+            }
+          for (const unsigned int f : cell->face_indices())
+            if (cell->face(f)->at_boundary())
+              for (const auto &unit_point : unit_points)
+                {
+                  // Face 2d + s of the unit cell is {x_d = s}.
+                  if (std::abs(unit_point[f / 2] - double(f % 2)) > 1e-12)
+                    continue;
+                  const Point<dim> p =
+                    mapping->transform_unit_to_real_cell(cell, unit_point);
+                  const double g1 = data.g1->value(p),
+                               g2 = data.g2->value(p);
+                  std::ostringstream message;
+                  if (!std::isfinite(g1) || !std::isfinite(g2))
+                    message << "the boundary data are not finite at (" << p
+                            << "): g1 = " << g1 << ", g2 = " << g2;
+                  else if (g1 - g2 < -1e-12 * std::max({1.,
+                                                        std::abs(g1),
+                                                        std::abs(g2)}))
+                    message << "g1 < g2 on the boundary at (" << p
+                            << "): g1 = " << g1 << ", g2 = " << g2
+                            << "; the constraint u1 >= u2 cannot hold there";
+                  if (!message.str().empty())
+                    report(message.str());
+                }
+        }
     for (const std::string &message :
          Utilities::MPI::all_gather(comm, violation))
       if (!message.empty())
         throw VI::InputError("Problem: " + message);
   }
+
 
 
   template <int dim>

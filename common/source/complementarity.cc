@@ -49,15 +49,21 @@ namespace VI
     if (type_ == Type::min)
       return std::min(a, b);
 
-    // sqrt(a^2 + b^2) - (a + b) cancels catastrophically when a, b > 0 and
-    // one of them is small; the equivalent form -2ab / (sqrt(a^2+b^2) + a + b)
-    // is exact to round-off there and vanishes exactly when a = 0 or b = 0.
-    // std::hypot avoids overflow for data of extreme size.
-    const double r = std::hypot(a, b);
-    if (a + b > 0)
-      return -2. * a * b / (r + a + b);
-    return r - a - b;
+    // FB is positively homogeneous, FB(a, b) = s FB(a/s, b/s), so it is
+    // evaluated on arguments scaled to [-1, 1]: no overflow or underflow for
+    // data of extreme size. For a, b > 0 the form sqrt(a^2 + b^2) - (a + b)
+    // cancels catastrophically when one argument is small; the equivalent
+    // -2ab / (sqrt(a^2 + b^2) + a + b) is accurate there and vanishes exactly
+    // when a = 0 or b = 0.
+    const double s = std::max(std::abs(a), std::abs(b));
+    if (s == 0.)
+      return 0.;
+    const double x = a / s, y = b / s, r = std::hypot(x, y);
+    if (x + y > 0)
+      return s * (-2. * x * y / (r + x + y));
+    return s * (r - x - y);
   }
+
 
 
   std::array<double, 2>

@@ -50,7 +50,8 @@ namespace VI
       prm.enter_subsection("Expression");
       {
         const std::string variables =
-          " Variables x, y; the constants of 'Constants'; muparser syntax.";
+          " Variables x, y; pi and the constants of 'Constants'; muparser "
+          "syntax (with atan2 and 'c ? a : b').";
         prm.declare_entry("f1",
                           "0",
                           Anything(),

@@ -44,15 +44,52 @@ namespace VI
     }
 
 
+    /**
+     * "Section/Subsection/Name=value" -> the same as the lines
+     * "subsection Section", "subsection Subsection", "set Name = value" and
+     * the "end"s in the parameter file.
+     */
+    void
+    apply_override(ParameterHandler &prm, const std::string &assignment)
+    {
+      const auto equal = assignment.find('=');
+      if (equal == std::string::npos)
+        throw InputError("--set " + assignment +
+                         ": expected Section/Name=value");
+      const std::vector<std::string> path =
+        Utilities::split_string_list(assignment.substr(0, equal), '/');
+      std::string text;
+      for (std::size_t n = 0; n + 1 < path.size(); ++n)
+        text += "subsection " + path[n] + "\n";
+      text += "set " + path.back() + " = " + assignment.substr(equal + 1) +
+              "\n";
+      for (std::size_t n = 0; n + 1 < path.size(); ++n)
+        text += "end\n";
+      try
+        {
+          prm.parse_input_from_string(text, "--set");
+        }
+      catch (const ExceptionBase &exception)
+        {
+          throw InputError("--set " + assignment + ": " +
+                           exception_info(exception));
+        }
+    }
+
+
     void
     print_usage(const ProgramDescription &program)
     {
       std::cout
         << program.name << ": " << program.purpose << "\n\n"
-        << "Usage: " << program.name << " [--help | --print-parameters | "
-        << "file.prm]\n\n"
+        << "Usage: " << program.name
+        << " [--help | --print-parameters | file.prm [--set "
+           "Section/Name=value]...]\n\n"
         << "  file.prm            run the scene described by the parameter "
            "file\n"
+        << "  --set Section/Name=value\n"
+        << "                      override one parameter of the file, e.g.\n"
+        << "                      --set \"Discretization/Polynomial degree=3\"\n"
         << "  --print-parameters  print every parameter with its default "
            "value and documentation\n"
         << "  --help              print this message\n\n"
@@ -135,12 +172,12 @@ namespace VI
           prm.print_parameters(std::cout, ParameterHandler::PRM);
         return 0;
       }
-    if (arguments.size() != 1 || arguments[0].rfind("-", 0) == 0)
+    if (arguments.empty() || arguments[0].rfind("-", 0) == 0)
       {
         if (Utilities::MPI::this_mpi_process(comm) == 0)
           print_usage(program);
         return report(comm,
-                      "Error: expected one parameter file (or --help)",
+                      "Error: expected a parameter file (or --help)",
                       1);
       }
 
@@ -156,6 +193,14 @@ namespace VI
         catch (const ExceptionBase &exception)
           {
             throw InputError("in " + file + ": " + exception_info(exception));
+          }
+        for (std::size_t a = 1; a < arguments.size(); a += 2)
+          {
+            if (arguments[a] != "--set" || a + 1 == arguments.size())
+              throw InputError("unexpected argument <" + arguments[a] +
+                               ">; after the parameter file only --set "
+                               "Section/Name=value is accepted");
+            apply_override(prm, arguments[a + 1]);
           }
         program.run(prm, comm);
       }

@@ -2,6 +2,7 @@
 #include <deal.II/base/function_parser.h>
 #include <deal.II/base/utilities.h>
 #include <functional>
+#include <iostream>
 #include <map>
 #include <sstream>
 #include <vi/errors.h>
@@ -148,11 +149,12 @@ namespace VI
     }
 
 
-    /// "R=0.3333, N=6" -> {R: 0.3333, N: 6}
+    /// "R=0.3333, N=6" -> {R: 0.3333, N: 6}, plus pi (unless redefined).
     std::map<std::string, double>
     parse_constants(const std::string &text)
     {
-      std::map<std::string, double> constants;
+      std::map<std::string, double> constants = {{"pi", numbers::PI},
+                                                 {"Pi", numbers::PI}};
       for (const std::string &item : Utilities::split_string_list(text, ','))
         {
           const auto        equal  = item.find('=');
@@ -193,13 +195,21 @@ namespace VI
       auto function = std::make_shared<FunctionParser<dim>>(1, 0., /*h=*/1e-4);
       function->set_formula(AutoDerivativeFunction<dim>::FourthOrder);
       const std::string variables = dim == 1 ? "x" : dim == 2 ? "x,y" : "x,y,z";
+      // deal.II prints muparser's diagnosis to std::cerr before it throws;
+      // keep it out of the output: the exception carries the same message.
+      std::ostringstream    parser_diagnosis;
+      std::streambuf *const cerr_buffer =
+        std::cerr.rdbuf(parser_diagnosis.rdbuf());
+      const auto restore_cerr = [&]() { std::cerr.rdbuf(cerr_buffer); };
       try
         {
           function->initialize(variables, formula, constants);
           function->value(probe);
+          restore_cerr();
         }
       catch (const ExceptionBase &exception)
         {
+          restore_cerr();
           std::ostringstream info;
           exception.print_info(info);
           throw InputError("Problem/Expression/" + parameter +
@@ -208,6 +218,7 @@ namespace VI
         }
       catch (const std::exception &exception)
         {
+          restore_cerr();
           throw InputError("Problem/Expression/" + parameter +
                            ": cannot evaluate <" + formula +
                            ">: " + exception.what());

@@ -1,0 +1,125 @@
+#!/usr/bin/env python3
+"""Convergence study of step-membranes (doc/step-membranes.md).
+
+Runs the seed's tests for several polynomial degrees, with and without
+nested iteration, and writes into doc/data/:
+  membranes-convergence.csv   one row per (test, p, nested, cycle)
+  membranes-convergence.md    the tables quoted in doc/step-membranes.md
+  membranes-convergence.png   energy error against DoFs (gnuplot)
+
+Usage: bench/membranes_convergence.py [--quick]   (from the repository root,
+after ./demo.sh or ./test.sh has built the programs). --quick runs fewer
+cycles for a smoke test.
+"""
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PROGRAM = os.path.join(ROOT, "build", "step-membranes", "step-membranes")
+DATA = os.path.join(ROOT, "doc", "data")
+QUICK = "--quick" in sys.argv
+
+# (scene, degree, cycles): cycles from 4x4 cells on.
+RUNS = [("seed-smooth", 1, 6), ("seed-smooth", 2, 6), ("seed-smooth", 3, 5),
+        ("seed-smooth", 4, 5), ("seed-jump", 1, 6), ("seed-jump", 2, 6)]
+
+
+def run(test, degree, cycles, nested):
+    if QUICK:
+        cycles = min(cycles, 3)
+    out = os.path.join(ROOT, "output", "bench", f"{test}-p{degree}-nested-{nested}")
+    subprocess.run([PROGRAM, os.path.join(ROOT, "parameters", f"membranes-{test}.prm"),
+                    "--set", f"Discretization/Polynomial degree={degree}",
+                    "--set", f"Mesh/Cycles={cycles}",
+                    "--set", f"Nonlinear solver/Nested iteration={nested}",
+                    # From zero, Newton-min needs O(1/h) iterations.
+                    "--set", "Nonlinear solver/Maximum iterations=500",
+                    "--set", f"Output/Directory={out}"],
+                   check=True, stdout=subprocess.DEVNULL)
+    with open(os.path.join(out, "summary.json")) as f:
+        return json.load(f)["cycles"]
+
+
+def rate(previous, current):
+    # rate in h from the DoF count (d = 2)
+    return 2 * math.log(previous["error_energy"] / current["error_energy"]) / \
+        math.log(current["dofs_per_field"] / previous["dofs_per_field"])
+
+
+def main():
+    os.makedirs(DATA, exist_ok=True)
+    rows, tables = [], []
+    for test, degree, cycles in RUNS:
+        nested_values = ["true", "false"] if test == "seed-smooth" else ["true"]
+        results = {nested: run(test, degree, cycles, nested) for nested in nested_values}
+        print(f"{test} p={degree}: done", flush=True)
+        for nested, records in results.items():
+            for n, c in enumerate(records):
+                rows.append({"test": test, "p": degree, "nested": nested,
+                             "cycle": c["cycle"], "cells": c["cells"],
+                             "dofs_per_field": c["dofs_per_field"],
+                             "newton": c["newton_iterations"],
+                             "error_energy": c["error_energy"],
+                             "rate": rate(records[n - 1], c) if n else "",
+                             "error_lambda_l2": c.get("error_lambda_l2", ""),
+                             "wall_seconds": c["wall_seconds"]})
+        nested = results["true"]
+        lines = [f"#### {test}, Q{degree}", "",
+                 "| cells | DoFs per field | energy error | rate | Newton-min (nested) |"
+                 + (" Newton-min (from zero) |" if "false" in results else ""),
+                 "|---:|---:|---:|---:|---:|" + ("---:|" if "false" in results else "")]
+        for n, c in enumerate(nested):
+            line = (f"| {c['cells']} | {c['dofs_per_field']} | {c['error_energy']:.3e} | "
+                    f"{rate(nested[n - 1], c):.2f} | " if n else
+                    f"| {c['cells']} | {c['dofs_per_field']} | {c['error_energy']:.3e} | - | ")
+            line += f"{c['newton_iterations']} |"
+            if "false" in results:
+                line += f" {results['false'][n]['newton_iterations']} |"
+            lines.append(line)
+        tables.append("\n".join(lines))
+
+    with open(os.path.join(DATA, "membranes-convergence.csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+    with open(os.path.join(DATA, "membranes-convergence.md"), "w") as f:
+        f.write("\n\n".join(tables) + "\n")
+
+    # gnuplot: energy error against DoFs per field, nested runs.
+    dat = os.path.join(DATA, "membranes-convergence.dat")
+    with open(dat, "w") as f:
+        for test, degree, _ in RUNS:
+            f.write(f"# {test} p={degree}\n")
+            for r in rows:
+                if r["test"] == test and r["p"] == degree and r["nested"] == "true":
+                    f.write(f"{r['dofs_per_field']} {r['error_energy']}\n")
+            f.write("\n\n")
+    plots = []
+    for index, (test, degree, _) in enumerate(RUNS):
+        plots.append(f"'{dat}' index {index} with linespoints lw 2 pt {index + 4} "
+                     f"title '{test}, Q{degree}'")
+    for p in (1, 2, 3, 4):
+        plots.append(f"{2.0 ** (p / 2) * 0.05}*x**(-{p}/2.) dt 2 lc rgb 'gray' "
+                     f"notitle")
+    script = f"""set terminal pngcairo size 900,650 font ',12'
+set output '{os.path.join(DATA, "membranes-convergence.png")}'
+set logscale xy
+set format y '10^{{%L}}'
+set xlabel 'DoFs per field'
+set ylabel 'energy error |||u - u_h|||'
+set title 'step-membranes: seed tests, uniform refinement (dashed: DoFs^{{-p/2}})'
+set key bottom left
+set grid
+plot {', '.join(plots)}
+"""
+    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    os.remove(dat)
+    print(f"wrote {DATA}/membranes-convergence.{{csv,md,png}}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Shared set-up of demo.sh and test.sh: install the Debian packages that are
+# missing, then configure (Release) and build in build/. Idempotent: a second
+# call installs nothing and rebuilds only what changed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  libdeal.ii-dev   # deal.II 9.4 with Trilinos, p4est, PETSc, SUNDIALS, MPI
+  openmpi-bin      # mpirun for parallel runs and the MPI tests
+  numdiff          # tolerant comparison of test output
+  libgtest-dev     # GoogleTest unit tests
+  cmake make g++ git
+  gnuplot-nox      # plots of the benchmark scripts in bench/
+  python3
+)
+missing=()
+for package in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$package" 2>/dev/null |
+    grep -q "install ok installed" || missing+=("$package")
+done
+if ((${#missing[@]})); then
+  echo "== Installing missing Debian packages: ${missing[*]}"
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q "${missing[@]}"
+fi
+
+echo "== Configuring and building (Release) in build/"
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release > build.log 2>&1 ||
+  { cat build.log; exit 1; }
+cmake --build build -j "$(nproc)" >> build.log 2>&1 ||
+  { tail -50 build.log; exit 1; }
+echo "   built (log in build.log)"

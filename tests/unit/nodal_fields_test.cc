@@ -1,0 +1,126 @@
+// The node-interleaved layout X[3 i + alpha] of the membrane unknowns.
+#include <deal.II/base/index_set.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/trilinos_vector.h>
+#include <gtest/gtest.h>
+#include <vi/contact_rows.h>
+#include <vi/nodal_fields.h>
+
+using namespace dealii;
+namespace NodalFields = VI::NodalFields;
+
+TEST(NodalFields, SystemIndexSetInterleavesTheFields)
+{
+  IndexSet nodes(10);
+  nodes.add_range(0, 3);
+  nodes.add_index(7);
+  nodes.compress();
+  const IndexSet system = NodalFields::system_index_set(nodes);
+  EXPECT_EQ(system.size(), 30u);
+  EXPECT_EQ(system.n_elements(), 12u);
+  for (const types::global_dof_index i : {0, 1, 2, 7})
+    for (unsigned int field = 0; field < 3; ++field)
+      EXPECT_TRUE(system.is_element(NodalFields::index(i, field)));
+  EXPECT_FALSE(system.is_element(9));
+}
+
+
+TEST(NodalFields, SystemConstraintsCarryDataAndRemoveTheMultiplier)
+{
+  IndexSet nodes(4);
+  nodes.add_range(0, 4);
+  AffineConstraints<double> u1(nodes), u2(nodes), system;
+  u1.add_line(0);
+  u1.set_inhomogeneity(0, 2.);
+  u1.add_line(2);
+  u1.add_entry(2, 1, 0.5);
+  u1.add_entry(2, 3, 0.5);
+  u1.close();
+  u2.add_line(0);
+  u2.set_inhomogeneity(0, -1.);
+  u2.add_line(2);
+  u2.add_entry(2, 1, 0.5);
+  u2.add_entry(2, 3, 0.5);
+  u2.close();
+  NodalFields::make_system_constraints(u1,
+                                       u2,
+                                       NodalFields::system_index_set(nodes),
+                                       system);
+  EXPECT_EQ(system.get_inhomogeneity(NodalFields::index(0, 0)), 2.);
+  EXPECT_EQ(system.get_inhomogeneity(NodalFields::index(0, 1)), -1.);
+  EXPECT_TRUE(system.is_constrained(NodalFields::index(0, 2)));
+  EXPECT_EQ(system.get_inhomogeneity(NodalFields::index(0, 2)), 0.);
+  // The hanging node 2 = (node 1 + node 3)/2 within each membrane.
+  const auto *entries = system.get_constraint_entries(NodalFields::index(2, 1));
+  ASSERT_NE(entries, nullptr);
+  ASSERT_EQ(entries->size(), 2u);
+  EXPECT_EQ((*entries)[0].first, NodalFields::index(1, 1));
+  EXPECT_EQ((*entries)[1].first, NodalFields::index(3, 1));
+  // No multiplier where u1 is constrained.
+  EXPECT_TRUE(system.is_constrained(NodalFields::index(2, 2)));
+  EXPECT_EQ(system.get_constraint_entries(NodalFields::index(2, 2))->size(),
+            0u);
+  EXPECT_FALSE(system.is_constrained(NodalFields::index(1, 2)));
+}
+
+
+TEST(NodalFields, ExtractAndInsertRoundTrip)
+{
+  const unsigned int n = 5;
+  IndexSet           nodes(n);
+  nodes.add_range(0, n);
+  TrilinosWrappers::MPI::Vector X(NodalFields::system_index_set(nodes),
+                                  MPI_COMM_WORLD),
+    field(nodes, MPI_COMM_WORLD);
+  for (unsigned int i = 0; i < 3 * n; ++i)
+    X(i) = i;
+  X.compress(VectorOperation::insert);
+  NodalFields::extract(X, NodalFields::u2, field);
+  for (unsigned int i = 0; i < n; ++i)
+    EXPECT_EQ(field(i), 3. * i + 1.);
+  field *= -1.;
+  NodalFields::insert(field, NodalFields::multiplier, X);
+  for (unsigned int i = 0; i < n; ++i)
+    {
+      EXPECT_EQ(X(3 * i + 2), -(3. * i + 1.));
+      EXPECT_EQ(X(3 * i), 3. * i);
+    }
+}
+
+
+TEST(ContactRows, ResidualAndJacobianRowsOfTheComplementarity)
+{
+  // Nodes 0..3; node 0 on the boundary (constrained), no contact row there.
+  const unsigned int n = 4;
+  IndexSet           nodes(n);
+  nodes.add_range(0, n);
+  AffineConstraints<double> u1(nodes);
+  u1.add_line(0);
+  u1.close();
+  VI::ContactRows rows;
+  rows.reinit(nodes, u1);
+  ASSERT_EQ(rows.nodes().size(), 3u);
+
+  TrilinosWrappers::MPI::Vector X(NodalFields::system_index_set(nodes),
+                                  MPI_COMM_WORLD),
+    R(X), indicator(nodes, MPI_COMM_WORLD);
+  // (u1, u2, X3) per node: 1 separated, 2 in contact, 3 violating u1 >= u2.
+  const double values[4][3] = {{5, 0, 7}, {1, 0, 0}, {2, 2, 3}, {0, 1, 0}};
+  for (unsigned int i = 0; i < n; ++i)
+    for (unsigned int a = 0; a < 3; ++a)
+      X(3 * i + a) = values[i][a];
+  X.compress(VectorOperation::insert);
+
+  const VI::ComplementarityFunction min;
+  const double                      residual = rows.evaluate(min, X, 1., R);
+  EXPECT_EQ(R(3 * 1 + 2), 0.);
+  EXPECT_EQ(R(3 * 2 + 2), 0.);
+  EXPECT_EQ(R(3 * 3 + 2), -1.);
+  // Scaled by U = max |u| = 2 and B = max(max X3, 1) = 3: |min(-1/2, 0)|.
+  EXPECT_DOUBLE_EQ(residual, 0.5);
+  EXPECT_EQ(rows.contact_set(X, indicator), 2u);
+  EXPECT_EQ(indicator(0), 0.);
+  EXPECT_EQ(indicator(1), 0.);
+  EXPECT_EQ(indicator(2), 1.);
+  EXPECT_EQ(indicator(3), 1.);
+}

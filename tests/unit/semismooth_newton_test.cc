@@ -1,0 +1,212 @@
+// SemismoothNewton on a small linear complementarity problem, independent of
+// any mesh: the discrete 1D obstacle problem
+//   K u - lambda = f,  u - psi >= 0,  lambda >= 0,  (u - psi) lambda = 0.
+#include <cmath>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/vector.h>
+#include <gtest/gtest.h>
+#include <vi/complementarity.h>
+#include <vi/errors.h>
+#include <vi/semismooth_newton.h>
+
+using dealii::FullMatrix;
+using dealii::Vector;
+using VI::ComplementarityFunction;
+
+namespace
+{
+  /// X = (u, lambda), n interior nodes of (0, 1), f = -8, obstacle psi = -0.5.
+  class ObstacleProblem
+  {
+  public:
+    explicit ObstacleProblem(const unsigned int             n,
+                             const ComplementarityFunction &C)
+        : n(n)
+        , C(C)
+        , K(n, n)
+        , f(n)
+        , psi(n)
+        , jacobian(2 * n, 2 * n)
+    {
+      const double h = 1. / (n + 1);
+      for (unsigned int i = 0; i < n; ++i)
+        {
+          K(i, i) = 2. / h;
+          if (i > 0)
+            K(i, i - 1) = -1. / h;
+          if (i + 1 < n)
+            K(i, i + 1) = -1. / h;
+          f(i)   = -8. * h;
+          psi(i) = -0.5;
+        }
+    }
+
+    VI::ResidualNorms
+    residual(const Vector<double> &X, Vector<double> &R) const
+    {
+      VI::ResidualNorms norms;
+      double            equations = 0, load = 0;
+      for (unsigned int i = 0; i < n; ++i)
+        {
+          double Ku = 0;
+          for (unsigned int j = 0; j < n; ++j)
+            Ku += K(i, j) * X(j);
+          R(i)     = Ku - X(n + i) - f(i);
+          R(n + i) = C.value(X(i) - psi(i), X(n + i));
+          equations += R(i) * R(i);
+          load += f(i) * f(i);
+          norms.complementarity =
+            std::max(norms.complementarity, std::abs(R(n + i)));
+        }
+      norms.equations = std::sqrt(equations / load);
+      return norms;
+    }
+
+    void
+    setup_jacobian(const Vector<double> &X)
+    {
+      jacobian = 0;
+      for (unsigned int i = 0; i < n; ++i)
+        {
+          for (unsigned int j = 0; j < n; ++j)
+            jacobian(i, j) = K(i, j);
+          jacobian(i, n + i) = -1.;
+          const auto g       = C.generalized_gradient(X(i) - psi(i), X(n + i));
+          jacobian(n + i, i) = g[0];
+          jacobian(n + i, n + i) = g[1];
+        }
+      inverse = jacobian;
+      inverse.gauss_jordan();
+    }
+
+    unsigned int
+    solve(const Vector<double> &rhs, Vector<double> &dX) const
+    {
+      inverse.vmult(dX, rhs);
+      return 0;
+    }
+
+    VI::SemismoothNewton<Vector<double>>
+    make_newton(
+      const typename VI::SemismoothNewton<Vector<double>>::AdditionalData &data)
+    {
+      VI::SemismoothNewton<Vector<double>> newton(data);
+      newton.residual = [this](const auto &X, auto &R) {
+        return residual(X, R);
+      };
+      newton.setup_jacobian      = [this](const auto &X) { setup_jacobian(X); };
+      newton.solve_with_jacobian = [this](const auto &rhs, auto &dX) {
+        return solve(rhs, dX);
+      };
+      return newton;
+    }
+
+    const unsigned int      n;
+    ComplementarityFunction C;
+    FullMatrix<double>      K;
+    Vector<double>          f, psi;
+    FullMatrix<double>      jacobian, inverse;
+  };
+
+
+  /// Check the discrete KKT conditions to round-off.
+  void
+  expect_solution(const ObstacleProblem &problem, const Vector<double> &X)
+  {
+    const unsigned int n         = problem.n;
+    unsigned int       n_contact = 0;
+    for (unsigned int i = 0; i < n; ++i)
+      {
+        const double gap = X(i) - problem.psi(i), lambda = X(n + i);
+        EXPECT_GE(gap, -1e-12);
+        EXPECT_GE(lambda, -1e-12);
+        EXPECT_NEAR(gap * lambda, 0., 1e-14);
+        if (gap < 1e-12)
+          ++n_contact;
+      }
+    Vector<double>          R(2 * n);
+    ComplementarityFunction min(ComplementarityFunction::Type::min);
+    EXPECT_LT(problem.residual(X, R).equations, 1e-12);
+    // The force pushes the string onto the obstacle in the middle only.
+    EXPECT_GT(n_contact, 0u);
+    EXPECT_LT(n_contact, n);
+  }
+} // namespace
+
+
+TEST(SemismoothNewton, NewtonMinSolvesTheObstacleProblemInFinitelyManySteps)
+{
+  ObstacleProblem problem(40, ComplementarityFunction());
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  data.tolerance        = 1e-13;
+  auto           newton = problem.make_newton(data);
+  Vector<double> X(80);
+  const auto     report = newton.solve(X);
+  expect_solution(problem, X);
+  // Newton-min is the primal-dual active set method: it stops with the
+  // exact discrete solution once the contact set is found.
+  EXPECT_LE(report.iterations, 10u);
+  EXPECT_EQ(report.final_residual.complementarity, 0.);
+}
+
+
+TEST(SemismoothNewton, FischerBurmeisterWithLineSearchReachesTheSameSolution)
+{
+  ObstacleProblem problem_min(40, ComplementarityFunction());
+  ObstacleProblem problem_fb(
+    40,
+    ComplementarityFunction(ComplementarityFunction::Type::fischer_burmeister));
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  data.tolerance = 1e-13;
+  Vector<double> X_min(80), X_fb(80);
+  problem_min.make_newton(data).solve(X_min);
+  data.line_search  = true;
+  const auto report = problem_fb.make_newton(data).solve(X_fb);
+  expect_solution(problem_fb, X_fb);
+  for (unsigned int i = 0; i < 80; ++i)
+    EXPECT_NEAR(X_fb(i), X_min(i), 1e-10);
+  EXPECT_LE(report.iterations, 30u);
+}
+
+
+TEST(SemismoothNewton, IterationLimitIsAFailureWithAReason)
+{
+  ObstacleProblem problem(40, ComplementarityFunction());
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  data.max_iterations   = 1;
+  data.tolerance        = 1e-13;
+  auto           newton = problem.make_newton(data);
+  Vector<double> X(80);
+  try
+    {
+      newton.solve(X);
+      FAIL() << "one iteration cannot find the contact set";
+    }
+  catch (const VI::SolverFailure &failure)
+    {
+      EXPECT_NE(std::string(failure.what()).find("no convergence in 1"),
+                std::string::npos)
+        << failure.what();
+    }
+}
+
+
+TEST(SemismoothNewton, NotANumberIsAFailureWithAReason)
+{
+  ObstacleProblem problem(10, ComplementarityFunction());
+  problem.f(3) = std::nan("");
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  auto           newton = problem.make_newton(data);
+  Vector<double> X(20);
+  try
+    {
+      newton.solve(X);
+      FAIL() << "NaN in the data must stop Newton";
+    }
+  catch (const VI::SolverFailure &failure)
+    {
+      EXPECT_NE(std::string(failure.what()).find("not a number"),
+                std::string::npos)
+        << failure.what();
+    }
+}
