@@ -9,6 +9,10 @@ file(MAKE_DIRECTORY ${WORKDIR})
 get_filename_component(prm_name ${PRM} NAME)
 configure_file(${PRM} ${WORKDIR}/${prm_name} COPYONLY)
 
+# A session directory of its own for OpenMPI: two MPI processes started at
+# the same moment race on creating a shared one under /tmp.
+set(ENV{TMPDIR} ${WORKDIR})
+
 set(command ${PROGRAM} ${prm_name})
 if(NP GREATER 1)
   set(command ${MPIEXEC} ${MPIEXEC_FLAGS} -np ${NP} ${command})
