@@ -39,7 +39,7 @@ namespace StepMembranes
     VI::MeshParameters::declare(prm, "global");
     VI::DiscretizationParameters::declare(prm, "fem");
     VI::NonlinearSolverParameters::declare(prm, "exact");
-    VI::LinearSolverParameters::declare(prm);
+    VI::LinearSolverParameters::declare(prm, "direct", "direct");
     VI::OutputParameters::declare(prm);
   }
 

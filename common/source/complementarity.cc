@@ -65,7 +65,6 @@ namespace VI
   }
 
 
-
   std::array<double, 2>
   ComplementarityFunction::generalized_gradient(const double a,
                                                 const double b) const

@@ -3,12 +3,170 @@
 #include <Amesos_Mumps.h>
 #include <Epetra_LinearProblem.h>
 #include <Teuchos_ParameterList.hpp>
+#include <cmath>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/vector.h>
+#include <sstream>
+#include <vector>
 #include <vi/errors.h>
 #include <vi/linear_solvers.h>
 
 namespace VI
 {
   using namespace dealii;
+
+  template <typename VectorType>
+  Gmres<VectorType>::Gmres(const AdditionalData &data)
+      : data(data)
+  {
+  }
+
+
+  template <typename VectorType>
+  LinearSolveReport
+  Gmres<VectorType>::solve(const Operator   &A,
+                           const Operator   &preconditioner,
+                           VectorType       &x,
+                           const VectorType &b,
+                           const Monitor    &monitor) const
+  {
+    const unsigned int m = std::max(1u, data.krylov_dimension);
+    LinearSolveReport  report;
+
+    // Krylov basis V (m + 1 vectors), Hessenberg matrix after the Givens
+    // rotations (upper triangular in its first j columns), the rotations,
+    // and the rotated right-hand side g, |g_{j+1}| = |b - A x^j|.
+    std::vector<VectorType> V(m + 1);
+    for (auto &v : V)
+      v.reinit(b, /*omit_zeroing_entries=*/true);
+    VectorType w, z, correction;
+    w.reinit(b, true);
+    z.reinit(b, true);
+    correction.reinit(b, true);
+    FullMatrix<double>  H(m + 1, m);
+    std::vector<double> cs(m), sn(m), g(m + 1), y(m);
+
+    // x^j = x0 + P^{-1} V_j y_j, y_j solving the triangular system.
+    const auto iterate = [&](const unsigned int j, VectorType &result) {
+      for (int i = int(j) - 1; i >= 0; --i)
+        {
+          double sum = g[i];
+          for (unsigned int l = i + 1; l < j; ++l)
+            sum -= H(i, l) * y[l];
+          y[i] = sum / H(i, i);
+        }
+      w = 0;
+      for (unsigned int i = 0; i < j; ++i)
+        w.add(y[i], V[i]);
+      preconditioner(correction, w);
+      result = x;
+      result += correction;
+    };
+
+    VectorType current;
+    current.reinit(b, true);
+
+    double tolerance = 0;
+    for (bool first_cycle = true;; first_cycle = false)
+      {
+        // r0 = b - A x, V_0 = r0 / |r0|
+        A(V[0], x);
+        V[0].sadd(-1., 1., b);
+        const double beta = V[0].l2_norm();
+        if (first_cycle)
+          {
+            report.initial_residual = beta;
+            tolerance =
+              std::max(data.absolute_tolerance, data.relative_tolerance * beta);
+          }
+        report.final_residual = beta;
+        if (!std::isfinite(beta))
+          throw SolverFailure("GMRES: the residual is not a number");
+        if (beta <= tolerance || beta == 0.)
+          return report;
+        if (report.iterations >= data.max_iterations)
+          break;
+        V[0] /= beta;
+        std::fill(g.begin(), g.end(), 0.);
+        g[0] = beta;
+
+        unsigned int j    = 0;
+        bool         stop = false;
+        for (; j < m && report.iterations < data.max_iterations; ++j)
+          {
+            // Arnoldi step with modified Gram-Schmidt (twice, for the loss
+            // of orthogonality on long cycles).
+            preconditioner(z, V[j]);
+            A(V[j + 1], z);
+            for (unsigned int i = 0; i <= j; ++i)
+              H(i, j) = 0;
+            for (unsigned int pass = 0; pass < 2; ++pass)
+              for (unsigned int i = 0; i <= j; ++i)
+                {
+                  const double h = V[j + 1] * V[i];
+                  H(i, j) += h;
+                  V[j + 1].add(-h, V[i]);
+                }
+            const double h_next = V[j + 1].l2_norm();
+
+            // Apply the previous rotations to the new column, then the one
+            // that zeroes H(j+1, j).
+            for (unsigned int i = 0; i < j; ++i)
+              {
+                const double a = H(i, j), c = H(i + 1, j);
+                H(i, j)     = cs[i] * a + sn[i] * c;
+                H(i + 1, j) = -sn[i] * a + cs[i] * c;
+              }
+            const double r = std::hypot(H(j, j), h_next);
+            cs[j]          = H(j, j) / r;
+            sn[j]          = h_next / r;
+            H(j, j)        = r;
+            g[j + 1]       = -sn[j] * g[j];
+            g[j]           = cs[j] * g[j];
+            ++report.iterations;
+            report.final_residual = std::abs(g[j + 1]);
+
+            const bool breakdown = h_next <= 1e-14 * r;
+            if (!breakdown)
+              V[j + 1] /= h_next;
+
+            if (report.final_residual <= tolerance || breakdown)
+              {
+                ++j;
+                break;
+              }
+            if (monitor && report.iterations % data.check_interval == 0)
+              {
+                iterate(j + 1, current);
+                if (monitor(current, report.iterations))
+                  {
+                    x = current;
+                    report.outcome =
+                      LinearSolveReport::Outcome::stopped_by_caller;
+                    stop = true;
+                    break;
+                  }
+              }
+          }
+        if (stop)
+          return report;
+        // End of a cycle: x = x0 + P^{-1} V y; the loop recomputes the true
+        // residual (and returns if it is small enough).
+        iterate(j, current);
+        x = current;
+      }
+
+    std::ostringstream message;
+    message << "GMRES: no convergence in " << data.max_iterations
+            << " iterations (residual reduced from " << report.initial_residual
+            << " to " << report.final_residual << ", tolerance " << tolerance
+            << ")";
+    throw SolverFailure(message.str());
+  }
+
+
+  template class Gmres<Vector<double>>;
+  template class Gmres<TrilinosWrappers::MPI::Vector>;
 
   LinearSolver::LinearSolver(const LinearSolverParameters &parameters)
       : parameters(parameters)

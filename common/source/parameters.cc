@@ -209,7 +209,28 @@ namespace VI
                         "exact",
                         Selection(strategies),
                         "exact: Newton to the tolerance below, each linear "
-                        "system solved to round-off.");
+                        "system solved to 'Linear solver/Tolerance'; inexact: "
+                        "the linear solver stops at the relative residual "
+                        "'Forcing term'; adaptive: the linear solver stops "
+                        "when eta_alg <= gamma_alg max(eta_disc, eta_lin), "
+                        "Newton when eta_lin <= gamma_lin eta_disc.");
+      prm.declare_entry("gamma_lin",
+                        "0.3",
+                        Double(0, 1),
+                        "Adaptive strategy: Newton stops when the "
+                        "linearisation estimator is below gamma_lin times "
+                        "the discretisation estimator.");
+      prm.declare_entry("gamma_alg",
+                        "0.3",
+                        Double(0, 1),
+                        "Adaptive strategy: the linear solver stops when the "
+                        "algebraic estimator is below gamma_alg times the "
+                        "larger of the other two.");
+      prm.declare_entry("Forcing term",
+                        "1e-2",
+                        Double(0, 1),
+                        "Inexact strategy: relative residual at which the "
+                        "linear solver stops in every Newton step.");
       prm.declare_entry("Maximum iterations",
                         "50",
                         Integer(1),
@@ -240,31 +261,68 @@ namespace VI
     {
       c_function       = prm.get("C-function");
       strategy         = prm.get("Strategy");
+      gamma_lin        = prm.get_double("gamma_lin");
+      gamma_alg        = prm.get_double("gamma_alg");
+      forcing_term     = prm.get_double("Forcing term");
       max_iterations   = prm.get_integer("Maximum iterations");
       tolerance        = prm.get_double("Tolerance");
       nested_iteration = prm.get_bool("Nested iteration");
       require_positive(tolerance, "Nonlinear solver/Tolerance");
+      require_positive(gamma_lin, "Nonlinear solver/gamma_lin");
+      require_positive(gamma_alg, "Nonlinear solver/gamma_alg");
+      require_positive(forcing_term, "Nonlinear solver/Forcing term");
     }
     prm.leave_subsection();
   }
 
 
   void
-  LinearSolverParameters::declare(ParameterHandler &prm)
+  LinearSolverParameters::declare(ParameterHandler  &prm,
+                                  const std::string &solvers,
+                                  const std::string &default_solver)
   {
     prm.enter_subsection("Linear solver");
     {
       prm.declare_entry("Solver",
-                        "direct",
-                        Selection("direct"),
-                        "Solver of the linearised systems: direct (sparse LU "
-                        "through Trilinos Amesos).");
+                        default_solver,
+                        Selection(solvers),
+                        "direct: sparse LU through Trilinos Amesos; gmres: "
+                        "GMRES with the preconditioner below.");
       prm.declare_entry("Direct solver package",
                         "Amesos_Mumps",
                         Selection("Amesos_Klu|Amesos_Mumps"),
                         "Amesos_Mumps: distributed multifrontal LU; "
                         "Amesos_Klu: serial LU on rank 0 (slow on the "
                         "saddle-point matrices of fine meshes).");
+      prm.declare_entry("Preconditioner",
+                        "ilu",
+                        Selection("ilu|amg"),
+                        "Preconditioner of GMRES: ilu (Trilinos Ifpack, on "
+                        "the whole system) or amg (Trilinos ML on the "
+                        "system without multiplier rows).");
+      prm.declare_entry("Tolerance",
+                        "1e-12",
+                        Double(0, 1),
+                        "Relative residual of the linear solves of the "
+                        "exact strategy.");
+      prm.declare_entry("Maximum iterations",
+                        "2000",
+                        Integer(1),
+                        "GMRES iterations allowed per linear solve.");
+      prm.declare_entry("Krylov dimension",
+                        "200",
+                        Integer(1),
+                        "GMRES restart length.");
+      prm.declare_entry("Check interval",
+                        "10",
+                        Integer(1),
+                        "Every how many GMRES iterations the estimators of "
+                        "the current iterate are evaluated (adaptive "
+                        "strategy).");
+      prm.declare_entry("ILU fill",
+                        "0",
+                        Integer(0, 10),
+                        "Fill level k of ILU(k).");
     }
     prm.leave_subsection();
   }
@@ -275,8 +333,15 @@ namespace VI
   {
     prm.enter_subsection("Linear solver");
     {
-      solver         = prm.get("Solver");
-      direct_package = prm.get("Direct solver package");
+      solver           = prm.get("Solver");
+      direct_package   = prm.get("Direct solver package");
+      preconditioner   = prm.get("Preconditioner");
+      tolerance        = prm.get_double("Tolerance");
+      max_iterations   = prm.get_integer("Maximum iterations");
+      krylov_dimension = prm.get_integer("Krylov dimension");
+      check_interval   = prm.get_integer("Check interval");
+      ilu_fill         = prm.get_integer("ILU fill");
+      require_positive(tolerance, "Linear solver/Tolerance");
     }
     prm.leave_subsection();
   }

@@ -61,8 +61,8 @@ namespace VI
       std::string text;
       for (std::size_t n = 0; n + 1 < path.size(); ++n)
         text += "subsection " + path[n] + "\n";
-      text += "set " + path.back() + " = " + assignment.substr(equal + 1) +
-              "\n";
+      text +=
+        "set " + path.back() + " = " + assignment.substr(equal + 1) + "\n";
       for (std::size_t n = 0; n + 1 < path.size(); ++n)
         text += "end\n";
       try
@@ -89,7 +89,8 @@ namespace VI
            "file\n"
         << "  --set Section/Name=value\n"
         << "                      override one parameter of the file, e.g.\n"
-        << "                      --set \"Discretization/Polynomial degree=3\"\n"
+        << "                      --set \"Discretization/Polynomial "
+           "degree=3\"\n"
         << "  --print-parameters  print every parameter with its default "
            "value and documentation\n"
         << "  --help              print this message\n\n"
@@ -176,9 +177,7 @@ namespace VI
       {
         if (Utilities::MPI::this_mpi_process(comm) == 0)
           print_usage(program);
-        return report(comm,
-                      "Error: expected a parameter file (or --help)",
-                      1);
+        return report(comm, "Error: expected a parameter file (or --help)", 1);
       }
 
     const std::string &file = arguments[0];

@@ -56,13 +56,14 @@ namespace VI
     ResidualNorms norms     = residual(X, R);
     report.initial_residual = norms;
 
+    bool criterion_met = false;
     for (unsigned int k = 1;; ++k)
       {
         if (!norms.is_finite())
           fail("the residual is not a number at iteration " +
                std::to_string(k - 1) + " (NaN or Inf in the data or the " +
                "iterate)");
-        if (converged(norms))
+        if (converged(norms) || criterion_met)
           break;
         if (k > data.max_iterations)
           {
@@ -126,6 +127,8 @@ namespace VI
         report.linear_iterations += linear_iterations;
         if (monitor)
           monitor(step);
+        if (stopping_criterion)
+          criterion_met = stopping_criterion(X, step);
       }
 
     report.final_residual = norms;

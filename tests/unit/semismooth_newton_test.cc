@@ -210,3 +210,22 @@ TEST(SemismoothNewton, NotANumberIsAFailureWithAReason)
         << failure.what();
     }
 }
+
+
+TEST(SemismoothNewton, ProblemStoppingCriterionEndsTheIteration)
+{
+  // The adaptive strategy stops Newton by a criterion of the problem's own;
+  // here: after the second step, whatever the residual.
+  ObstacleProblem problem(40, ComplementarityFunction());
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  data.tolerance            = 1e-13;
+  auto newton               = problem.make_newton(data);
+  newton.stopping_criterion = [](const Vector<double> &,
+                                 const VI::NewtonStep &step) {
+    return step.iteration == 2;
+  };
+  Vector<double> X(80);
+  const auto     report = newton.solve(X);
+  EXPECT_EQ(report.iterations, 2u);
+  EXPECT_GT(report.final_residual.complementarity, 0.);
+}

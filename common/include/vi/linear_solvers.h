@@ -10,6 +10,74 @@ class Epetra_LinearProblem;
 
 namespace VI
 {
+  /// What an iterative solve did.
+  struct LinearSolveReport
+  {
+    enum class Outcome
+    {
+      converged,         ///< |b - A x| <= tolerance
+      stopped_by_caller, ///< the monitor asked to stop (adaptive stopping)
+    };
+    Outcome      outcome          = Outcome::converged;
+    unsigned int iterations       = 0;
+    double       initial_residual = 0.; ///< |b - A x0|
+    double       final_residual   = 0.; ///< |b - A x| (recurrence estimate)
+  };
+
+
+  /**
+   * Restarted GMRES with right preconditioning, which minimises the true
+   * residual |b - A x| over the Krylov space, and which hands its *current*
+   * iterate x^i = x0 + P^{-1} V y^i to a monitor every `check_interval`
+   * iterations. That is what estimator-based stopping criteria need: the
+   * estimators of the iterate the solver would return if it stopped now.
+   * (deal.II 9.4's SolverGMRES only exposes the iterate of the start of the
+   * current restart cycle; solving in chunks of nu iterations would restart
+   * GMRES every nu iterations and slow it down.) Computing the current
+   * iterate costs one preconditioner application per check.
+   *
+   * The operator and the preconditioner are functions dst = A src and
+   * dst = P^{-1} src, so any matrix (Trilinos, deal.II, matrix-free) and any
+   * preconditioner can be used.
+   */
+  template <typename VectorType>
+  class Gmres
+  {
+  public:
+    using Operator =
+      std::function<void(VectorType &dst, const VectorType &src)>;
+    /// Called with the current iterate and the iteration count i; returns
+    /// true to stop with that iterate.
+    using Monitor = std::function<bool(const VectorType &x, unsigned int i)>;
+
+    struct AdditionalData
+    {
+      unsigned int max_iterations     = 1000;
+      unsigned int krylov_dimension   = 100;   ///< restart length
+      double       relative_tolerance = 1e-12; ///< on |b - A x| / |b - A x0|
+      double       absolute_tolerance = 0.;
+      unsigned int check_interval     = 10; ///< nu
+    };
+
+    explicit Gmres(const AdditionalData &data);
+
+    /**
+     * Solve A x = b from the initial guess x. Throws SolverFailure if the
+     * tolerance is not reached within max_iterations (unless the monitor
+     * stopped the iteration).
+     */
+    LinearSolveReport
+    solve(const Operator   &A,
+          const Operator   &preconditioner,
+          VectorType       &x,
+          const VectorType &b,
+          const Monitor    &monitor = {}) const;
+
+  private:
+    AdditionalData data;
+  };
+
+
   /**
    * Solver of the linearised semismooth Newton systems A dX = b.
    *

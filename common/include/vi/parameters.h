@@ -69,10 +69,15 @@ namespace VI
   {
     std::string  c_function       = "min";
     std::string  strategy         = "exact";
+    double       gamma_lin        = 0.3;
+    double       gamma_alg        = 0.3;
+    double       forcing_term     = 1e-2;
     unsigned int max_iterations   = 50;
     double       tolerance        = 1e-10;
     bool         nested_iteration = true;
 
+    /// `strategies`: the accepted values of "Strategy", e.g. "exact" or
+    /// "exact|inexact|adaptive".
     static void
     declare(dealii::ParameterHandler &prm, const std::string &strategies);
     void
@@ -82,11 +87,20 @@ namespace VI
 
   struct LinearSolverParameters
   {
-    std::string solver         = "direct";
-    std::string direct_package = "Amesos_Mumps";
+    std::string  solver           = "direct";
+    std::string  preconditioner   = "ilu";
+    std::string  direct_package   = "Amesos_Mumps";
+    double       tolerance        = 1e-12;
+    unsigned int max_iterations   = 2000;
+    unsigned int krylov_dimension = 200;
+    unsigned int check_interval   = 10;
+    unsigned int ilu_fill         = 0;
 
+    /// `solvers`: the accepted values of "Solver" ("direct", "direct|gmres").
     static void
-    declare(dealii::ParameterHandler &prm);
+    declare(dealii::ParameterHandler &prm,
+            const std::string        &solvers        = "direct",
+            const std::string        &default_solver = "direct");
     void
     parse(dealii::ParameterHandler &prm);
   };

@@ -97,6 +97,15 @@ namespace VI
     /// Optional: called after every accepted step (progress output).
     std::function<void(const NewtonStep &)> monitor;
 
+    /**
+     * Optional: a stopping criterion of the problem's own, asked after every
+     * step with the new iterate (e.g. the adaptive criterion
+     * eta_lin <= gamma_lin eta_disc of a posteriori estimators). Newton stops
+     * when it returns true, or when the residuals are below the tolerance.
+     */
+    std::function<bool(const VectorType &X, const NewtonStep &)>
+      stopping_criterion;
+
     /// Iterate from the initial guess X; on return X is the converged iterate.
     NewtonReport
     solve(VectorType &X) const;

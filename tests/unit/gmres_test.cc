@@ -1,0 +1,151 @@
+// The GMRES of linear_solvers.h on a nonsymmetric system (1D convection-
+// diffusion), with deal.II vectors.
+#include <cmath>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/vector.h>
+#include <gtest/gtest.h>
+#include <vector>
+#include <vi/errors.h>
+#include <vi/linear_solvers.h>
+
+using dealii::FullMatrix;
+using dealii::Vector;
+using Solver = VI::Gmres<Vector<double>>;
+
+namespace
+{
+  struct System
+  {
+    explicit System(const unsigned int n)
+        : A(n, n)
+        , b(n)
+    {
+      const double h = 1. / (n + 1), peclet = 20.;
+      for (unsigned int i = 0; i < n; ++i)
+        {
+          A(i, i) = 2. / (h * h);
+          if (i > 0)
+            A(i, i - 1) = -1. / (h * h) - peclet / (2 * h);
+          if (i + 1 < n)
+            A(i, i + 1) = -1. / (h * h) + peclet / (2 * h);
+          b(i) = std::sin(3. * i * h) + 1.;
+        }
+    }
+
+    Solver::Operator
+    op() const
+    {
+      return [this](Vector<double> &dst, const Vector<double> &src) {
+        A.vmult(dst, src);
+      };
+    }
+
+    Solver::Operator
+    jacobi() const
+    {
+      return [this](Vector<double> &dst, const Vector<double> &src) {
+        for (unsigned int i = 0; i < src.size(); ++i)
+          dst(i) = src(i) / A(i, i);
+      };
+    }
+
+    double
+    residual(const Vector<double> &x) const
+    {
+      Vector<double> r(b.size());
+      A.vmult(r, x);
+      r -= b;
+      return r.l2_norm();
+    }
+
+    FullMatrix<double> A;
+    Vector<double>     b;
+  };
+} // namespace
+
+
+TEST(Gmres, ConvergesWithAndWithoutRestarts)
+{
+  const System system(60);
+  for (const unsigned int krylov_dimension : {100u, 15u})
+    {
+      Solver::AdditionalData data;
+      data.krylov_dimension   = krylov_dimension;
+      data.relative_tolerance = 1e-10;
+      data.max_iterations     = 2000;
+      Vector<double> x(60);
+      const auto     report =
+        Solver(data).solve(system.op(), system.jacobi(), x, system.b);
+      EXPECT_EQ(report.outcome, VI::LinearSolveReport::Outcome::converged);
+      EXPECT_LE(system.residual(x), 1e-10 * system.b.l2_norm() * 1.01)
+        << "Krylov dimension " << krylov_dimension;
+      if (krylov_dimension >= 60)
+        EXPECT_LE(report.iterations, 60u); // full GMRES: at most n steps
+    }
+}
+
+
+TEST(Gmres, MonitorSeesTheCurrentMinimalResidualIterate)
+{
+  // Full GMRES minimises |b - A x| over growing Krylov spaces: the residuals
+  // of the iterates handed to the monitor decrease, and equal the residual
+  // GMRES reports.
+  const System           system(80);
+  Solver::AdditionalData data;
+  data.check_interval     = 5;
+  data.relative_tolerance = 1e-12;
+  std::vector<double>       residuals;
+  std::vector<unsigned int> steps;
+  Vector<double>            x(80);
+  Solver(data).solve(system.op(),
+                     system.jacobi(),
+                     x,
+                     system.b,
+                     [&](const Vector<double> &current, const unsigned int i) {
+                       residuals.push_back(system.residual(current));
+                       steps.push_back(i);
+                       return false;
+                     });
+  ASSERT_GE(residuals.size(), 3u);
+  for (std::size_t n = 0; n < steps.size(); ++n)
+    EXPECT_EQ(steps[n], 5 * (n + 1));
+  for (std::size_t n = 1; n < residuals.size(); ++n)
+    EXPECT_LE(residuals[n], residuals[n - 1] * (1 + 1e-12));
+}
+
+
+TEST(Gmres, MonitorCanStopWithTheCurrentIterate)
+{
+  const System           system(80);
+  Solver::AdditionalData data;
+  data.check_interval = 10;
+  Vector<double> x(80), seen(80);
+  const auto     report = Solver(data).solve(system.op(),
+                                         system.jacobi(),
+                                         x,
+                                         system.b,
+                                         [&](const Vector<double> &current,
+                                             const unsigned int    i) {
+                                           seen = current;
+                                           return i == 20;
+                                         });
+  EXPECT_EQ(report.outcome, VI::LinearSolveReport::Outcome::stopped_by_caller);
+  EXPECT_EQ(report.iterations, 20u);
+  for (unsigned int i = 0; i < 80; ++i)
+    EXPECT_EQ(x(i), seen(i));
+  EXPECT_NEAR(system.residual(x),
+              report.final_residual,
+              1e-8 * report.initial_residual);
+}
+
+
+TEST(Gmres, IterationLimitIsAFailure)
+{
+  const System           system(80);
+  Solver::AdditionalData data;
+  data.max_iterations     = 5;
+  data.relative_tolerance = 1e-12;
+  Vector<double> x(80);
+  EXPECT_THROW(Solver(data).solve(system.op(), system.jacobi(), x, system.b),
+               VI::SolverFailure);
+}
