@@ -2,9 +2,9 @@
 // solved by semismooth Newton on a sequence of meshes. See
 // doc/step-membranes.md.
 
-#include "membrane_problem.h"
-
 #include <vi/program.h>
+
+#include "membrane_problem.h"
 
 int
 main(int argc, char **argv)

@@ -1,28 +1,28 @@
 #include "membrane_problem.h"
 
-#include <cmath>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/utilities.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping_q.h>
 #include <deal.II/grid/filtered_iterator.h>
-#include <deal.II/grid/grid_generator.h>
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/sparsity_tools.h>
-#include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_solver.h>
 #include <deal.II/meshworker/copy_data.h>
 #include <deal.II/meshworker/mesh_loop.h>
 #include <deal.II/meshworker/scratch_data.h>
 #include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
-#include <fstream>
-#include <iomanip>
-#include <sstream>
+
 #include <vi/errors.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
+
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
 
 namespace StepMembranes
 {
@@ -38,8 +38,9 @@ namespace StepMembranes
                                    "seed-smooth");
     VI::MeshParameters::declare(prm, "global");
     VI::DiscretizationParameters::declare(prm, "fem");
-    VI::NonlinearSolverParameters::declare(prm, "exact");
-    VI::LinearSolverParameters::declare(prm, "direct", "direct");
+    VI::NonlinearSolverParameters::declare(prm, "exact|inexact|adaptive");
+    VI::LinearSolverParameters::declare(prm, "direct|gmres", "direct");
+    VI::EstimatorParameters::declare(prm);
     VI::OutputParameters::declare(prm);
   }
 
@@ -52,7 +53,18 @@ namespace StepMembranes
     discretization.parse(prm);
     nonlinear_solver.parse(prm);
     linear_solver.parse(prm);
+    estimators.parse(prm);
     output.parse(prm);
+
+    const std::string &strategy = nonlinear_solver.strategy;
+    if (strategy != "exact" && linear_solver.solver != "gmres")
+      throw VI::InputError("Nonlinear solver/Strategy = " + strategy +
+                           " needs an iterative linear solver: set Linear "
+                           "solver/Solver = gmres");
+    if (strategy == "adaptive" && !estimators.enabled)
+      throw VI::InputError("Nonlinear solver/Strategy = adaptive stops the "
+                           "solvers with the estimators: set "
+                           "Estimators/Enabled = true");
   }
 
 
@@ -65,18 +77,25 @@ namespace StepMembranes
       , comm(comm)
       , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
       // Wall times of rank 0: a TimerOutput without communicator needs no MPI
-    // in its destructor, which also runs when a failure unwinds the stack.
-    , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
+      // in its destructor, which also runs when a failure unwinds the stack.
+      , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
       , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
       , C(VI::ComplementarityFunction::from_name(
           parameters.nonlinear_solver.c_function))
       , triangulation(comm)
-      , mapping(
+      , geometry_mapping(
           VI::make_mapping<dim>(geometry, parameters.discretization.degree))
+      , mapping(std::make_unique<MappingQCache<dim>>(
+          dynamic_cast<const MappingQ<dim> &>(*geometry_mapping).get_degree()))
       , fe(parameters.discretization.degree)
       , dof_handler(triangulation)
+      // One quadrature for the load, the flux reconstruction and the
+      // estimators, so that the patch problems are exactly compatible with the
+      // discrete equations (see FluxReconstruction::quadrature_points).
+      , quadrature(VI::FluxReconstruction<dim>::quadrature_points(
+          parameters.discretization.degree))
   {
   }
 
@@ -95,8 +114,7 @@ namespace StepMembranes
         violation = message;
     };
 
-    const QGauss<dim> quadrature(fe.degree + 2);
-    const auto &      unit_points = fe.get_unit_support_points();
+    const auto &unit_points = fe.get_unit_support_points();
     for (const auto &cell : triangulation.active_cell_iterators())
       if (cell->is_locally_owned() && violation.empty())
         {
@@ -125,15 +143,13 @@ namespace StepMembranes
                     continue;
                   const Point<dim> p =
                     mapping->transform_unit_to_real_cell(cell, unit_point);
-                  const double g1 = data.g1->value(p),
-                               g2 = data.g2->value(p);
+                  const double g1 = data.g1->value(p), g2 = data.g2->value(p);
                   std::ostringstream message;
                   if (!std::isfinite(g1) || !std::isfinite(g2))
                     message << "the boundary data are not finite at (" << p
                             << "): g1 = " << g1 << ", g2 = " << g2;
-                  else if (g1 - g2 < -1e-12 * std::max({1.,
-                                                        std::abs(g1),
-                                                        std::abs(g2)}))
+                  else if (g1 - g2 <
+                           -1e-12 * std::max({1., std::abs(g1), std::abs(g2)}))
                     message << "g1 < g2 on the boundary at (" << p
                             << "): g1 = " << g1 << ", g2 = " << g2
                             << "; the constraint u1 >= u2 cannot hold there";
@@ -148,24 +164,31 @@ namespace StepMembranes
   }
 
 
-
   template <int dim>
   void
   MembraneProblem<dim>::make_grid()
   {
     VI::make_coarse_mesh(geometry, triangulation);
     triangulation.refine_global(parameters.mesh.initial_refinements);
+    mapping->initialize(*geometry_mapping, triangulation);
   }
 
 
   // Distribute the nodes, build the constraints (hanging nodes, Dirichlet
   // data, no multiplier on constrained nodes), the contact rows and the
-  // sparsity of A.
+  // sparsity of A; and the patches of the flux reconstruction.
   template <int dim>
   void
   MembraneProblem<dim>::setup_system()
   {
     TimerOutput::Scope t(timer, "setup");
+
+    mapping->initialize(*geometry_mapping, triangulation);
+
+    // Solvers and preconditioners hold on to the matrices of the old mesh.
+    direct_solver.reset();
+    ilu.reset();
+    contact_preconditioner.reset();
 
     dof_handler.distribute_dofs(fe);
     owned_nodes = dof_handler.locally_owned_dofs();
@@ -215,6 +238,7 @@ namespace StepMembranes
                                           owned_nodes,
                                           system_pattern);
     system_matrix.reinit(owned_system, owned_system, system_pattern, comm);
+    stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
 
     system_rhs.reinit(owned_system, comm);
     solution.reinit(owned_system, comm);
@@ -235,22 +259,36 @@ namespace StepMembranes
                                                    relevant_nodes);
         mass_matrix.reinit(owned_nodes, owned_nodes, mass_pattern, comm);
       }
+
+    if (parameters.estimators.enabled)
+      {
+        flux_reconstruction =
+          std::make_unique<VI::FluxReconstruction<dim>>(*mapping, fe.degree);
+        flux_reconstruction->reinit(dof_handler);
+        vertex_dofs.assign(triangulation.n_vertices(),
+                           numbers::invalid_dof_index);
+        for (const auto &cell : dof_handler.active_cell_iterators())
+          if (!cell->is_artificial())
+            for (const unsigned int v : cell->vertex_indices())
+              vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+      }
   }
 
 
   // The linear part of the system, once per mesh: the stiffness blocks and
   // the load F (with the Dirichlet lifting) through the constraints, the
   // coupling D (lumped masses (psi_i, 1) for p = 1, the identity for p >= 2
-  // by duality), and for p >= 2 the mass matrix that maps X3 to lambda_h.
+  // by duality), and the scalar stiffness S (for AMG) and mass matrices.
   template <int dim>
   void
   MembraneProblem<dim>::assemble_system()
   {
     TimerOutput::Scope t(timer, "assembly");
 
-    system_matrix = 0;
-    system_rhs    = 0;
-    TrilinosWrappers::MPI::Vector lumped_mass(owned_nodes, comm);
+    system_matrix    = 0;
+    system_rhs       = 0;
+    stiffness_matrix = 0;
+    Vector lumped_mass(owned_nodes, comm);
     if (fe.degree > 1)
       mass_matrix = 0;
 
@@ -262,7 +300,6 @@ namespace StepMembranes
     // Matrices: stiffness, mass. Vectors: (f1, psi), (f2, psi), (1, psi).
     using CopyData = MeshWorker::CopyData<2, 3, 1>;
 
-    const QGauss<dim>            quadrature(fe.degree + 2);
     MeshWorker::ScratchData<dim> scratch(*mapping,
                                          fe,
                                          quadrature,
@@ -326,6 +363,9 @@ namespace StepMembranes
             system_rhs,
             /*use_inhomogeneities_for_rhs=*/true);
         }
+      u1_constraints.distribute_local_to_global(copy.matrices[0],
+                                                dofs,
+                                                stiffness_matrix);
       hanging_node_constraints.distribute_local_to_global(copy.vectors[2],
                                                           dofs,
                                                           lumped_mass);
@@ -343,6 +383,7 @@ namespace StepMembranes
                           MeshWorker::assemble_own_cells);
     system_matrix.compress(VectorOperation::add);
     system_rhs.compress(VectorOperation::add);
+    stiffness_matrix.compress(VectorOperation::add);
     lumped_mass.compress(VectorOperation::add);
     if (fe.degree > 1)
       mass_matrix.compress(VectorOperation::add);
@@ -384,37 +425,58 @@ namespace StepMembranes
       Utilities::MPI::max(local[1], comm) /
       std::max(coupling.linfty_norm(), std::numeric_limits<double>::min());
 
+    const double mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    stiffness_weight.resize(owned_nodes.n_elements());
+    multiplier_weight.assign(coupling.begin(),
+                             coupling.begin() + owned_nodes.n_elements());
+    for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
+      stiffness_weight[k] =
+        mu_r * stiffness_matrix.diag_element(owned_nodes.nth_index_in_set(k));
+
     if (!std::isfinite(system_rhs.l2_norm()))
       throw VI::InputError(
         "Problem: the load vector is not finite: f1, f2, g1 or g2 evaluate "
         "to NaN or Inf somewhere in the domain");
+
+    if (parameters.linear_solver.solver == "gmres" &&
+        parameters.linear_solver.preconditioner == "amg")
+      {
+        VI::ContactPreconditioner::AdditionalData settings;
+        settings.higher_order_elements = fe.degree > 1;
+        contact_preconditioner =
+          std::make_unique<VI::ContactPreconditioner>(settings);
+        contact_preconditioner->initialize_mesh(
+          stiffness_matrix, data.mu1, data.mu2, coupling, contact_rows);
+      }
   }
 
 
   // The Newton iterate on a new mesh: the previous mesh's solution
-  // transferred (nested iteration), or zero interior values and multiplier.
+  // transferred (nested iteration), or the initial guess (zero, or the
+  // boundary data interpolated in the whole domain) with zero multiplier.
   // Either way the Dirichlet data of this mesh are imposed.
   template <int dim>
   void
   MembraneProblem<dim>::initialize_iterate()
   {
     solution = 0;
+    Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
+      lambda(owned_nodes, comm), X3(owned_nodes, comm);
     if (solution_transfer)
       {
-        TrilinosWrappers::MPI::Vector u1(owned_nodes, comm),
-          u2(owned_nodes, comm), lambda(owned_nodes, comm),
-          X3(owned_nodes, comm);
-        std::vector<TrilinosWrappers::MPI::Vector *> fields = {&u1,
-                                                               &u2,
-                                                               &lambda};
+        std::vector<Vector *> fields = {&u1, &u2, &lambda};
         solution_transfer->interpolate(fields);
         solution_transfer.reset();
-
-        VI::NodalFields::insert(u1, VI::NodalFields::u1, solution);
-        VI::NodalFields::insert(u2, VI::NodalFields::u2, solution);
         compute_dual_coefficients(lambda, X3);
         VI::NodalFields::insert(X3, multiplier, solution);
       }
+    else if (parameters.nonlinear_solver.initial_guess == "data")
+      {
+        VectorTools::interpolate(*mapping, dof_handler, *data.g1, u1);
+        VectorTools::interpolate(*mapping, dof_handler, *data.g2, u2);
+      }
+    VI::NodalFields::insert(u1, VI::NodalFields::u1, solution);
+    VI::NodalFields::insert(u2, VI::NodalFields::u2, solution);
     system_constraints.distribute(solution);
   }
 
@@ -423,8 +485,7 @@ namespace StepMembranes
   // matrix, whose multiplier rows are then overwritten by the C-function.
   template <int dim>
   VI::ResidualNorms
-  MembraneProblem<dim>::residual(const TrilinosWrappers::MPI::Vector &X,
-                                 TrilinosWrappers::MPI::Vector       &R) const
+  MembraneProblem<dim>::residual(const Vector &X, Vector &R) const
   {
     TimerOutput::Scope t(timer, "newton: residual");
     system_matrix.vmult(R, X);
@@ -444,72 +505,400 @@ namespace StepMembranes
   }
 
 
+  // Semismooth Newton with the chosen strategy. Every Newton iterate gets an
+  // a posteriori estimate (when the estimators are on): the one computed by
+  // the linear solver's checks if the iterate is the one it accepted,
+  // otherwise one computed for it. The adaptive strategy stops Newton when
+  // eta_lin <= gamma_lin eta_disc.
+  template <int dim>
+  void
+  MembraneProblem<dim>::scale_constraint_rows(Vector    &v,
+                                              const bool divide) const
+  {
+    double     *x         = v.begin();
+    const auto &positions = contact_rows.local_positions();
+    for (std::size_t n = 0; n < positions.size(); ++n)
+      x[n_fields * positions[n] + 2] *=
+        divide ? 1. / row_weights[n] : row_weights[n];
+  }
+
+
   template <int dim>
   void
   MembraneProblem<dim>::solve()
   {
     const auto &p = parameters.nonlinear_solver;
-    typename VI::SemismoothNewton<TrilinosWrappers::MPI::Vector>::AdditionalData
-      settings;
+    typename VI::SemismoothNewton<Vector>::AdditionalData settings;
     settings.max_iterations = p.max_iterations;
     settings.tolerance      = p.tolerance;
     settings.line_search    = C.has_smooth_merit_function();
     settings.name           = "semismooth Newton-" + C.name();
 
-    VI::LinearSolver linear_solver(parameters.linear_solver);
+    estimate_records.clear();
+    final_estimate.reset();
+    newton_step = 0;
+    if (parameters.linear_solver.solver == "direct")
+      direct_solver =
+        std::make_unique<VI::LinearSolver>(parameters.linear_solver);
 
-    VI::SemismoothNewton<TrilinosWrappers::MPI::Vector> newton(settings);
-    newton.residual = [&](const auto &X, auto &R) { return residual(X, R); };
-    newton.setup_jacobian = [&](const auto &X) {
+    VI::SemismoothNewton<Vector> newton(settings);
+    newton.residual = [&](const Vector &X, Vector &R) {
+      return residual(X, R);
+    };
+    newton.setup_jacobian = [&](const Vector &X) {
+      ++newton_step;
+      linearization_point = &X;
+      step_estimate.reset();
       {
         TimerOutput::Scope t(timer, "newton: jacobian");
-        contact_rows.set_jacobian_rows(C, X, system_matrix);
+        row_weights =
+          contact_rows.row_weights(C, X, stiffness_weight, multiplier_weight);
+        contact_rows.set_jacobian_rows(C, X, system_matrix, row_weights);
         system_matrix.compress(VectorOperation::insert);
       }
-      TimerOutput::Scope t(timer, "newton: factorisation");
-      linear_solver.initialize(system_matrix);
+      TimerOutput::Scope t(timer, "newton: preconditioner");
+      if (direct_solver)
+        direct_solver->initialize(system_matrix);
+      else if (contact_preconditioner)
+        contact_preconditioner->initialize_jacobian(C, X);
+      else
+        {
+          ilu = std::make_unique<TrilinosWrappers::PreconditionILU>();
+          ilu->initialize(system_matrix,
+                          TrilinosWrappers::PreconditionILU::AdditionalData(
+                            parameters.linear_solver.ilu_fill));
+        }
     };
-    newton.solve_with_jacobian = [&](const auto &rhs, auto &dX) {
-      TimerOutput::Scope t(timer, "newton: linear solve");
-      return linear_solver.solve(rhs, dX);
+    newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
+      return solve_linearized(rhs, dX);
     };
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &step) {
         pcout << "      k = " << std::setw(2) << step.iteration
               << ": residuals " << std::scientific << std::setprecision(2)
               << step.residual.equations << " (equations), "
-              << step.residual.complementarity << " (complementarity)"
+              << step.residual.complementarity << " (complementarity), "
+              << step.linear_iterations << " linear iterations"
               << std::defaultfloat;
         if (step.step_length < 1)
           pcout << ", step " << step.step_length;
         pcout << std::endl;
       };
+    if (parameters.estimators.enabled)
+      newton.stopping_criterion = [&](const Vector         &X,
+                                      const VI::NewtonStep &step) {
+        // A line search moved the iterate off the one the linear solver
+        // accepted: estimate the iterate Newton actually took.
+        if (!step_estimate || step.step_length < 1)
+          step_estimate = estimate(X);
+        estimate_records.push_back(
+          {newton_step, step.linear_iterations, true, *step_estimate});
+        final_estimate = step_estimate;
+        if (parameters.output.verbose)
+          pcout << "             eta_disc " << std::scientific
+                << std::setprecision(2) << step_estimate->eta_disc
+                << ", eta_lin " << step_estimate->eta_lin << ", eta_alg "
+                << step_estimate->eta_alg << std::defaultfloat << std::endl;
+        return p.strategy == "adaptive" &&
+               step_estimate->eta_lin <= p.gamma_lin * step_estimate->eta_disc;
+      };
 
     newton_report = newton.solve(solution);
+    if (parameters.estimators.enabled && !final_estimate)
+      final_estimate = estimate(solution); // no Newton step was needed
   }
 
 
-  // lambda_h from X3: its nodal values for p = 1; for p >= 2 the solution of
-  // M c = X3 (X3 = 0 on constrained nodes), since X3_i = (lambda_h, psi_i).
+  // One linearised system A dX = rhs. GMRES runs on the whole system with
+  // ILU or the contact AMG preconditioner, to 'Linear solver/Tolerance'
+  // (exact), to the forcing term (inexact), or until the algebraic
+  // estimator is below gamma_alg max(eta_disc, eta_lin) (adaptive). Every
+  // nu iterations the current iterate is described (fields, residual,
+  // fluxes) and the iterate of the previous check is estimated with the
+  // current one as look-ahead; the adaptive strategy accepts that previous
+  // iterate, whose estimate is guaranteed.
+  template <int dim>
+  unsigned int
+  MembraneProblem<dim>::solve_linearized(const Vector &rhs, Vector &dX)
+  {
+    // The constraint rows of A carry the row weights: scale rhs alike.
+    Vector weighted_rhs(rhs);
+    scale_constraint_rows(weighted_rhs, false);
+    if (direct_solver)
+      {
+        TimerOutput::Scope t(timer, "newton: linear solve");
+        return direct_solver->solve(weighted_rhs, dX);
+      }
+
+    const auto &linear    = parameters.linear_solver;
+    const auto &nonlinear = parameters.nonlinear_solver;
+    const bool  adaptive  = nonlinear.strategy == "adaptive";
+    const bool  watch     = parameters.estimators.enabled &&
+                       (adaptive || parameters.estimators.every_check);
+
+    typename VI::Gmres<Vector>::AdditionalData settings;
+    settings.max_iterations     = linear.max_iterations;
+    settings.krylov_dimension   = linear.krylov_dimension;
+    settings.check_interval     = linear.check_interval;
+    settings.relative_tolerance = nonlinear.strategy == "inexact" ?
+                                    nonlinear.forcing_term :
+                                    linear.tolerance;
+
+    // At every check the current iterate is certified with its own fluxes
+    // (its algebraic residual bounded by the Friedrichs constant), and the
+    // previous check's iterate with the current one as look-ahead (sharper);
+    // the adaptive strategy accepts the first iterate whose algebraic
+    // estimator is small enough.
+    const auto criterion = [&](const VI::ContactEstimate &e) {
+      return e.eta_alg <= nonlinear.gamma_alg * std::max(e.eta_disc, e.eta_lin);
+    };
+    std::optional<Iterate> previous;
+    Iterate                current;
+    bool                   accepted = false;
+    Vector                 accepted_update;
+    const auto accept = [&](const Iterate &it, const VI::ContactEstimate &e) {
+      accepted        = true;
+      accepted_update = it.X;
+      accepted_update -= *linearization_point;
+      step_estimate = e;
+    };
+    const auto monitor = [&](const Vector &update, const unsigned int i) {
+      Vector X(*linearization_point);
+      X += update;
+      describe_iterate(X, current);
+      current.linear_iteration = i;
+
+      const VI::ContactEstimate own = estimate(current, current);
+      estimate_records.push_back({newton_step, i, false, own});
+      if (adaptive && criterion(own))
+        {
+          accept(current, own);
+          return true;
+        }
+      if (previous)
+        {
+          const VI::ContactEstimate e = estimate(*previous, current);
+          estimate_records.push_back(
+            {newton_step, previous->linear_iteration, false, e});
+          if (adaptive && criterion(e))
+            {
+              accept(*previous, e);
+              return true;
+            }
+        }
+      previous = std::move(current);
+      return false;
+    };
+
+    const auto A = [&](Vector &dst, const Vector &src) {
+      system_matrix.vmult(dst, src);
+    };
+    Vector     unweighted(rhs);
+    const auto P = [&](Vector &dst, const Vector &src) {
+      if (contact_preconditioner)
+        {
+          // It inverts the unweighted rows.
+          unweighted = src;
+          scale_constraint_rows(unweighted, true);
+          contact_preconditioner->vmult(dst, unweighted);
+        }
+      else
+        ilu->vmult(dst, src);
+    };
+
+    TimerOutput::Scope t(timer, "newton: linear solve");
+    dX = 0;
+    const VI::LinearSolveReport report =
+      VI::Gmres<Vector>(settings).solve(A,
+                                        P,
+                                        dX,
+                                        weighted_rhs,
+                                        watch ?
+                                          VI::Gmres<Vector>::Monitor(monitor) :
+                                          nullptr);
+    if (accepted)
+      dX = accepted_update;
+    return report.iterations;
+  }
+
+
+  // The iterate as the estimators need it: u1h, u2h, s_h (nodal averaging
+  // where u1h < u2h), lambda_h and its part from nonnegative coefficients,
+  // the algebraic residual r_h of the balance equations (<r_h, psi_i>_h =
+  // (F - E X)_i), and the equilibrated fluxes of both membranes.
   template <int dim>
   void
-  MembraneProblem<dim>::compute_multiplier(
-    const TrilinosWrappers::MPI::Vector &X3,
-    TrilinosWrappers::MPI::Vector       &lambda) const
+  MembraneProblem<dim>::describe_iterate(const Vector &X, Iterate &it) const
   {
-    TrilinosWrappers::MPI::Vector coefficients(owned_nodes, comm);
+    TimerOutput::Scope t(timer, "estimators: fluxes");
+    it.X = X;
+
+    Vector u1(owned_nodes, comm), u2(owned_nodes, comm), s1(owned_nodes, comm),
+      s2(owned_nodes, comm), moments(owned_nodes, comm),
+      function(owned_nodes, comm);
+    const auto ghosted = [&](const Vector &v, Vector &target) {
+      target.reinit(owned_nodes, relevant_nodes, comm);
+      target = v;
+    };
+
+    VI::NodalFields::extract(X, VI::NodalFields::u1, u1);
+    VI::NodalFields::extract(X, VI::NodalFields::u2, u2);
+    VI::average_at_violated_nodes(data.mu1, data.mu2, u1, u2, s1, s2);
+    ghosted(u1, it.u1);
+    ghosted(u2, it.u2);
+    ghosted(s1, it.s1);
+    ghosted(s2, it.s2);
+
+    // lambda_h: <lambda_h, psi_i>_h = D_i X3_i.
+    VI::NodalFields::extract(X, multiplier, moments);
+    moments.scale(coupling);
+    function_from_moments(moments, function);
+    ghosted(function, it.lambda);
+    for (double &m : moments)
+      m = std::max(m, 0.);
+    function_from_moments(moments, function);
+    ghosted(function, it.lambda_nonnegative);
+
+    // r_h from the residual F - E X of the rows of u1 and u2.
+    Vector R(owned_system, comm);
+    system_matrix.vmult(R, X);
+    R.sadd(-1., 1., system_rhs);
+    Vector *r[2] = {&it.r1, &it.r2};
+    for (const unsigned int field : {VI::NodalFields::u1, VI::NodalFields::u2})
+      {
+        VI::NodalFields::extract(R, field, moments);
+        for (const types::global_dof_index i : owned_nodes)
+          if (u1_constraints.is_constrained(i))
+            moments(i) = 0;
+        moments.compress(VectorOperation::insert);
+        function_from_moments(moments, function);
+        ghosted(function, *r[field]);
+      }
+
+    // The fluxes: sigma_alpha ~ -mu_alpha grad u_alpha,h, equilibrated with
+    // f_alpha -/+ lambda_h - r_alpha,h; for p = 1 the multiplier and the
+    // residual enter each patch as the constants of its vertex (lumping).
+    const bool          lumped = fe.degree == 1;
+    FEValues<dim>       values(*mapping,
+                         fe,
+                         flux_reconstruction->get_quadrature(),
+                         update_values | update_gradients |
+                           update_quadrature_points);
+    std::vector<double> lambda_values(quadrature.size()),
+      r_values(quadrature.size());
+    const Vector        *u[2]    = {&it.u1, &it.u2};
+    const Function<dim> *f[2]    = {data.f1.get(), data.f2.get()};
+    const double         mu[2]   = {data.mu1, data.mu2};
+    const double         sign[2] = {-1., 1.}; // (-1)^alpha
+
+    typename VI::FluxReconstruction<dim>::Sources sources;
+    sources.n_fields    = 2;
+    sources.cell_values = [&](const auto &cell, auto &flux, auto &source) {
+      typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
+                                                              cell->level(),
+                                                              cell->index(),
+                                                              &dof_handler);
+      values.reinit(dof_cell);
+      if (!lumped)
+        values.get_function_values(it.lambda, lambda_values);
+      for (unsigned int a = 0; a < 2; ++a)
+        {
+          values.get_function_gradients(*u[a], flux[a]);
+          for (auto &F : flux[a])
+            F *= mu[a];
+          f[a]->value_list(values.get_quadrature_points(), source[a]);
+          if (!lumped)
+            {
+              values.get_function_values(*r[a], r_values);
+              for (unsigned int q = 0; q < source[a].size(); ++q)
+                source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+            }
+        }
+    };
+    if (lumped)
+      sources.vertex_source = [&](const unsigned int vertex,
+                                  const unsigned int a) {
+        const auto i = vertex_dofs[vertex];
+        return -sign[a] * it.lambda(i) - (*r[a])(i);
+      };
+    flux_reconstruction->reconstruct(sources, {&it.sigma1, &it.sigma2});
+  }
+
+
+  template <int dim>
+  VI::ContactEstimate
+  MembraneProblem<dim>::estimate(const Iterate &it, const Iterate &ahead) const
+  {
+    TimerOutput::Scope             t(timer, "estimators: evaluation");
+    VI::ContactEstimatorInput<dim> in;
+    in.mapping             = mapping.get();
+    in.potential           = &dof_handler;
+    in.flux                = &flux_reconstruction->get_dof_handler();
+    in.quadrature          = &flux_reconstruction->get_quadrature();
+    in.mu1                 = data.mu1;
+    in.mu2                 = data.mu2;
+    in.f1                  = data.f1.get();
+    in.f2                  = data.f2.get();
+    in.g1                  = data.g1.get();
+    in.g2                  = data.g2.get();
+    in.friedrichs_constant = VI::friedrichs_constant(geometry);
+    in.mass_lumped         = fe.degree == 1;
+    in.u1                  = &it.u1;
+    in.u2                  = &it.u2;
+    in.s1                  = &it.s1;
+    in.s2                  = &it.s2;
+    in.lambda              = &it.lambda;
+    in.lambda_nonnegative  = &it.lambda_nonnegative;
+    in.sigma1_disc         = &it.sigma1;
+    in.sigma2_disc         = &it.sigma2;
+    in.lambda_ahead        = &ahead.lambda;
+    in.r1_ahead            = &ahead.r1;
+    in.r2_ahead            = &ahead.r2;
+    in.sigma1_ahead        = &ahead.sigma1;
+    in.sigma2_ahead        = &ahead.sigma2;
+    return VI::estimate_contact_error(in);
+  }
+
+
+  // The estimate of X with itself as look-ahead: sigma_alg = 0, and the
+  // whole algebraic residual goes into the remainder.
+  template <int dim>
+  VI::ContactEstimate
+  MembraneProblem<dim>::estimate(const Vector &X) const
+  {
+    Iterate it;
+    describe_iterate(X, it);
+    return estimate(it, it);
+  }
+
+
+  // v with <v, psi_i>_h = m_i: v_i = m_i / D_i for the lumped bracket of
+  // p = 1; for p >= 2 the solution of M v = m (m = 0 on constrained nodes).
+  template <int dim>
+  void
+  MembraneProblem<dim>::function_from_moments(const Vector &moments,
+                                              Vector       &v) const
+  {
+    v = 0;
     if (fe.degree == 1)
-      coefficients = X3;
+      {
+        for (const types::global_dof_index i : contact_rows.nodes())
+          v(i) = moments(i) / coupling(i);
+        v.compress(VectorOperation::insert);
+      }
     else
       {
-        SolverControl              control(1000, 1e-13 * X3.l2_norm());
-        TrilinosWrappers::SolverCG cg(control);
-        TrilinosWrappers::PreconditionJacobi jacobi;
-        jacobi.initialize(mass_matrix);
-        cg.solve(mass_matrix, coefficients, X3, jacobi);
+        const double norm = moments.l2_norm();
+        if (norm > 0)
+          {
+            SolverControl                        control(1000, 1e-13 * norm);
+            TrilinosWrappers::SolverCG           cg(control);
+            TrilinosWrappers::PreconditionJacobi jacobi;
+            jacobi.initialize(mass_matrix);
+            cg.solve(mass_matrix, v, moments, jacobi);
+          }
       }
-    hanging_node_constraints.distribute(coefficients);
-    lambda = coefficients;
+    hanging_node_constraints.distribute(v);
   }
 
 
@@ -517,11 +906,10 @@ namespace StepMembranes
   // for p = 1 and (lambda_h, psi_i) for p >= 2, on the contact nodes.
   template <int dim>
   void
-  MembraneProblem<dim>::compute_dual_coefficients(
-    const TrilinosWrappers::MPI::Vector &lambda,
-    TrilinosWrappers::MPI::Vector       &X3) const
+  MembraneProblem<dim>::compute_dual_coefficients(const Vector &lambda,
+                                                  Vector       &X3) const
   {
-    TrilinosWrappers::MPI::Vector values(owned_nodes, comm);
+    Vector values(owned_nodes, comm);
     if (fe.degree == 1)
       values = lambda;
     else
@@ -538,9 +926,9 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::postprocess()
   {
-    TimerOutput::Scope            t(timer, "postprocess");
-    TrilinosWrappers::MPI::Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
-      field(owned_nodes, comm);
+    TimerOutput::Scope t(timer, "postprocess");
+    Vector             u1(owned_nodes, comm), u2(owned_nodes, comm),
+      field(owned_nodes, comm), lambda(owned_nodes, comm);
     VI::NodalFields::extract(solution, VI::NodalFields::u1, u1);
     VI::NodalFields::extract(solution, VI::NodalFields::u2, u2);
     u1_h = u1;
@@ -549,8 +937,9 @@ namespace StepMembranes
     gap_h = u1;
 
     VI::NodalFields::extract(solution, multiplier, field);
-    compute_multiplier(field, u2);
-    lambda_h = u2;
+    field.scale(coupling);
+    function_from_moments(field, lambda);
+    lambda_h = lambda;
 
     n_contact_nodes = contact_rows.contact_set(solution, field);
     contact_set     = field;
@@ -567,13 +956,13 @@ namespace StepMembranes
       return;
     TimerOutput::Scope t(timer, "errors");
 
-    const QGauss<dim> quadrature(fe.degree + 3);
-    Vector<float>     cellwise(triangulation.n_active_cells());
-    const auto        error = [&](const TrilinosWrappers::MPI::Vector &uh,
-                           const Function<dim>                 &exact,
-                           const VectorTools::NormType          norm) {
+    const QGauss<dim>      error_quadrature(fe.degree + 3);
+    dealii::Vector<double> cellwise(triangulation.n_active_cells());
+    const auto             error = [&](const Vector               &uh,
+                           const Function<dim>        &exact,
+                           const VectorTools::NormType norm) {
       VectorTools::integrate_difference(
-        *mapping, dof_handler, uh, exact, cellwise, quadrature, norm);
+        *mapping, dof_handler, uh, exact, cellwise, error_quadrature, norm);
       return VectorTools::compute_global_error(triangulation, cellwise, norm);
     };
     const double e1 = error(u1_h, *data.exact_u1, VectorTools::H1_seminorm);
@@ -600,9 +989,37 @@ namespace StepMembranes
     data_out.add_data_vector(gap_h, "gap");
     data_out.add_data_vector(lambda_h, "lambda");
     data_out.add_data_vector(contact_set, "contact");
-    Vector<float> subdomain(triangulation.n_active_cells());
+    dealii::Vector<float> subdomain(triangulation.n_active_cells());
     subdomain = triangulation.locally_owned_subdomain();
     data_out.add_data_vector(subdomain, "partition");
+
+    // Per-cell estimators (square roots of the squared indicators).
+    std::vector<dealii::Vector<float>> indicators;
+    if (final_estimate)
+      {
+        const std::pair<const char *, const dealii::Vector<float> *>
+          cell_data[] = {{"eta", &final_estimate->cell_total},
+                         {"eta_flux", &final_estimate->cell_flux},
+                         {"eta_residual", &final_estimate->cell_residual},
+                         {"eta_algebraic", &final_estimate->cell_algebraic},
+                         {"eta_nonconformity",
+                          &final_estimate->cell_nonconformity}};
+        indicators.reserve(std::size(cell_data) + 1);
+        for (const auto &[name, squares] : cell_data)
+          {
+            indicators.emplace_back(squares->size());
+            for (unsigned int c = 0; c < squares->size(); ++c)
+              indicators.back()(c) = std::sqrt(std::abs((*squares)(c)));
+            data_out.add_data_vector(indicators.back(),
+                                     name,
+                                     DataOut<dim>::type_cell_data);
+          }
+        indicators.push_back(final_estimate->cell_contact);
+        data_out.add_data_vector(indicators.back(),
+                                 "eta_contact",
+                                 DataOut<dim>::type_cell_data);
+      }
+
     data_out.build_patches(*mapping,
                            fe.degree,
                            geometry == VI::Geometry::disk ?
@@ -629,15 +1046,39 @@ namespace StepMembranes
     if (parameters.nonlinear_solver.nested_iteration)
       {
         solution_transfer = std::make_unique<
-          parallel::distributed::
-            SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>(dof_handler);
+          parallel::distributed::SolutionTransfer<dim, Vector>>(dof_handler);
         solution_transfer->prepare_for_coarsening_and_refinement(
-          std::vector<const TrilinosWrappers::MPI::Vector *>{&u1_h,
-                                                             &u2_h,
-                                                             &lambda_h});
+          std::vector<const Vector *>{&u1_h, &u2_h, &lambda_h});
       }
     triangulation.execute_coarsening_and_refinement();
   }
+
+
+  namespace
+  {
+    VI::Json
+    to_json(const VI::ContactEstimate &e)
+    {
+      VI::Json json        = VI::Json::object();
+      json["eta"]          = e.eta;
+      json["eta_disc"]     = e.eta_disc;
+      json["eta_lin"]      = e.eta_lin;
+      json["eta_alg"]      = e.eta_alg;
+      json["flux_disc"]    = e.flux_disc;
+      json["residual"]     = e.residual;
+      json["flux_alg"]     = e.flux_alg;
+      json["remainder"]    = e.remainder;
+      json["nonc_1"]       = e.nonc_1;
+      json["nonc_1_disc"]  = e.nonc_1_disc;
+      json["nonc_1_lin"]   = e.nonc_1_lin;
+      json["nonc_2"]       = e.nonc_2;
+      json["nonc_3"]       = e.nonc_3;
+      json["contact_pos"]  = e.contact_pos;
+      json["contact_cone"] = e.contact_cone;
+      json["dirichlet"]    = e.dirichlet;
+      return json;
+    }
+  } // namespace
 
 
   template <int dim>
@@ -664,6 +1105,17 @@ namespace StepMembranes
             table.set_precision("error_lambda", 4);
           }
       }
+    if (final_estimate)
+      {
+        table.add_value("eta", final_estimate->eta);
+        table.set_scientific("eta", true);
+        table.set_precision("eta", 4);
+        if (data.has_exact_solution())
+          {
+            table.add_value("effectivity", final_estimate->eta / error_energy);
+            table.set_precision("effectivity", 3);
+          }
+      }
     table.add_value("wall_s", wall);
     table.set_precision("wall_s", 3);
 
@@ -679,16 +1131,42 @@ namespace StepMembranes
       record["error_energy"] = error_energy;
     if (data.exact_lambda)
       record["error_lambda_l2"] = error_multiplier;
+    if (final_estimate)
+      {
+        record["eta"]      = final_estimate->eta;
+        record["eta_disc"] = final_estimate->eta_disc;
+        record["eta_lin"]  = final_estimate->eta_lin;
+        record["eta_alg"]  = final_estimate->eta_alg;
+        if (data.has_exact_solution())
+          record["effectivity"] = final_estimate->eta / error_energy;
+        record["estimate"] = to_json(*final_estimate);
+      }
     record["wall_seconds"] = wall;
-    VI::Json iterations    = VI::Json::array();
+
+    // Newton steps, and every estimate (inner checks and accepted iterates).
+    VI::Json steps = VI::Json::array();
     for (const VI::NewtonStep &step : newton_report.steps)
       {
         VI::Json it                    = VI::Json::object();
         it["k"]                        = step.iteration;
-        it["i"]                        = step.linear_iterations;
+        it["linear_iterations"]        = step.linear_iterations;
         it["residual_equations"]       = step.residual.equations;
         it["residual_complementarity"] = step.residual.complementarity;
         it["step_length"]              = step.step_length;
+        steps.push_back(it);
+      }
+    record["newton_steps"] = steps;
+    VI::Json iterations    = VI::Json::array();
+    for (const EstimateRecord &r : estimate_records)
+      {
+        VI::Json it    = VI::Json::object();
+        it["k"]        = r.newton_step;
+        it["i"]        = r.linear_iteration;
+        it["accepted"] = r.accepted;
+        it["eta"]      = r.estimate.eta;
+        it["eta_disc"] = r.estimate.eta_disc;
+        it["eta_lin"]  = r.estimate.eta_lin;
+        it["eta_alg"]  = r.estimate.eta_alg;
         iterations.push_back(it);
       }
     record["iterations"] = iterations;
@@ -708,6 +1186,8 @@ namespace StepMembranes
       errors.push_back("error_energy");
     if (data.exact_lambda)
       errors.push_back("error_lambda");
+    if (parameters.estimators.enabled)
+      errors.push_back("eta");
 
     ConvergenceTable with_rates = table;
     for (const std::string &key : errors)
@@ -722,6 +1202,8 @@ namespace StepMembranes
           "cycle", "cells", "dofs", "newton", "linear", "contact"};
         // An error key names the supercolumn of the error and its rate.
         columns.insert(columns.end(), errors.begin(), errors.end());
+        if (parameters.estimators.enabled && data.has_exact_solution())
+          columns.push_back("effectivity");
         ConvergenceTable file_table = with_rates;
         file_table.set_column_order(columns);
         file_table.write_text(file, TableHandler::org_mode_table);
@@ -733,13 +1215,19 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::run()
   {
+    const auto &nonlinear = parameters.nonlinear_solver;
+    const auto &linear    = parameters.linear_solver;
     pcout << VI::run_header("step-membranes", comm) << std::endl;
     pcout << "Test case " << data.name << " on the " << parameters.mesh.geometry
-          << ", Q" << fe.degree << " elements, Newton-" << C.name()
-          << (parameters.nonlinear_solver.nested_iteration ? " with" :
-                                                             " without")
-          << " nested iteration, direct solver "
-          << parameters.linear_solver.direct_package << std::endl;
+          << ", Q" << fe.degree << " elements, Newton-" << C.name() << " ("
+          << nonlinear.strategy << ")"
+          << (nonlinear.nested_iteration ? " with" : " without")
+          << " nested iteration, "
+          << (linear.solver == "direct" ?
+                "direct solver " + linear.direct_package :
+                "GMRES + " + linear.preconditioner)
+          << (parameters.estimators.enabled ? ", estimators on" : "")
+          << std::endl;
 
     summary           = VI::make_summary("step-membranes", comm, prm);
     summary["cycles"] = VI::Json::array();
@@ -779,10 +1267,21 @@ namespace StepMembranes
         cycle_timer.stop();
 
         pcout << "   Newton-" << C.name() << ": " << newton_report.iterations
-              << " iterations, " << n_contact_nodes << " nodes in contact";
+              << " iterations";
+        if (linear.solver == "gmres")
+          pcout << ", " << newton_report.linear_iterations << " GMRES";
+        pcout << ", " << n_contact_nodes << " nodes in contact";
         if (data.has_exact_solution())
           pcout << ", energy error " << std::scientific << std::setprecision(3)
                 << error_energy << std::defaultfloat;
+        if (final_estimate)
+          {
+            pcout << ", estimate " << std::scientific << std::setprecision(3)
+                  << final_estimate->eta << std::defaultfloat;
+            if (data.has_exact_solution())
+              pcout << " (effectivity " << std::setprecision(3)
+                    << final_estimate->eta / error_energy << ")";
+          }
         pcout << ", " << std::setprecision(3) << cycle_timer.wall_time() << " s"
               << std::endl;
         record_cycle(cycle);

@@ -10,18 +10,26 @@
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/fe/fe_q.h>
 #include <deal.II/fe/mapping.h>
+#include <deal.II/fe/mapping_q_cache.h>
 #include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
-#include <memory>
+
 #include <vi/complementarity.h>
+#include <vi/contact_preconditioner.h>
 #include <vi/contact_rows.h>
+#include <vi/estimators.h>
+#include <vi/flux_reconstruction.h>
 #include <vi/geometry.h>
 #include <vi/linear_solvers.h>
 #include <vi/parameters.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
+
+#include <memory>
+#include <optional>
 
 namespace StepMembranes
 {
@@ -35,6 +43,7 @@ namespace StepMembranes
     VI::DiscretizationParameters  discretization;
     VI::NonlinearSolverParameters nonlinear_solver;
     VI::LinearSolverParameters    linear_solver;
+    VI::EstimatorParameters       estimators;
     VI::OutputParameters          output;
 
     static void
@@ -61,9 +70,12 @@ namespace StepMembranes
    *   [mu1 S   0   -D] X = F,   X1 - X2 >= 0,  X3 >= 0,  (X1 - X2).X3 = 0.
    *   [0   mu2 S   +D]
    *
-   * Each constraint pair is rewritten with a C-function and the whole system
-   * is solved by semismooth Newton on a sequence of globally refined meshes,
-   * each Newton run starting from the previous mesh's solution.
+   * Each constraint pair is rewritten with a C-function and the system is
+   * solved by semismooth Newton, with linear solves that are exact, inexact
+   * (fixed forcing term) or adaptive: stopped by a posteriori estimators
+   * that separate the discretisation, linearisation and algebraic errors
+   * ([DMV20]; doc/estimators.md). On a sequence of globally refined meshes,
+   * each Newton run starts from the previous mesh's solution.
    */
   template <int dim>
   class MembraneProblem
@@ -77,6 +89,30 @@ namespace StepMembranes
     run();
 
   private:
+    using Vector = TrilinosWrappers::MPI::Vector;
+
+    /**
+     * An iterate X = (u1h, u2h, lambda_h) as the estimators see it: its
+     * fields as finite element functions, its algebraic residual r_h and
+     * its equilibrated discretisation fluxes.
+     */
+    struct Iterate
+    {
+      Vector       X;
+      Vector       u1, u2, s1, s2, lambda, lambda_nonnegative, r1, r2;
+      Vector       sigma1, sigma2;
+      unsigned int linear_iteration = 0;
+    };
+
+    /// One estimate during the solve, for summary.json.
+    struct EstimateRecord
+    {
+      unsigned int        newton_step;
+      unsigned int        linear_iteration;
+      bool                accepted;
+      VI::ContactEstimate estimate;
+    };
+
     void
     check_data() const;
     void
@@ -89,6 +125,14 @@ namespace StepMembranes
     initialize_iterate();
     void
     solve();
+    unsigned int
+    solve_linearized(const Vector &rhs, Vector &dX);
+    void
+    describe_iterate(const Vector &X, Iterate &iterate) const;
+    VI::ContactEstimate
+    estimate(const Iterate &iterate, const Iterate &ahead) const;
+    VI::ContactEstimate
+    estimate(const Vector &X) const;
     void
     postprocess();
     void
@@ -102,18 +146,19 @@ namespace StepMembranes
     void
     write_tables() const;
 
-    /// lambda_h (nodal coefficients) from the dual coefficients X3.
+    /// The function v with <v, psi_i>_h = moments_i (v_i = moments_i / D_i
+    /// for p = 1, M^{-1} moments for p >= 2); moments without ghosts.
     void
-    compute_multiplier(const TrilinosWrappers::MPI::Vector &X3,
-                       TrilinosWrappers::MPI::Vector       &lambda) const;
+    function_from_moments(const Vector &moments, Vector &v) const;
     /// The dual coefficients X3_i = <lambda_h, psi_i>_h / D_i of lambda_h.
     void
-    compute_dual_coefficients(const TrilinosWrappers::MPI::Vector &lambda,
-                              TrilinosWrappers::MPI::Vector       &X3) const;
+    compute_dual_coefficients(const Vector &lambda, Vector &X3) const;
 
     VI::ResidualNorms
-    residual(const TrilinosWrappers::MPI::Vector &X,
-             TrilinosWrappers::MPI::Vector       &R) const;
+    residual(const Vector &X, Vector &R) const;
+    /// Multiply (or divide) the constraint rows of v by the row weights.
+    void
+    scale_constraint_rows(Vector &v, const bool divide) const;
 
     const Parameters            parameters;
     ParameterHandler           &prm;
@@ -125,9 +170,14 @@ namespace StepMembranes
     VI::ComplementarityFunction C;
 
     parallel::distributed::Triangulation<dim> triangulation;
-    std::unique_ptr<Mapping<dim>>             mapping;
-    FE_Q<dim>                                 fe;
-    DoFHandler<dim>                           dof_handler;
+    /// The geometry's mapping, and the one used everywhere: its support
+    /// points cached once per mesh (on the disk the transfinite manifold is
+    /// expensive to evaluate cell by cell).
+    std::unique_ptr<Mapping<dim>>       geometry_mapping;
+    std::unique_ptr<MappingQCache<dim>> mapping;
+    FE_Q<dim>                           fe;
+    DoFHandler<dim>                     dof_handler;
+    QGauss<dim>                         quadrature;
 
     // Nodes (scalar DoFs) and the node-interleaved unknowns X.
     IndexSet owned_nodes, relevant_nodes;
@@ -138,27 +188,46 @@ namespace StepMembranes
     AffineConstraints<double> system_constraints;
     VI::ContactRows           contact_rows;
 
-    TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E ; J_C]
-    TrilinosWrappers::MPI::Vector  system_rhs;    ///< F
-    TrilinosWrappers::MPI::Vector  solution;      ///< X
-    TrilinosWrappers::MPI::Vector  coupling;      ///< D_ii per node
-    TrilinosWrappers::SparseMatrix mass_matrix;   ///< L2 Gram matrix, p >= 2
+    TrilinosWrappers::SparseMatrix system_matrix;    ///< A = [E ; J_C]
+    Vector                         system_rhs;       ///< F
+    Vector                         solution;         ///< X
+    Vector                         coupling;         ///< D_ii per node
+    TrilinosWrappers::SparseMatrix mass_matrix;      ///< L2 Gram matrix, p >= 2
+    TrilinosWrappers::SparseMatrix stiffness_matrix; ///< S, for AMG
     double                         load_norm        = 0;
     double                         multiplier_scale = 0;
+    /// Weights of the constraint rows (force units): mu_r S_ii for rows that
+    /// enforce u1 = u2, D_i for rows that enforce X3 = 0; per owned node, and
+    /// per contact row for the current Newton step.
+    std::vector<double> stiffness_weight, multiplier_weight, row_weights;
+    /// Global vertex index -> DoF of the vertex (the patch constants of p = 1).
+    std::vector<types::global_dof_index> vertex_dofs;
+
+    // Solvers and estimators.
+    std::unique_ptr<VI::LinearSolver>                  direct_solver;
+    std::unique_ptr<TrilinosWrappers::PreconditionILU> ilu;
+    std::unique_ptr<VI::ContactPreconditioner>         contact_preconditioner;
+    std::unique_ptr<VI::FluxReconstruction<dim>>       flux_reconstruction;
+
+    // The state of the current Newton step (set by setup_jacobian).
+    const Vector                      *linearization_point = nullptr;
+    unsigned int                       newton_step         = 0;
+    std::optional<VI::ContactEstimate> step_estimate;
+    std::vector<EstimateRecord>        estimate_records;
 
     // The discrete solution as finite element functions (with ghosts).
-    TrilinosWrappers::MPI::Vector u1_h, u2_h, gap_h, lambda_h, contact_set;
+    Vector u1_h, u2_h, gap_h, lambda_h, contact_set;
 
-    std::unique_ptr<parallel::distributed::
-                      SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>
+    std::unique_ptr<parallel::distributed::SolutionTransfer<dim, Vector>>
       solution_transfer;
 
     // What each cycle measured.
-    VI::NewtonReport        newton_report;
-    types::global_dof_index n_contact_nodes  = 0;
-    double                  error_energy     = 0;
-    double                  error_multiplier = 0;
-    Timer                   cycle_timer;
+    VI::NewtonReport                   newton_report;
+    std::optional<VI::ContactEstimate> final_estimate;
+    types::global_dof_index            n_contact_nodes  = 0;
+    double                             error_energy     = 0;
+    double                             error_multiplier = 0;
+    Timer                              cycle_timer;
 
     ConvergenceTable table;
     VI::Json         summary;

@@ -1,6 +1,7 @@
-#include <cmath>
 #include <vi/complementarity.h>
 #include <vi/errors.h>
+
+#include <cmath>
 
 namespace VI
 {

@@ -1,8 +1,10 @@
-#include <cmath>
 #include <deal.II/base/mpi.h>
-#include <limits>
+
 #include <vi/contact_rows.h>
 #include <vi/nodal_fields.h>
+
+#include <cmath>
+#include <limits>
 
 namespace VI
 {
@@ -14,14 +16,14 @@ namespace VI
                       const AffineConstraints<double> &u1_constraints)
   {
     node_indices.clear();
-    local_positions.clear();
+    positions.clear();
     std::size_t k = 0;
     for (const types::global_dof_index i : owned_nodes)
       {
         if (!u1_constraints.is_constrained(i))
           {
             node_indices.push_back(i);
-            local_positions.push_back(k);
+            positions.push_back(k);
           }
         ++k;
       }
@@ -35,6 +37,13 @@ namespace VI
   }
 
 
+  const std::vector<std::size_t> &
+  ContactRows::local_positions() const
+  {
+    return positions;
+  }
+
+
   double
   ContactRows::evaluate(const ComplementarityFunction       &C,
                         const TrilinosWrappers::MPI::Vector &X,
@@ -45,7 +54,7 @@ namespace VI
     double       *r = R.begin();
 
     double local_scales[2] = {0., 0.};
-    for (const std::size_t k : local_positions)
+    for (const std::size_t k : positions)
       {
         local_scales[0] = std::max({local_scales[0],
                                     std::abs(x[n_fields * k]),
@@ -62,7 +71,7 @@ namespace VI
     const double B    = std::max({scales[1], multiplier_scale, tiny});
 
     double residual = 0, not_a_number = 0;
-    for (const std::size_t k : local_positions)
+    for (const std::size_t k : positions)
       {
         const double a      = x[n_fields * k] - x[n_fields * k + 1];
         const double b      = x[n_fields * k + 2];
@@ -84,12 +93,13 @@ namespace VI
   void
   ContactRows::set_jacobian_rows(const ComplementarityFunction       &C,
                                  const TrilinosWrappers::MPI::Vector &X,
-                                 TrilinosWrappers::SparseMatrix      &A) const
+                                 TrilinosWrappers::SparseMatrix      &A,
+                                 const std::vector<double> &weights) const
   {
     const double *x = X.begin();
     for (std::size_t n = 0; n < node_indices.size(); ++n)
       {
-        const std::size_t k = local_positions[n];
+        const std::size_t k = positions[n];
         const double      a = x[n_fields * k] - x[n_fields * k + 1];
         const double      b = x[n_fields * k + 2];
         const auto        g = C.generalized_gradient(a, b);
@@ -99,9 +109,31 @@ namespace VI
           NodalFields::index(i, NodalFields::u1),
           NodalFields::index(i, NodalFields::u2),
           NodalFields::index(i, NodalFields::multiplier)};
-        const double values[3] = {g[0], -g[0], g[1]};
+        const double w         = weights.empty() ? 1. : weights[n];
+        const double values[3] = {w * g[0], -w * g[0], w * g[1]};
         A.set(columns[2], 3, columns, values, /*elide_zero_values=*/false);
       }
+  }
+
+
+  std::vector<double>
+  ContactRows::row_weights(const ComplementarityFunction       &C,
+                           const TrilinosWrappers::MPI::Vector &X,
+                           const std::vector<double> &stiffness_weight,
+                           const std::vector<double> &multiplier_weight) const
+  {
+    const double       *x = X.begin();
+    std::vector<double> weights(positions.size());
+    for (std::size_t n = 0; n < positions.size(); ++n)
+      {
+        const std::size_t k = positions[n];
+        const auto        g =
+          C.generalized_gradient(x[n_fields * k] - x[n_fields * k + 1],
+                                 x[n_fields * k + 2]);
+        weights[n] = std::abs(g[0]) >= std::abs(g[1]) ? stiffness_weight[k] :
+                                                        multiplier_weight[k];
+      }
+    return weights;
   }
 
 
@@ -113,7 +145,7 @@ namespace VI
     double       *ind = indicator.begin();
     std::fill(ind, ind + indicator.locally_owned_size(), 0.);
     types::global_dof_index n_contact = 0;
-    for (const std::size_t k : local_positions)
+    for (const std::size_t k : positions)
       if (x[n_fields * k] - x[n_fields * k + 1] <= x[n_fields * k + 2])
         {
           ind[k] = 1.;

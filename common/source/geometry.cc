@@ -1,9 +1,11 @@
-#include <cmath>
 #include <deal.II/fe/mapping_q.h>
 #include <deal.II/grid/grid_generator.h>
 #include <deal.II/grid/manifold_lib.h>
+
 #include <vi/errors.h>
 #include <vi/geometry.h>
+
+#include <cmath>
 
 namespace VI
 {
@@ -67,6 +69,22 @@ namespace VI
           return 2.;
         case Geometry::L_shape:
           return 2. * std::sqrt(2.);
+      }
+    return 0.;
+  }
+
+
+  double
+  friedrichs_constant(const Geometry geometry)
+  {
+    switch (geometry)
+      {
+        case Geometry::square:
+          return 1. / std::sqrt(2. * numbers::PI * numbers::PI);
+        case Geometry::disk:
+          return 1. / std::sqrt(5.7831);
+        case Geometry::L_shape:
+          return 1. / std::sqrt(9.6397);
       }
     return 0.;
   }

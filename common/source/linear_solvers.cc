@@ -1,15 +1,18 @@
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/vector.h>
+
+#include <vi/errors.h>
+#include <vi/linear_solvers.h>
+
 #include <Amesos.h>
 #include <Amesos_BaseSolver.h>
 #include <Amesos_Mumps.h>
 #include <Epetra_LinearProblem.h>
 #include <Teuchos_ParameterList.hpp>
+
 #include <cmath>
-#include <deal.II/lac/full_matrix.h>
-#include <deal.II/lac/vector.h>
 #include <sstream>
 #include <vector>
-#include <vi/errors.h>
-#include <vi/linear_solvers.h>
 
 namespace VI
 {

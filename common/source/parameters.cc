@@ -1,6 +1,7 @@
-#include <sstream>
 #include <vi/errors.h>
 #include <vi/parameters.h>
+
+#include <sstream>
 
 namespace VI
 {
@@ -247,8 +248,16 @@ namespace VI
                         "true",
                         Bool(),
                         "Start Newton on each new mesh from the previous "
-                        "mesh's solution; otherwise from zero interior "
-                        "values (boundary data imposed) and zero multiplier.");
+                        "mesh's solution; otherwise (and on the first mesh) "
+                        "from the initial guess below.");
+      prm.declare_entry("Initial guess",
+                        "zero",
+                        Selection("zero|data"),
+                        "zero: zero interior values and multiplier (the "
+                        "boundary data imposed); data: u1h, u2h interpolate "
+                        "the formulas of g1, g2 in the whole domain and the "
+                        "multiplier is zero (for constant boundary data "
+                        "the X0 = (g, 0, 0) of [DMV20]).");
     }
     prm.leave_subsection();
   }
@@ -267,6 +276,7 @@ namespace VI
       max_iterations   = prm.get_integer("Maximum iterations");
       tolerance        = prm.get_double("Tolerance");
       nested_iteration = prm.get_bool("Nested iteration");
+      initial_guess    = prm.get("Initial guess");
       require_positive(tolerance, "Nonlinear solver/Tolerance");
       require_positive(gamma_lin, "Nonlinear solver/gamma_lin");
       require_positive(gamma_alg, "Nonlinear solver/gamma_alg");
@@ -342,6 +352,42 @@ namespace VI
       check_interval   = prm.get_integer("Check interval");
       ilu_fill         = prm.get_integer("ILU fill");
       require_positive(tolerance, "Linear solver/Tolerance");
+    }
+    prm.leave_subsection();
+  }
+
+
+  void
+  EstimatorParameters::declare(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Estimators");
+    {
+      prm.declare_entry("Enabled",
+                        "true",
+                        Bool(),
+                        "Compute the a posteriori error estimate (flux "
+                        "reconstruction and estimators) of every Newton "
+                        "iterate; required by the adaptive strategy.");
+      prm.declare_entry("At every check",
+                        "true",
+                        Bool(),
+                        "Also estimate the iterates of the linear solver "
+                        "every 'Linear solver/Check interval' iterations "
+                        "(always done by the adaptive strategy; costly for "
+                        "the exact one, but it draws the estimators against "
+                        "the linear iterations).");
+    }
+    prm.leave_subsection();
+  }
+
+
+  void
+  EstimatorParameters::parse(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Estimators");
+    {
+      enabled     = prm.get_bool("Enabled");
+      every_check = prm.get_bool("At every check");
     }
     prm.leave_subsection();
   }

@@ -1,13 +1,15 @@
 #include <deal.II/base/config.h>
 #include <deal.II/base/multithread_info.h>
 #include <deal.II/base/utilities.h>
+
+#include <vi/errors.h>
+#include <vi/program.h>
+#include <vi/version.h>
+
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
-#include <vi/errors.h>
-#include <vi/program.h>
-#include <vi/version.h>
 
 namespace VI
 {

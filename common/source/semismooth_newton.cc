@@ -1,9 +1,11 @@
-#include <cmath>
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
-#include <sstream>
+
 #include <vi/errors.h>
 #include <vi/semismooth_newton.h>
+
+#include <cmath>
+#include <sstream>
 
 namespace VI
 {

@@ -1,13 +1,15 @@
-#include <algorithm>
-#include <cmath>
 #include <deal.II/base/config.h>
 #include <deal.II/base/multithread_info.h>
-#include <fstream>
-#include <iomanip>
-#include <sstream>
+
 #include <vi/errors.h>
 #include <vi/summary.h>
 #include <vi/version.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
 
 namespace VI
 {

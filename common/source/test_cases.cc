@@ -1,12 +1,14 @@
-#include <cmath>
 #include <deal.II/base/function_parser.h>
 #include <deal.II/base/utilities.h>
+
+#include <vi/errors.h>
+#include <vi/test_cases.h>
+
+#include <cmath>
 #include <functional>
 #include <iostream>
 #include <map>
 #include <sstream>
-#include <vi/errors.h>
-#include <vi/test_cases.h>
 
 namespace VI
 {

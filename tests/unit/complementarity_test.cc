@@ -1,9 +1,11 @@
 // The C-functions: zero set, gradients, generalised Jacobian at the kink.
-#include <cmath>
-#include <gtest/gtest.h>
-#include <vector>
 #include <vi/complementarity.h>
 #include <vi/errors.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
 
 using VI::ComplementarityFunction;
 

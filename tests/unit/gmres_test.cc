@@ -1,12 +1,15 @@
 // The GMRES of linear_solvers.h on a nonsymmetric system (1D convection-
 // diffusion), with deal.II vectors.
-#include <cmath>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/vector.h>
-#include <gtest/gtest.h>
-#include <vector>
+
 #include <vi/errors.h>
 #include <vi/linear_solvers.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
 
 using dealii::FullMatrix;
 using dealii::Vector;

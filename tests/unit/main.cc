@@ -1,6 +1,7 @@
 // GoogleTest driver of the unit tests: MPI (and with it Trilinos) is
 // initialised once for all tests, which then run on MPI_COMM_WORLD.
 #include <deal.II/base/mpi.h>
+
 #include <gtest/gtest.h>
 
 int

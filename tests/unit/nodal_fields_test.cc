@@ -2,9 +2,11 @@
 #include <deal.II/base/index_set.h>
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/trilinos_vector.h>
-#include <gtest/gtest.h>
+
 #include <vi/contact_rows.h>
 #include <vi/nodal_fields.h>
+
+#include <gtest/gtest.h>
 
 using namespace dealii;
 namespace NodalFields = VI::NodalFields;

@@ -1,13 +1,16 @@
 // SemismoothNewton on a small linear complementarity problem, independent of
 // any mesh: the discrete 1D obstacle problem
 //   K u - lambda = f,  u - psi >= 0,  lambda >= 0,  (u - psi) lambda = 0.
-#include <cmath>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/vector.h>
-#include <gtest/gtest.h>
+
 #include <vi/complementarity.h>
 #include <vi/errors.h>
 #include <vi/semismooth_newton.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
 
 using dealii::FullMatrix;
 using dealii::Vector;

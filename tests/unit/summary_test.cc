@@ -1,8 +1,10 @@
 // The JSON writer of summary.json.
-#include <cmath>
-#include <gtest/gtest.h>
-#include <sstream>
 #include <vi/summary.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
 
 TEST(Json, WritesNestedObjectsInInsertionOrder)
 {

@@ -1,12 +1,15 @@
 // The data of the seed test cases satisfy the equations and the
 // complementarity conditions they claim; expression data parse and fail as
 // documented.
-#include <cmath>
 #include <deal.II/base/point.h>
-#include <gtest/gtest.h>
-#include <random>
+
 #include <vi/errors.h>
 #include <vi/test_cases.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
 
 using dealii::Point;
 

@@ -4,8 +4,10 @@
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
-#include <vector>
+
 #include <vi/complementarity.h>
+
+#include <vector>
 
 namespace VI
 {
@@ -31,6 +33,10 @@ namespace VI
     const std::vector<dealii::types::global_dof_index> &
     nodes() const;
 
+    /// Their positions among the locally owned nodes.
+    const std::vector<std::size_t> &
+    local_positions() const;
+
     /**
      * Overwrite the X3 rows of R with C(a_i, b_i) and return the
      * dimensionless complementarity residual over all processes,
@@ -52,14 +58,30 @@ namespace VI
              dealii::TrilinosWrappers::MPI::Vector       &R) const;
 
     /**
-     * Write the rows (dC/da, -dC/da, dC/db) of an element of the generalised
-     * Jacobian into the X3 rows of A (entries that exist in the sparsity
-     * pattern; followed by A.compress(insert) by the caller).
+     * Write the rows w_i (dC/da, -dC/da, dC/db) of an element of the
+     * generalised Jacobian into the X3 rows of A (entries that exist in the
+     * sparsity pattern; followed by A.compress(insert) by the caller), with
+     * row weights w_i (1 if `weights` is empty; one per contact node, in the
+     * order of nodes()).
      */
     void
     set_jacobian_rows(const ComplementarityFunction               &C,
                       const dealii::TrilinosWrappers::MPI::Vector &X,
-                      dealii::TrilinosWrappers::SparseMatrix      &A) const;
+                      dealii::TrilinosWrappers::SparseMatrix      &A,
+                      const std::vector<double> &weights = {}) const;
+
+    /**
+     * Weights that give the linearised constraint rows the units of the
+     * balance equations (forces), so that relative residuals of the linear
+     * solver weigh both kinds of rows alike: `stiffness_weight`_k for rows
+     * that mainly enforce u1 = u2 (|dC/da| >= |dC/db|), `multiplier_weight`_k
+     * for rows that mainly enforce X3 = 0. Vectors over the owned nodes.
+     */
+    std::vector<double>
+    row_weights(const ComplementarityFunction               &C,
+                const dealii::TrilinosWrappers::MPI::Vector &X,
+                const std::vector<double>                   &stiffness_weight,
+                const std::vector<double> &multiplier_weight) const;
 
     /**
      * indicator_i = 1 at the nodes in contact (a_i <= b_i: the min-function
@@ -73,6 +95,6 @@ namespace VI
   private:
     std::vector<dealii::types::global_dof_index> node_indices;
     /// Position of each node among the locally owned nodes.
-    std::vector<std::size_t> local_positions;
+    std::vector<std::size_t> positions;
   };
 } // namespace VI

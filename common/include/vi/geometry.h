@@ -3,6 +3,7 @@
 #include <deal.II/base/point.h>
 #include <deal.II/fe/mapping.h>
 #include <deal.II/grid/tria.h>
+
 #include <memory>
 #include <string>
 
@@ -40,6 +41,17 @@ namespace VI
   /// Diameter h_Omega of the domain.
   double
   geometry_diameter(const Geometry geometry);
+
+  /**
+   * An upper bound of the Friedrichs constant C_F of the domain,
+   * |v| <= C_F |grad v| for v in H^1_0, i.e. 1/sqrt(lambda_1) with lambda_1
+   * the first Dirichlet eigenvalue of -Lap: 2 pi^2 for the unit square,
+   * j_{0,1}^2 = 5.78318... for the unit disk, 9.63972... for the L-shape
+   * (Fox, Henrici, Moler 1967; Trefethen, Betcke 2006); the eigenvalues are
+   * rounded down, so the constants are rounded up.
+   */
+  double
+  friedrichs_constant(const Geometry geometry);
 
   /**
    * Mapping for the domain and element degree p: Q1 on polygons (exact),

@@ -2,8 +2,10 @@
 
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
-#include <memory>
+
 #include <vi/parameters.h>
+
+#include <memory>
 
 class Amesos_BaseSolver;
 class Epetra_LinearProblem;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <deal.II/base/parameter_handler.h>
+
 #include <string>
 #include <vector>
 
@@ -75,6 +76,7 @@ namespace VI
     unsigned int max_iterations   = 50;
     double       tolerance        = 1e-10;
     bool         nested_iteration = true;
+    std::string  initial_guess    = "zero";
 
     /// `strategies`: the accepted values of "Strategy", e.g. "exact" or
     /// "exact|inexact|adaptive".
@@ -101,6 +103,18 @@ namespace VI
     declare(dealii::ParameterHandler &prm,
             const std::string        &solvers        = "direct",
             const std::string        &default_solver = "direct");
+    void
+    parse(dealii::ParameterHandler &prm);
+  };
+
+
+  struct EstimatorParameters
+  {
+    bool enabled     = true;
+    bool every_check = true;
+
+    static void
+    declare(dealii::ParameterHandler &prm);
     void
     parse(dealii::ParameterHandler &prm);
   };

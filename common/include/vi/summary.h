@@ -1,8 +1,9 @@
 #pragma once
 
-#include <cstdint>
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
+
+#include <cstdint>
 #include <ostream>
 #include <string>
 #include <utility>

@@ -2,9 +2,11 @@
 
 #include <deal.II/base/function.h>
 #include <deal.II/base/point.h>
+
+#include <vi/parameters.h>
+
 #include <memory>
 #include <string>
-#include <vi/parameters.h>
 
 namespace VI
 {

@@ -1,0 +1,242 @@
+#!/usr/bin/env python3
+"""A posteriori estimators and adaptive inexact semismooth Newton
+(doc/estimators.md): the published comparisons of [DMV20], run by
+step-membranes, with the data and figures written to doc/data/:
+
+  estimators-comparison.{csv,md}   exact / inexact / adaptive, p = 1 and 2
+  estimators-gamma.{csv,md}        the (gamma_alg, gamma_lin) table, p = 1
+  estimators-effectivity.{csv,md}  effectivity on nested meshes
+  estimators-p1-iterations.png     estimator components against GMRES iterations
+  estimators-p1-newton.png         ... against Newton iterations
+  estimators-effectivity.png       effectivity against DoFs
+
+Usage, from the repository root after ./demo.sh or ./test.sh:
+  bench/estimators_comparison.py [--quick]
+--quick runs coarser meshes (a smoke test of the script, not the published
+setting). The full run takes about an hour on a 2-core machine.
+"""
+import csv
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
+# can be rebuilt while the study runs).
+PROGRAM = os.environ.get("STEP_MEMBRANES",
+                         os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
+DATA = os.path.join(ROOT, "doc", "data")
+OUT = os.path.join(ROOT, "output", "bench-estimators")
+QUICK = "--quick" in sys.argv
+
+
+def run(scene, name, settings):
+    directory = os.path.join(OUT, name)
+    command = [PROGRAM, os.path.join(ROOT, "parameters", scene)]
+    for key, value in settings.items():
+        command += ["--set", f"{key}={value}"]
+    if QUICK:
+        command += ["--set", "Mesh/Initial refinements=3"]
+    command += ["--set", f"Output/Directory={directory}",
+                "--set", "Output/Write VTU=false"]
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    with open(os.path.join(directory, "summary.json")) as f:
+        summary = json.load(f)
+    print(f"  {name}: done", flush=True)
+    return summary
+
+
+def write_table(name, rows, header, formats):
+    with open(os.path.join(DATA, name + ".csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+    lines = ["| " + " | ".join(header) + " |",
+             "|" + "---|" * len(header)]
+    for row in rows:
+        lines.append("| " + " | ".join(fmt.format(row[key]) for key, fmt in formats)
+                     + " |")
+    with open(os.path.join(DATA, name + ".md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+def gnuplot(script):
+    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+
+
+def comparison():
+    """Exact vs inexact vs adaptive on one fine mesh, p = 1 and 2."""
+    rows, summaries = [], {}
+    for p in (1, 2):
+        for strategy in ("exact", "inexact", "adaptive"):
+            # The figures need the estimates at every check of the exact
+            # run for p = 1 only (they cost an estimate every 10 iterations).
+            every_check = "true" if (p == 1 or strategy == "adaptive") else "false"
+            s = run(f"estimators-disk-p{p}.prm", f"disk-p{p}-{strategy}",
+                    {"Nonlinear solver/Strategy": strategy,
+                     "Estimators/At every check": every_check})
+            c = s["cycles"][-1]
+            summaries[(p, strategy)] = s
+            rows.append({"p": p, "strategy": strategy, "dofs_per_field": c["dofs_per_field"],
+                         "newton": c["newton_iterations"], "gmres": c["linear_iterations"],
+                         "error_energy": c["error_energy"], "eta": c["eta"],
+                         "eta_disc": c["eta_disc"], "eta_lin": c["eta_lin"],
+                         "eta_alg": c["eta_alg"], "effectivity": c["effectivity"],
+                         "wall_seconds": c["wall_seconds"]})
+    for row in rows:
+        exact = next(r for r in rows if r["p"] == row["p"] and r["strategy"] == "exact")
+        row["gmres_saving"] = exact["gmres"] / row["gmres"]
+        row["error_vs_exact"] = row["error_energy"] / exact["error_energy"]
+    write_table("estimators-comparison", rows,
+                ["p", "strategy", "DoFs per field", "Newton", "GMRES", "GMRES saving",
+                 "energy error", "error / exact", "eta", "effectivity", "wall (s)"],
+                [("p", "{}"), ("strategy", "{}"), ("dofs_per_field", "{}"),
+                 ("newton", "{}"), ("gmres", "{}"), ("gmres_saving", "x{:.1f}"),
+                 ("error_energy", "{:.4e}"), ("error_vs_exact", "{:.5f}"),
+                 ("eta", "{:.4e}"), ("effectivity", "{:.3f}"),
+                 ("wall_seconds", "{:.1f}")])
+    return summaries
+
+
+def iteration_figures(summaries):
+    """Estimator components against (cumulative) GMRES and Newton iterations."""
+    series = {}
+    for strategy in ("exact", "adaptive"):
+        cycle = summaries[(1, strategy)]["cycles"][-1]
+        offsets, total = {}, 0
+        for step in cycle["newton_steps"]:
+            offsets[step["k"]] = total
+            total += step["linear_iterations"]
+        inner = [(offsets[r["k"]] + r["i"], r) for r in cycle["iterations"]
+                 if not r["accepted"]]
+        newton = [r for r in cycle["iterations"] if r["accepted"]]
+        series[strategy] = (sorted(inner, key=lambda x: x[0]), newton)
+
+    dat = os.path.join(DATA, "estimators-p1.dat")
+    with open(dat, "w") as f:
+        for strategy in ("exact", "adaptive"):
+            f.write(f"# {strategy}: cumulative GMRES, eta_disc, eta_lin, eta_alg\n")
+            for i, r in series[strategy][0]:
+                f.write(f"{i} {r['eta_disc']} {r['eta_lin']} {max(r['eta_alg'], 1e-300)}\n")
+            f.write("\n\n")
+        for strategy in ("exact", "adaptive"):
+            f.write(f"# {strategy}: Newton step, eta_disc, eta_lin, eta_alg\n")
+            for r in series[strategy][1]:
+                f.write(f"{r['k']} {r['eta_disc']} {r['eta_lin']} {max(r['eta_alg'], 1e-300)}\n")
+            f.write("\n\n")
+    common = """set terminal pngcairo size 900,600 font ',12'
+set logscale y
+set format y '10^{%L}'
+set key top right
+set grid
+"""
+    gnuplot(common + f"""set output '{DATA}/estimators-p1-iterations.png'
+set xlabel 'cumulative GMRES iterations'
+set ylabel 'estimators'
+set title 'Q1, unit disk: estimators of the iterates every 10 GMRES iterations'
+plot '{dat}' index 1 using 1:2 with linespoints pt 7 ps 0.6 lc rgb '#0072b2' title 'eta_{{disc}}, adaptive', \\
+     '{dat}' index 1 using 1:3 with linespoints pt 7 ps 0.6 lc rgb '#d55e00' title 'eta_{{lin}}, adaptive', \\
+     '{dat}' index 1 using 1:4 with linespoints pt 7 ps 0.6 lc rgb '#009e73' title 'eta_{{alg}}, adaptive', \\
+     '{dat}' index 0 using 1:2 with lines dt 2 lc rgb '#0072b2' title 'eta_{{disc}}, exact', \\
+     '{dat}' index 0 using 1:3 with lines dt 2 lc rgb '#d55e00' title 'eta_{{lin}}, exact', \\
+     '{dat}' index 0 using 1:4 with lines dt 2 lc rgb '#009e73' title 'eta_{{alg}}, exact'
+""")
+    gnuplot(common + f"""set output '{DATA}/estimators-p1-newton.png'
+set xlabel 'Newton iteration'
+set ylabel 'estimators of the accepted iterate'
+set title 'Q1, unit disk: estimators against Newton iterations'
+plot '{dat}' index 3 using 1:2 with linespoints pt 7 lc rgb '#0072b2' title 'eta_{{disc}}, adaptive', \\
+     '{dat}' index 3 using 1:3 with linespoints pt 7 lc rgb '#d55e00' title 'eta_{{lin}}, adaptive', \\
+     '{dat}' index 3 using 1:4 with linespoints pt 7 lc rgb '#009e73' title 'eta_{{alg}}, adaptive', \\
+     '{dat}' index 2 using 1:2 with linespoints dt 2 pt 6 lc rgb '#0072b2' title 'eta_{{disc}}, exact', \\
+     '{dat}' index 2 using 1:3 with linespoints dt 2 pt 6 lc rgb '#d55e00' title 'eta_{{lin}}, exact', \\
+     '{dat}' index 2 using 1:4 with linespoints dt 2 pt 6 lc rgb '#009e73' title 'eta_{{alg}}, exact'
+""")
+    os.remove(dat)
+
+
+def gamma_table():
+    """The (gamma_alg, gamma_lin) table of [DMV20], p = 1."""
+    rows = []
+    for g_alg, g_lin in ((0.3, 0.3), (0.03, 0.3), (0.3, 0.03), (0.03, 0.03)):
+        s = run("estimators-disk-p1.prm", f"gamma-{g_alg}-{g_lin}",
+                {"Nonlinear solver/gamma_alg": g_alg, "Nonlinear solver/gamma_lin": g_lin,
+                 "Estimators/At every check": "false"})
+        c = s["cycles"][-1]
+        rows.append({"gamma_alg": g_alg, "gamma_lin": g_lin,
+                     "newton": c["newton_iterations"], "gmres": c["linear_iterations"],
+                     "error_energy": c["error_energy"], "effectivity": c["effectivity"]})
+    write_table("estimators-gamma", rows,
+                ["gamma_alg", "gamma_lin", "Newton", "GMRES", "energy error", "effectivity"],
+                [("gamma_alg", "{}"), ("gamma_lin", "{}"), ("newton", "{}"),
+                 ("gmres", "{}"), ("error_energy", "{:.4e}"), ("effectivity", "{:.3f}")])
+
+
+def effectivity_on_nested_meshes():
+    """Effectivity against the mesh: exact (direct) and adaptive (GMRES)."""
+    runs = [("seed-smooth", 1, "exact"), ("seed-smooth", 2, "exact"),
+            ("seed-smooth", 3, "exact"), ("seed-jump", 1, "exact"),
+            ("seed-jump", 2, "exact"), ("seed-smooth", 1, "adaptive"),
+            ("seed-smooth", 2, "adaptive")]
+    rows = []
+    for test, p, strategy in runs:
+        settings = {"Discretization/Polynomial degree": p,
+                    "Mesh/Cycles": 5 if p < 3 else 4,
+                    "Nonlinear solver/Strategy": strategy,
+                    "Estimators/At every check": "false"}
+        if strategy == "adaptive":
+            settings["Linear solver/Solver"] = "gmres"
+        if QUICK:
+            settings["Mesh/Cycles"] = 3
+        s = run(f"membranes-{test}.prm", f"effectivity-{test}-p{p}-{strategy}", settings)
+        for c in s["cycles"]:
+            rows.append({"test": test, "p": p, "strategy": strategy,
+                         "cycle": c["cycle"], "dofs_per_field": c["dofs_per_field"],
+                         "error_energy": c["error_energy"], "eta": c["eta"],
+                         "effectivity": c["effectivity"]})
+    write_table("estimators-effectivity", rows,
+                ["test", "p", "strategy", "cycle", "DoFs per field", "energy error", "eta",
+                 "effectivity"],
+                [("test", "{}"), ("p", "{}"), ("strategy", "{}"), ("cycle", "{}"),
+                 ("dofs_per_field", "{}"), ("error_energy", "{:.4e}"), ("eta", "{:.4e}"),
+                 ("effectivity", "{:.3f}")])
+    dat = os.path.join(DATA, "estimators-effectivity.dat")
+    with open(dat, "w") as f:
+        for test, p, strategy in runs:
+            f.write(f"# {test} p={p} {strategy}\n")
+            for r in rows:
+                if (r["test"], r["p"], r["strategy"]) == (test, p, strategy):
+                    f.write(f"{r['dofs_per_field']} {r['effectivity']}\n")
+            f.write("\n\n")
+    plots = [f"'{dat}' index {n} with linespoints lw 2 pt {n + 4} "
+             f"title '{t}, Q{p}, {s}'" for n, (t, p, s) in enumerate(runs)]
+    gnuplot(f"""set terminal pngcairo size 900,600 font ',12'
+set output '{DATA}/estimators-effectivity.png'
+set logscale x
+set xlabel 'DoFs per field'
+set ylabel 'effectivity eta / |||u - u_h|||'
+set title 'Effectivity of the guaranteed bound (uniform refinement)'
+set yrange [0.9:*]
+set arrow from graph 0, first 1 to graph 1, first 1 nohead dt 2 lc rgb 'black'
+set key top right
+set grid
+plot {', '.join(plots)}
+""")
+    os.remove(dat)
+
+
+def main():
+    os.makedirs(DATA, exist_ok=True)
+    print("comparison of the strategies", flush=True)
+    summaries = comparison()
+    iteration_figures(summaries)
+    print("(gamma_alg, gamma_lin) table", flush=True)
+    gamma_table()
+    print("effectivity on nested meshes", flush=True)
+    effectivity_on_nested_meshes()
+    print(f"wrote {DATA}/estimators-*")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,124 @@
+#pragma once
+
+#include <deal.II/base/function.h>
+#include <deal.II/base/quadrature.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/lac/trilinos_vector.h>
+#include <deal.II/lac/vector.h>
+
+namespace VI
+{
+  /**
+   * A posteriori error estimate of an iterate of the two-membrane problem
+   * (doc/estimators.md has the theorem and its proof). All global numbers
+   * are for the whole domain (summed over processes); the cellwise arrays
+   * are indexed by active_cell_index and filled on locally owned cells.
+   */
+  struct ContactEstimate
+  {
+    /// Guaranteed upper bound of |||u - u_h|||.
+    double eta = 0;
+    /// Components with eta <= eta_disc + eta_lin + eta_alg.
+    double eta_disc = 0, eta_lin = 0, eta_alg = 0;
+
+    // Ingredients.
+    double eta_1       = 0; ///< {sum (eta_F + eta_R)^2}^(1/2) + remainder
+    double flux_disc   = 0; ///< {sum eta_F,disc^2}^(1/2)
+    double residual    = 0; ///< {sum eta_R^2}^(1/2)
+    double flux_alg    = 0; ///< |mu^(-1/2) sigma_alg|
+    double remainder   = 0; ///< algebraic remainder (global Friedrichs)
+    double nonc_1      = 0; ///< |||s~_h - u_h|||
+    double nonc_1_disc = 0; ///< |||s~_h - s_h|||
+    double nonc_1_lin  = 0; ///< |||s_h - u_h|||
+    double nonc_2      = 0; ///< C |lambda_h^neg|
+    double nonc_2_disc = 0;
+    double nonc_2_lin  = 0;
+    double nonc_3      = 0; ///< 2 C |lambda_h^pos| |||s~_h - u_h||| (reported)
+    double contact_pos = 0; ///< sum_K eta_C^pos = 2 (lambda_h^pos, u1h - u2h)
+    /// eta_C~ = 2 (lambda_h^pos, s~1 - s~2) = 2 (lambda_h^pos, (s1 - s2)^+),
+    /// the contact term of the bound (<= eta_C^pos + eta_nonc3), and its
+    /// discretisation and linearisation parts.
+    double contact_cone = 0;
+    double contact_disc = 0;
+    double contact_lin  = 0;
+    /// |||G|||: the lifting G of the boundary interpolation error g - I_h g
+    /// (zero for data that are traces of the finite element space).
+    double dirichlet = 0;
+
+    // Cellwise indicators (squared norms, for output and marking).
+    dealii::Vector<float> cell_flux;          ///< sum_alpha eta_F,K^2
+    dealii::Vector<float> cell_residual;      ///< sum_alpha eta_R,K^2
+    dealii::Vector<float> cell_algebraic;     ///< |mu^(-1/2) sigma_alg|_K^2
+    dealii::Vector<float> cell_nonconformity; ///< |||s~_h - u_h|||_K^2
+    dealii::Vector<float> cell_contact;       ///< eta_C~,K
+    /// eta_K^2 = sum_alpha (eta_F + eta_R)^2 + |||s~ - u_h|||_K^2
+    ///           + C^2 |lambda^neg|_K^2 + eta_C~,K: the local indicator.
+    dealii::Vector<float> cell_total;
+  };
+
+
+  /**
+   * What the estimate of an iterate (u1h, u2h, lambda_h) needs. The iterate's
+   * own discretisation fluxes sigma_disc (equilibrated with its residual)
+   * and those of a look-ahead iterate (the same iterate after nu further
+   * linear-solver iterations, or the iterate itself) whose fluxes sigma
+   * equilibrate f -/+ lambda_ahead - r_ahead: sigma_alg = sigma -
+   * sigma_disc, and what the look-ahead leaves unbalanced (its residual r,
+   * and the change of the multiplier) is the remainder, bounded with the
+   * Friedrichs constant. Vectors are finite element functions with ghost
+   * entries: potential-space ones on `potential`, flux ones on `flux`.
+   */
+  template <int dim>
+  struct ContactEstimatorInput
+  {
+    const dealii::Mapping<dim>    *mapping    = nullptr;
+    const dealii::DoFHandler<dim> *potential  = nullptr;
+    const dealii::DoFHandler<dim> *flux       = nullptr;
+    const dealii::Quadrature<dim> *quadrature = nullptr;
+
+    double                       mu1 = 1, mu2 = 1;
+    const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
+    /// The Dirichlet data (with gradients): the discrete u_h carries their
+    /// interpolant on the boundary, and the estimate accounts for the
+    /// difference with a lifting (null: the data are exactly represented).
+    const dealii::Function<dim> *g1 = nullptr, *g2 = nullptr;
+    double                       friedrichs_constant = 0;
+    /// p = 1: the whole contact term is a discretisation term (mass lumping).
+    bool mass_lumped = true;
+
+    using Vector     = dealii::TrilinosWrappers::MPI::Vector;
+    const Vector *u1 = nullptr, *u2 = nullptr;
+    /// s_h: the iterate averaged at the nodes where u1h < u2h.
+    const Vector *s1 = nullptr, *s2 = nullptr;
+    const Vector *lambda = nullptr;
+    /// lambda_h built from the nonnegative multiplier coefficients only.
+    const Vector *lambda_nonnegative = nullptr;
+    const Vector *sigma1_disc = nullptr, *sigma2_disc = nullptr;
+
+    // The look-ahead.
+    const Vector *lambda_ahead = nullptr;
+    const Vector *r1_ahead = nullptr, *r2_ahead = nullptr;
+    const Vector *sigma1_ahead = nullptr, *sigma2_ahead = nullptr;
+  };
+
+
+  /// Evaluate the estimate (collective over the processes of the mesh).
+  template <int dim>
+  ContactEstimate
+  estimate_contact_error(const ContactEstimatorInput<dim> &input);
+
+
+  /**
+   * s_h: at every node where u1h < u2h, both values are replaced by the
+   * tension-weighted mean (mu1 u1 + mu2 u2) / (mu1 + mu2), elsewhere s = u
+   * (vectors without ghosts, on the nodes of a Lagrange element).
+   */
+  void
+  average_at_violated_nodes(const double                                 mu1,
+                            const double                                 mu2,
+                            const dealii::TrilinosWrappers::MPI::Vector &u1,
+                            const dealii::TrilinosWrappers::MPI::Vector &u2,
+                            dealii::TrilinosWrappers::MPI::Vector       &s1,
+                            dealii::TrilinosWrappers::MPI::Vector       &s2);
+} // namespace VI

@@ -1,0 +1,168 @@
+#pragma once
+
+#include <deal.II/base/index_set.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/tensor.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/fe_dgq.h>
+#include <deal.II/fe/fe_q.h>
+#include <deal.II/fe/fe_raviart_thomas.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/lac/trilinos_vector.h>
+
+#include <functional>
+#include <memory>
+#include <vector>
+
+namespace dealii
+{
+  template <typename number>
+  class LAPACKFullMatrix;
+}
+
+namespace VI
+{
+  /**
+   * Equilibrated flux reconstruction on vertex patches (Destuynder-Metivet,
+   * Braess-Schoeberl, Ern-Vohralik): for one field, given on every cell a
+   * flux F (e.g. mu grad u_h) and a source s (e.g. f - (-1)^alpha lambda_h -
+   * r_h), find sigma = sum_a sigma^a in RT_p(Omega), where for each vertex a
+   * with hat function psi_a and patch omega_a, (sigma^a, gamma^a) in
+   * RT_p(omega_a) x Q_p(omega_a) solves the mixed problem
+   *
+   *   (sigma^a, tau) - (gamma^a, div tau) = -(psi_a F, tau),
+   *   (div sigma^a, q)                    = ((s + c_a) psi_a - F.grad psi_a,
+   * q),
+   *
+   * with sigma^a . n = 0 on the boundary of omega_a (except on the boundary of
+   * Omega for boundary vertices) and, for interior vertices, mean-zero
+   * q and gamma^a. c_a is an optional constant per vertex (the mass-lumped
+   * multiplier and algebraic residual of p = 1). Then, when the data satisfy
+   * the discrete equations (the patch problems of interior vertices are
+   * compatible), div sigma = Pi_p (s + sum_a c_a psi_a) on every cell: the
+   * flux is in H(div) and in equilibrium with the source, cell by cell.
+   *
+   * RT_p is FE_RaviartThomas(p), whose divergence lies in Q_p, and Q_p is
+   * FE_DGQ(p). The patch matrices depend only on the geometry and are
+   * invariant under scaling, so they are factorised once per mesh and shared
+   * by all patches of the same shape (on uniformly refined meshes a handful
+   * for the whole hierarchy); the divergence block does not depend on the
+   * geometry at all (Piola transform), so sharing keeps the equilibration
+   * exact.
+   *
+   * Each process handles the patches of the vertices it owns (the owner of
+   * the vertex degree of freedom of the potential's DoFHandler); patches use
+   * owned and ghost cells.
+   */
+  template <int dim>
+  class FluxReconstruction
+  {
+  public:
+    using CellIterator =
+      typename dealii::Triangulation<dim>::active_cell_iterator;
+
+    /**
+     * The data equilibrated, for one or several fields at once (the two
+     * membranes share the patch matrices and the cell loop).
+     */
+    struct Sources
+    {
+      unsigned int n_fields = 1;
+      /// Fill flux[c][q] = F and source[c][q] = s of field c at the points of
+      /// get_quadrature() on `cell` (owned or ghost); the vectors are sized.
+      std::function<void(const CellIterator &,
+                         std::vector<std::vector<dealii::Tensor<1, dim>>> &flux,
+                         std::vector<std::vector<double>> &source)>
+        cell_values;
+      /// Optional: c_a of field c for the global vertex index a.
+      std::function<double(const unsigned int vertex, const unsigned int field)>
+        vertex_source;
+    };
+
+    FluxReconstruction(const dealii::Mapping<dim> &mapping,
+                       const unsigned int          degree);
+
+    /**
+     * Gauss points per direction of the quadrature used for degree p: at
+     * least p + 3 (exact for the patch matrices on affine cells, accurate for
+     * data of degree p times hats), and even. An even rule has no point on
+     * the midlines of the cell, nor on the other lines of Gauss-Lobatto
+     * nodes; there the positive and negative parts of finite element
+     * functions that vanish on a line of nodes would depend on round-off.
+     * The load vector of the problem must be integrated with the same rule.
+     */
+    static unsigned int
+    quadrature_points(const unsigned int degree);
+    ~FluxReconstruction();
+
+    /**
+     * Build the Raviart-Thomas space and the patches of the vertices owned
+     * here, on the mesh of `potential` (a continuous, scalar DoFHandler whose
+     * vertex degrees of freedom decide vertex ownership). The mesh must not
+     * have hanging nodes.
+     */
+    void
+    reinit(const dealii::DoFHandler<dim> &potential);
+
+    /// sigma[c] = sum_a sigma_c^a for every field c, with ghost entries.
+    void
+    reconstruct(
+      const Sources                                              &sources,
+      const std::vector<dealii::TrilinosWrappers::MPI::Vector *> &sigma) const;
+
+    const dealii::DoFHandler<dim> &
+    get_dof_handler() const;
+
+    const dealii::Quadrature<dim> &
+    get_quadrature() const;
+
+    const dealii::IndexSet &
+    locally_owned_dofs() const;
+
+    const dealii::IndexSet &
+    locally_relevant_dofs() const;
+
+    /// Number of patches on this process, and of distinct patch matrices.
+    std::pair<unsigned int, unsigned int>
+    statistics() const;
+
+  private:
+    struct LocalSolver;
+
+    struct PatchCell
+    {
+      CellIterator cell;
+      unsigned int local_vertex; ///< a as a vertex of this cell
+      /// local RT dof -> index of sigma^a, or -1 if fixed to zero
+      std::vector<int> sigma_index;
+      unsigned int     q_offset; ///< first Q_p index of this cell
+    };
+
+    struct Patch
+    {
+      unsigned int                                 vertex;
+      bool                                         interior;
+      std::vector<PatchCell>                       cells;
+      std::vector<dealii::types::global_dof_index> sigma_dofs;
+      unsigned int                                 n_q;
+      std::shared_ptr<const LocalSolver>           solver;
+    };
+
+    std::shared_ptr<const LocalSolver>
+    make_local_solver(const Patch &patch) const;
+
+    const dealii::Mapping<dim>   &mapping;
+    const unsigned int            degree;
+    dealii::FE_RaviartThomas<dim> fe_flux;
+    dealii::FE_DGQ<dim>           fe_divergence;
+    dealii::FE_Q<dim>             fe_hat;
+    dealii::QGauss<dim>           quadrature;
+    dealii::DoFHandler<dim>       dof_handler;
+    dealii::IndexSet              owned_dofs, relevant_dofs;
+    std::vector<Patch>            patches;
+    /// For every active cell: (patch, position in patch.cells) pairs.
+    std::vector<std::vector<std::pair<unsigned int, unsigned int>>>
+                 cell_patches;
+    unsigned int n_local_solvers = 0;
+  };
+} // namespace VI

@@ -1,0 +1,410 @@
+#include <deal.II/base/mpi.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/fe/fe_values.h>
+
+#include <vi/estimators.h>
+
+#include <array>
+#include <cmath>
+#include <memory>
+
+namespace VI
+{
+  using namespace dealii;
+
+  namespace
+  {
+    // The global sums of the estimate, reduced over processes in one call.
+    enum Sum : unsigned int
+    {
+      flux_residual_total, // sum (eta_F + eta_R)^2 with the look-ahead flux
+      flux_residual_disc,  // sum (eta_F,disc + eta_R)^2
+      flux_disc_squared,
+      residual_squared,
+      algebraic_squared,
+      remainder_1, // |r1_ahead - (lambda_ahead - lambda)|^2
+      remainder_2, // |r2_ahead + (lambda_ahead - lambda)|^2
+      nonc_total,
+      nonc_disc,
+      nonc_lin,
+      negative,           // |lambda^neg|^2
+      negative_disc,      // |lambda~^neg|^2
+      negative_lin,       // |lambda^neg - lambda~^neg|^2
+      positive,           // |lambda^pos|^2
+      contact_total,      // 2 (lambda^pos, u1 - u2)
+      contact_cone,       // 2 (lambda^pos, (s1 - s2)^+)
+      contact_linearised, // 2 (lambda, u1 - u2)
+      dirichlet_squared,  // |||G|||^2
+      n_sums
+    };
+  } // namespace
+
+
+  template <int dim>
+  ContactEstimate
+  estimate_contact_error(const ContactEstimatorInput<dim> &in)
+  {
+    const Triangulation<dim> &tria  = in.potential->get_triangulation();
+    const double              mu[2] = {in.mu1, in.mu2};
+    const double              theta = in.mu2 / (in.mu1 + in.mu2);
+
+    ContactEstimate estimate;
+    for (auto *cell_values : {&estimate.cell_flux,
+                              &estimate.cell_residual,
+                              &estimate.cell_algebraic,
+                              &estimate.cell_nonconformity,
+                              &estimate.cell_contact,
+                              &estimate.cell_total})
+      cell_values->reinit(tria.n_active_cells());
+
+    const Quadrature<dim>           &quadrature = *in.quadrature;
+    const unsigned int               n_q        = quadrature.size();
+    FEValues<dim>                    potential_values(*in.mapping,
+                                   in.potential->get_fe(),
+                                   quadrature,
+                                   update_values | update_gradients |
+                                     update_quadrature_points |
+                                     update_inverse_jacobians |
+                                     update_JxW_values);
+    FEValues<dim>                    flux_values(*in.mapping,
+                              in.flux->get_fe(),
+                              quadrature,
+                              update_values | update_gradients);
+    const FEValuesExtractors::Vector sigma(0);
+
+    // Values at the quadrature points.
+    std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
+      sigma_ahead[2];
+    std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], f(n_q),
+      lambda(n_q), lambda_nonnegative(n_q), lambda_ahead(n_q);
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        for (auto *v :
+             {&grad_u[a], &grad_s[a], &sigma_disc[a], &sigma_ahead[a]})
+          v->resize(n_q);
+        for (auto *v : {&u[a], &s[a], &r_ahead[a], &div_ahead[a]})
+          v->resize(n_q);
+      }
+    const TrilinosWrappers::MPI::Vector *u_vectors[2]     = {in.u1, in.u2},
+                                        *s_vectors[2]     = {in.s1, in.s2},
+                                        *r_vectors[2]     = {in.r1_ahead,
+                                                             in.r2_ahead},
+                                        *disc_vectors[2]  = {in.sigma1_disc,
+                                                             in.sigma2_disc},
+                                        *ahead_vectors[2] = {in.sigma1_ahead,
+                                                             in.sigma2_ahead};
+    const Function<dim> *forces[2]                        = {in.f1, in.f2};
+
+    // The lifting G of g - I_h g on the cells at the boundary (see the
+    // function comment below): the values of u_h, g and the mapping on the
+    // boundary faces, at the points that share the tangential coordinate of
+    // the (tensor-product Gauss) cell quadrature points.
+    const bool         lifting = in.g1 && in.g2;
+    const unsigned int n_1d    = std::lround(std::sqrt(double(n_q)));
+    const QGauss<1>    gauss_1d(n_1d);
+    std::vector<std::unique_ptr<FEValues<dim>>> face_values;
+    if (lifting)
+      {
+        AssertThrow(dim == 2 && n_1d * n_1d == n_q,
+                    ExcMessage("The Dirichlet lifting needs a 2d "
+                               "tensor-product Gauss quadrature."));
+        for (unsigned int f = 0; f < GeometryInfo<dim>::faces_per_cell; ++f)
+          {
+            std::vector<Point<dim>> points(n_1d);
+            for (unsigned int k = 0; k < n_1d; ++k)
+              {
+                points[k][f / 2]     = double(f % 2);
+                points[k][1 - f / 2] = gauss_1d.point(k)[0];
+              }
+            face_values.emplace_back(std::make_unique<FEValues<dim>>(
+              *in.mapping,
+              in.potential->get_fe(),
+              Quadrature<dim>(points, std::vector<double>(n_1d, 1.)),
+              update_values | update_gradients | update_jacobians |
+                update_quadrature_points));
+          }
+      }
+    const Function<dim>        *g_functions[2] = {in.g1, in.g2};
+    std::vector<double>         G[2], face_u(n_1d);
+    std::vector<Tensor<1, dim>> grad_G[2], face_grad_u(n_1d);
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        G[a].resize(n_q);
+        grad_G[a].resize(n_q);
+      }
+
+    std::array<double, n_sums> sums{};
+    const double               C =
+      in.friedrichs_constant * std::sqrt(1. / in.mu1 + 1. / in.mu2);
+
+    for (const auto &potential_cell : in.potential->active_cell_iterators())
+      {
+        if (!potential_cell->is_locally_owned())
+          continue;
+        typename DoFHandler<dim>::active_cell_iterator flux_cell(
+          &tria, potential_cell->level(), potential_cell->index(), in.flux);
+        potential_values.reinit(potential_cell);
+        flux_values.reinit(flux_cell);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            potential_values.get_function_gradients(*u_vectors[a], grad_u[a]);
+            potential_values.get_function_gradients(*s_vectors[a], grad_s[a]);
+            potential_values.get_function_values(*u_vectors[a], u[a]);
+            potential_values.get_function_values(*s_vectors[a], s[a]);
+            potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
+            flux_values[sigma].get_function_values(*disc_vectors[a],
+                                                   sigma_disc[a]);
+            flux_values[sigma].get_function_values(*ahead_vectors[a],
+                                                   sigma_ahead[a]);
+            flux_values[sigma].get_function_divergences(*ahead_vectors[a],
+                                                        div_ahead[a]);
+          }
+        potential_values.get_function_values(*in.lambda, lambda);
+        potential_values.get_function_values(*in.lambda_nonnegative,
+                                             lambda_nonnegative);
+        potential_values.get_function_values(*in.lambda_ahead, lambda_ahead);
+
+        // G = sum over boundary faces F of delta_F(t) (1 - n) in the
+        // reference coordinates (t along F, n away from it), delta_F = g -
+        // u_h on F: zero on the other faces (delta vanishes at the vertices,
+        // where u_h interpolates g), so G is in H^1, and u_h + G = g on the
+        // boundary.
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            std::fill(G[a].begin(), G[a].end(), 0.);
+            std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
+          }
+        if (lifting && potential_cell->at_boundary())
+          for (const unsigned int f : potential_cell->face_indices())
+            if (potential_cell->face(f)->at_boundary())
+              {
+                FEValues<dim> &on_face = *face_values[f];
+                on_face.reinit(potential_cell);
+                const unsigned int normal = f / 2, tangent = 1 - normal;
+                for (unsigned int a = 0; a < 2; ++a)
+                  {
+                    on_face.get_function_values(*u_vectors[a], face_u);
+                    on_face.get_function_gradients(*u_vectors[a], face_grad_u);
+                    for (unsigned int q = 0; q < n_q; ++q)
+                      {
+                        // cell point (x0, x1) = (p_(q % n), p_(q / n))
+                        const unsigned int k =
+                          tangent == 0 ? q % n_1d : q / n_1d;
+                        const double xn =
+                          potential_values.get_quadrature().point(q)[normal];
+                        const double      weight = (f % 2) ? xn : 1. - xn;
+                        const Point<dim> &y      = on_face.quadrature_point(k);
+                        Tensor<1, dim>    along;
+                        for (unsigned int d = 0; d < dim; ++d)
+                          along[d] = on_face.jacobian(k)[d][tangent];
+                        const double delta =
+                          g_functions[a]->value(y) - face_u[k];
+                        const double delta_prime =
+                          (g_functions[a]->gradient(y) - face_grad_u[k]) *
+                          along;
+                        Tensor<1, dim> reference_gradient;
+                        reference_gradient[tangent] = delta_prime * weight;
+                        reference_gradient[normal]  = (f % 2) ? delta : -delta;
+                        G[a][q] += delta * weight;
+                        const auto &inverse =
+                          potential_values.inverse_jacobian(q);
+                        for (unsigned int d = 0; d < dim; ++d)
+                          for (unsigned int e = 0; e < dim; ++e)
+                            grad_G[a][q][d] +=
+                              inverse[e][d] * reference_gradient[e];
+                      }
+                  }
+              }
+        // From here on u_h stands for u_h + G, and s for s + G (s - u_h is
+        // unchanged).
+        for (unsigned int a = 0; a < 2; ++a)
+          for (unsigned int q = 0; q < n_q; ++q)
+            {
+              u[a][q] += G[a][q];
+              grad_u[a][q] += grad_G[a][q];
+              s[a][q] += G[a][q];
+              grad_s[a][q] += grad_G[a][q];
+            }
+
+        const double h_K           = potential_cell->diameter();
+        const auto   index         = potential_cell->active_cell_index();
+        double       cell[n_sums]  = {};
+        double       flux_total[2] = {}, flux_disc[2] = {}, residual[2] = {},
+               algebraic = 0;
+
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            // (-1)^alpha for alpha = a + 1: the multiplier pulls membrane 1
+            // up and membrane 2 down.
+            const double sign = (a == 0) ? -1. : 1.;
+            forces[a]->value_list(potential_values.get_quadrature_points(), f);
+            for (unsigned int q = 0; q < n_q; ++q)
+              {
+                const double dx      = potential_values.JxW(q);
+                const double sqrt_mu = std::sqrt(mu[a]);
+                flux_total[a] +=
+                  (sqrt_mu * grad_u[a][q] + sigma_ahead[a][q] / sqrt_mu)
+                    .norm_square() *
+                  dx;
+                flux_disc[a] +=
+                  (sqrt_mu * grad_u[a][q] + sigma_disc[a][q] / sqrt_mu)
+                    .norm_square() *
+                  dx;
+                algebraic +=
+                  (sigma_ahead[a][q] - sigma_disc[a][q]).norm_square() / mu[a] *
+                  dx;
+                residual[a] += std::pow(f[q] - sign * lambda_ahead[q] -
+                                          r_ahead[a][q] - div_ahead[a][q],
+                                        2) *
+                               dx;
+                cell[remainder_1 + a] +=
+                  std::pow(r_ahead[a][q] + sign * (lambda_ahead[q] - lambda[q]),
+                           2) *
+                  dx;
+              }
+            flux_total[a] = std::sqrt(flux_total[a]);
+            flux_disc[a]  = std::sqrt(flux_disc[a]);
+            residual[a] =
+              h_K / numbers::PI / std::sqrt(mu[a]) * std::sqrt(residual[a]);
+            cell[flux_residual_total] +=
+              std::pow(flux_total[a] + residual[a], 2);
+            cell[flux_residual_disc] += std::pow(flux_disc[a] + residual[a], 2);
+            cell[flux_disc_squared] += std::pow(flux_disc[a], 2);
+            cell[residual_squared] += std::pow(residual[a], 2);
+          }
+        cell[algebraic_squared] = algebraic;
+
+        // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
+        // is in the cone; s - u_h vanishes once Newton has converged.
+        for (unsigned int q = 0; q < n_q; ++q)
+          {
+            const double         dx     = potential_values.JxW(q);
+            const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
+                                            grad_s[1][q] - grad_s[0][q] :
+                                            Tensor<1, dim>();
+            const Tensor<1, dim> d1     = grad_s[0][q] - grad_u[0][q],
+                                 d2     = grad_s[1][q] - grad_u[1][q];
+            cell[nonc_total] +=
+              (mu[0] * (d1 + theta * grad_w).norm_square() +
+               mu[1] * (d2 - (1 - theta) * grad_w).norm_square()) *
+              dx;
+            cell[nonc_lin] +=
+              (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
+            cell[nonc_disc] +=
+              (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
+              grad_w.norm_square() * dx;
+
+            const double negative_part = std::min(lambda[q], 0.);
+            const double negative_part_disc =
+              std::min(lambda_nonnegative[q], 0.);
+            const double positive_part = std::max(lambda[q], 0.);
+            const double gap           = u[0][q] - u[1][q];
+            cell[negative] += negative_part * negative_part * dx;
+            cell[negative_disc] += negative_part_disc * negative_part_disc * dx;
+            cell[negative_lin] +=
+              std::pow(negative_part - negative_part_disc, 2) * dx;
+            cell[positive] += positive_part * positive_part * dx;
+            cell[contact_total] += 2. * positive_part * gap * dx;
+            cell[contact_cone] +=
+              2. * positive_part * std::max(s[0][q] - s[1][q], 0.) * dx;
+            cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
+                                        mu[1] * grad_G[1][q].norm_square()) *
+                                       dx;
+            cell[contact_linearised] += 2. * lambda[q] * gap * dx;
+          }
+
+        for (unsigned int k = 0; k < n_sums; ++k)
+          sums[k] += cell[k];
+        estimate.cell_flux(index) =
+          std::pow(flux_total[0], 2) + std::pow(flux_total[1], 2);
+        estimate.cell_residual(index)      = cell[residual_squared];
+        estimate.cell_algebraic(index)     = cell[algebraic_squared];
+        estimate.cell_nonconformity(index) = cell[nonc_total];
+        estimate.cell_contact(index)       = cell[contact_cone];
+        estimate.cell_total(index)         = cell[flux_residual_total] +
+                                     cell[nonc_total] + C * C * cell[negative] +
+                                     cell[contact_cone];
+      }
+
+    const MPI_Comm             comm = in.potential->get_communicator();
+    std::array<double, n_sums> total{};
+    Utilities::MPI::sum(ArrayView<const double>(sums.data(), n_sums),
+                        comm,
+                        ArrayView<double>(total.data(), n_sums));
+
+    ContactEstimate &e = estimate;
+    e.remainder =
+      in.friedrichs_constant *
+      std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
+    e.eta_1       = std::sqrt(total[flux_residual_total]) + e.remainder;
+    e.flux_disc   = std::sqrt(total[flux_disc_squared]);
+    e.residual    = std::sqrt(total[residual_squared]);
+    e.flux_alg    = std::sqrt(total[algebraic_squared]);
+    e.nonc_1      = std::sqrt(total[nonc_total]);
+    e.nonc_1_disc = std::sqrt(total[nonc_disc]);
+    e.nonc_1_lin  = std::sqrt(total[nonc_lin]);
+    e.nonc_2      = C * std::sqrt(total[negative]);
+    e.nonc_2_disc = C * std::sqrt(total[negative_disc]);
+    e.nonc_2_lin  = C * std::sqrt(total[negative_lin]);
+    const double lambda_positive = std::sqrt(total[positive]);
+    e.nonc_3                     = 2. * C * lambda_positive * e.nonc_1;
+    e.contact_pos                = total[contact_total];
+    e.contact_cone               = total[contact_cone];
+    if (in.mass_lumped)
+      {
+        e.contact_disc = e.contact_cone;
+        e.contact_lin  = 0;
+      }
+    else
+      {
+        // 2 (lambda, u1 - u2) vanishes with the discrete complementarity of
+        // p >= 2; the rest is a discretisation term.
+        e.contact_lin  = total[contact_linearised];
+        e.contact_disc = e.contact_cone - e.contact_lin;
+      }
+
+    // |||e|||^2 <= a |||e||| + b, hence |||e||| <= a/2 + (a^2/4 + b)^(1/2).
+    const double a = e.eta_1 + e.nonc_1 + e.nonc_2;
+    const double b = (e.eta_1 + e.nonc_2) * e.nonc_1 + 0.5 * e.contact_cone;
+    // ... for u_h + G; and |||u - u_h||| <= |||u - (u_h + G)||| + |||G|||.
+    e.dirichlet = std::sqrt(total[dirichlet_squared]);
+    e.eta = 0.5 * a + std::sqrt(std::max(0.25 * a * a + b, 0.)) + e.dirichlet;
+
+    const double eta_1_disc = std::sqrt(total[flux_residual_disc]);
+    const auto   cross      = [&](const double nonc_1_part) {
+      return std::sqrt((e.eta_1 + e.nonc_2) * nonc_1_part);
+    };
+    e.eta_disc = e.dirichlet + eta_1_disc + e.nonc_1_disc + e.nonc_2_disc +
+                 cross(e.nonc_1_disc) +
+                 std::sqrt(std::max(e.contact_disc, 0.) / 2.);
+    e.eta_lin = e.nonc_1_lin + e.nonc_2_lin + cross(e.nonc_1_lin) +
+                std::sqrt(std::max(e.contact_lin, 0.) / 2.);
+    e.eta_alg = e.flux_alg + e.remainder;
+    return estimate;
+  }
+
+
+  void
+  average_at_violated_nodes(const double                         mu1,
+                            const double                         mu2,
+                            const TrilinosWrappers::MPI::Vector &u1,
+                            const TrilinosWrappers::MPI::Vector &u2,
+                            TrilinosWrappers::MPI::Vector       &s1,
+                            TrilinosWrappers::MPI::Vector       &s2)
+  {
+    const double *x1 = u1.begin(), *x2 = u2.begin();
+    double       *y1 = s1.begin(), *y2 = s2.begin();
+    for (std::size_t k = 0; k < u1.locally_owned_size(); ++k)
+      if (x1[k] < x2[k])
+        y1[k] = y2[k] = (mu1 * x1[k] + mu2 * x2[k]) / (mu1 + mu2);
+      else
+        {
+          y1[k] = x1[k];
+          y2[k] = x2[k];
+        }
+  }
+
+
+  template ContactEstimate
+  estimate_contact_error(const ContactEstimatorInput<2> &);
+} // namespace VI
