@@ -5,6 +5,9 @@
 
 #include "twophase_problem.h"
 
+#include <deal.II/base/mpi.h>
+#include <string>
+#include <vi/errors.h>
 #include <vi/program.h>
 
 int
@@ -16,6 +19,12 @@ main(int argc, char **argv)
                                "appearance and disappearance (Couplex-Gas benchmark)";
   program.declare_parameters = StepTwoPhase::Parameters::declare;
   program.run = [](dealii::ParameterHandler &prm, const MPI_Comm comm) {
+    // 1D: p4est has no 1D meshes, and 1000 cells take a second.
+    const unsigned int ranks = dealii::Utilities::MPI::n_mpi_processes(comm);
+    if (ranks > 1)
+      throw VI::InputError("step-twophase is serial (a 1D finite volume "
+                           "problem): run it on one MPI rank, not " +
+                           std::to_string(ranks));
     StepTwoPhase::Parameters parameters;
     parameters.parse(prm);
     StepTwoPhase::TwoPhaseProblem problem(parameters, prm, comm);

@@ -221,13 +221,14 @@ namespace StepTwoPhase
     prm.set("Check interval", "1");
     prm.set("Krylov dimension", "50");
     prm.declare_entry("Ordering",
-                      "field-wise",
-                      Selection("field-wise|cell-wise"),
+                      "cell-wise",
+                      Selection("cell-wise|field-wise"),
                       "Numbering of the unknowns. cell-wise: (S, P, chi) cell "
                       "after cell, a block tridiagonal matrix whose ILU(0) is "
                       "its exact LU factorisation (GMRES converges in one "
                       "iteration); field-wise: all S, all P, all chi, where "
-                      "ILU(0) drops the fill between the fields.");
+                      "ILU(0) drops the fill between the fields and GMRES "
+                      "iterates (the setting of the strategy comparisons).");
     prm.leave_subsection();
 
     VI::OutputParameters::declare(prm);
@@ -359,11 +360,12 @@ namespace StepTwoPhase
           (b.right_saturation < 1 && undersaturation > 1e-8))
         {
           std::ostringstream message;
-          message << s << "the right state (S = " << b.right_saturation
-                  << ", chi = " << b.right_molar_fraction
-                  << ") violates the phase equilibrium: chi must be <= H P^g "
-                     "/ beta^l = "
-                  << chi_eq << ", with equality where gas is present (S < 1)";
+          message << "Boundary conditions: the right state (saturation "
+                  << b.right_saturation << ", molar fraction "
+                  << b.right_molar_fraction
+                  << ") violates the phase equilibrium: the molar fraction "
+                     "must be at most H P^g / beta^l = "
+                  << chi_eq << ", and equal to it where gas is present";
           throw VI::InputError(message.str());
         }
     }
@@ -415,10 +417,14 @@ namespace StepTwoPhase
       for (const double year : dealii::Utilities::string_to_double(
              dealii::Utilities::split_string_list(prm.get("Output times"))))
         {
-          require(year >= 0 && year <= T,
-                  s + "Output times: the entry",
-                  year,
-                  "in [0, Final time] (years)");
+          if (!(year >= 0 && year <= T))
+            {
+              std::ostringstream message;
+              message << s << "Output times: " << year
+                      << " years is outside [0, Final time = " << T
+                      << " years]";
+              throw VI::InputError(message.str());
+            }
           t.output_times.push_back(year * seconds_per_year);
         }
       std::sort(t.output_times.begin(), t.output_times.end());

@@ -864,12 +864,9 @@ namespace StepTwoPhase
   void
   TwoPhaseProblem::run()
   {
+    AssertThrow(Utilities::MPI::n_mpi_processes(comm) == 1,
+                ExcMessage("step-twophase is serial"));
     std::cout << VI::run_header("step-twophase", comm) << std::endl;
-    if (Utilities::MPI::n_mpi_processes(comm) > 1)
-      throw VI::InputError(
-        "step-twophase is serial (a 1D finite volume problem; p4est has no 1D "
-        "meshes): run it on one MPI rank, not " +
-        std::to_string(Utilities::MPI::n_mpi_processes(comm)));
 
     make_grid();
     setup_system();
