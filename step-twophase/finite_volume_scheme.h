@@ -112,6 +112,7 @@ namespace StepTwoPhase
                          1. / (model.parameters().porosity * model.gamma_2() *
                                chi_ref)}}
         , cells(N)
+        , fluxes(N + 1)
         , old_amounts(N)
     {
       right_boundary.S    = right_state.S;
@@ -260,8 +261,9 @@ namespace StepTwoPhase
     }
 
     /**
-     * Evaluate the constitutive laws in every cell of X (cached: the
-     * residual and the Jacobian of one iterate share them).
+     * Evaluate the constitutive laws in every cell of X and the fluxes
+     * through the faces inside and at x = L (cached: the residual, the
+     * Jacobian and the estimators of one iterate share them).
      */
     void
     evaluate_cells(const dealii::Vector<double> &X)
@@ -280,6 +282,16 @@ namespace StepTwoPhase
           d.P_cp            = model.capillary_pressure(U.S);
           d.k_rl            = model.liquid_relative_permeability(U.S);
           d.k_rg            = model.gas_relative_permeability(U.S);
+        }
+      for (unsigned int sigma = 1; sigma <= N; ++sigma)
+        {
+          const bool boundary = (sigma == N);
+          two_point_flux(cells[sigma - 1],
+                         boundary ? right_boundary : cells[sigma],
+                         0.5 * cell_measure(sigma - 1),
+                         boundary ? 0. : 0.5 * cell_measure(sigma),
+                         boundary,
+                         fluxes[sigma]);
         }
     }
 
@@ -328,19 +340,11 @@ namespace StepTwoPhase
     FaceFlux
     face_flux(const unsigned int sigma) const
     {
+      if (sigma > 0)
+        return fluxes[sigma];
+      // x = 0: no water flux, the injected hydrogen (data of the step).
       FaceFlux flux;
-      if (sigma == 0)
-        {
-          // x = 0: no water flux, the injected hydrogen.
-          flux.value = {{0., injection}};
-          return flux;
-        }
-      const bool      boundary = (sigma == N);
-      const CellData &K        = cells[sigma - 1];
-      const CellData &L        = boundary ? right_boundary : cells[sigma];
-      const double    d_K      = 0.5 * cell_measure(sigma - 1);
-      const double    d_L      = boundary ? 0. : 0.5 * cell_measure(sigma);
-      two_point_flux(K, L, d_K, d_L, boundary, flux);
+      flux.value = {{0., injection}};
       return flux;
     }
 
@@ -588,6 +592,7 @@ namespace StepTwoPhase
     double injection = 0.;
 
     std::vector<CellData>              cells;
+    std::vector<FaceFlux>              fluxes; ///< of the cached state
     CellData                           right_boundary;
     std::vector<std::array<double, 2>> old_amounts;
     dealii::Vector<double>             cached_X;

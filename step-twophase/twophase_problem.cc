@@ -634,7 +634,7 @@ namespace StepTwoPhase
               << U.P + model.capillary_pressure(U.S).value << ',' << U.chi
               << ',' << estimators->flux_indicators()[K] << ','
               << estimators->nonconformity_indicators()[K] << ','
-              << estimators->phase_transition_indicators()[K] << '\n';
+              << years(estimators->phase_transition_indicators()[K]) << '\n';
         }
     }
 
@@ -663,7 +663,7 @@ namespace StepTwoPhase
         cell_fields["eta_nonconformity"][c] =
           estimators->nonconformity_indicators()[K];
         cell_fields["eta_phase_transition"][c] =
-          estimators->phase_transition_indicators()[K];
+          years(estimators->phase_transition_indicators()[K]);
       }
 
     // The reconstructions P_tilde^l, P_tilde^g, chi_tilde as FE_Q(2)
