@@ -5,7 +5,6 @@
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/table_handler.h>
 #include <deal.II/base/utilities.h>
-#include <deal.II/dofs/dof_tools.h>
 #include <deal.II/grid/grid_generator.h>
 #include <deal.II/numerics/data_out.h>
 #include <deal.II/sundials/kinsol.h>
@@ -259,7 +258,8 @@ namespace StepTwoPhase
    * - inexact: GMRES to the relative residual Forcing term;
    * - adaptive: GMRES stops when eta_alg <= gamma_alg max(eta_disc,
    *   eta_lin) (checked every Check interval iterations), Newton when
-   *   eta_lin <= gamma_lin eta_disc.
+   *   eta_lin <= gamma_lin eta_disc, the algebraic criterion holds at its
+   *   iterate and the saturation is in [0, 1].
    */
   void
   TwoPhaseProblem::solve_with_semismooth_newton(StepRecord &record)
@@ -311,7 +311,12 @@ namespace StepTwoPhase
         TimerOutput::Scope    t(timer, "estimators");
         const EstimatorValues eta    = estimators->estimate(X);
         record.iterations.back().eta = eta;
-        return eta.lin <= p.gamma_lin * eta.disc && is_admissible(X);
+        // The algebraic criterion is repeated because a step shortened by
+        // the line search is not the iterate at which GMRES stopped: its
+        // linearised residual contains (1 - t) R(X^{k-1}).
+        return eta.lin <= p.gamma_lin * eta.disc &&
+               eta.alg <= p.gamma_alg * std::max(eta.disc, eta.lin) &&
+               is_admissible(X);
       };
 
     newton.solve(solution);
@@ -349,13 +354,21 @@ namespace StepTwoPhase
       const VI::ResidualNorms norms = scheme->residual(X, C, R);
       return norms.is_finite() ? 0 : 1;
     };
+    std::string linear_failure;
     kinsol.setup_jacobian = [&](const Vector<double> &X,
                                 const Vector<double> &) {
-      prepare_linear_solver(X);
       ++record.newton;
-      return 0;
+      try
+        {
+          prepare_linear_solver(X);
+          return 0;
+        }
+      catch (const VI::SolverFailure &failure)
+        {
+          linear_failure = failure.what();
+          return 1;
+        }
     };
-    std::string linear_failure;
     kinsol.solve_with_jacobian = [&](const Vector<double> &rhs,
                                      Vector<double>       &dX,
                                      const double          tolerance) {
@@ -431,7 +444,15 @@ namespace StepTwoPhase
     }
     TimerOutput::Scope t(timer, "preconditioner");
     if (parameters.linear_solver.solver == "direct")
-      direct_solver.factorize(jacobian);
+      try
+        {
+          direct_solver.factorize(jacobian);
+        }
+      catch (const ExceptionBase &)
+        {
+          throw VI::SolverFailure("UMFPACK could not factorise the "
+                                  "generalised Jacobian (singular?)");
+        }
     else
       {
         ilu.initialize(jacobian,
@@ -472,12 +493,24 @@ namespace StepTwoPhase
     const VI::Gmres<Vector<double>> gmres(settings);
 
     typename VI::Gmres<Vector<double>>::Monitor monitor;
-    Vector<double>                              trial;
+    Vector<double>                              trial, residual;
     if (adaptive)
       monitor = [&](const Vector<double> &x, unsigned int) {
         TimerOutput::Scope t(timer, "estimators");
         trial = x;
         enforce_constraint_rows(rhs, trial);
+        // With Fischer-Burmeister's line search the update must also be a
+        // descent direction of the merit function 1/2 |R|^2: with A dX =
+        // -R + r, its slope is -|R|^2 + (R, r) <= -|R|^2 / 2 if |r| <=
+        // |R| / 2.
+        if (C.has_smooth_merit_function())
+          {
+            residual.reinit(rhs.size());
+            jacobian.vmult(residual, trial);
+            residual -= rhs;
+            if (residual.l2_norm() > 0.5 * rhs.l2_norm())
+              return false;
+          }
         trial += linearization_point;
         const EstimatorValues eta = estimators->estimate(trial);
         return eta.alg <= parameters.nonlinear_solver.gamma_alg *

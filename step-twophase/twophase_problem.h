@@ -163,6 +163,5 @@ namespace StepTwoPhase
 
     std::vector<StepRecord>  records;
     std::vector<TimeStepCut> cuts;
-    unsigned int             total_newton = 0, total_linear = 0;
   };
 } // namespace StepTwoPhase
