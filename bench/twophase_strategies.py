@@ -147,6 +147,31 @@ def main():
             f"{r['newton_1e6']} | {r['gmres_1e6']} | {r['time_step_cuts']} "
             f"({r['rejected_newton']}) | {r['max_diff_S_g_x0']:.1e} | "
             f"{r['max_diff_P_g_x0']:.1e} | {r['wall_seconds']:.2f} |")
+    # What the text says about the runs: the damping of FB's line search,
+    # from when on the adaptive runs need one Newton iteration per step, and
+    # the residuals of Newton-min in a step while the gas front advances.
+    lines.append("")
+    for name in ("FB exact", "FB adaptive (1e-1, 1e-1)"):
+        lengths = sorted(it["step_length"] for s in results[name][0]["steps"]
+                         for it in s["iterations"])
+        damped = [t for t in lengths if t < 1]
+        lines.append(f"- {name}: {100 * len(damped) / len(lengths):.0f} % of the "
+                     f"Newton steps damped by the line search, median damped "
+                     f"length {damped[len(damped) // 2]:g}.")
+    for name, _, _ in RUNS:
+        if "min adaptive" not in name:
+            continue
+        steps = [s for s in results[name][0]["steps"] if s["time"] <= 5e5 + 1e-6]
+        onset = next(s["time"] for n, s in enumerate(steps)
+                     if all(t["newton_iterations"] == 1 for t in steps[n:]))
+        lines.append(f"- {name}: one Newton iteration per step from "
+                     f"{onset:.0f} years to 5e5 years.")
+    step = next(s for s in results["min exact"][0]["steps"]
+                if abs(s["time"] - 27500) < 1e-6)
+    lines.append("- min exact, step to 27500 years: scaled balance residuals "
+                 + ", ".join(f"{it['residual_equations']:.1e}"
+                             for it in step["iterations"])
+                 + " after the Newton iterations.")
     with open(os.path.join(DATA, "twophase-strategies.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))
