@@ -6,6 +6,7 @@
 #include "twophase_problem.h"
 
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/multithread_info.h>
 #include <string>
 #include <vi/errors.h>
 #include <vi/program.h>
@@ -25,6 +26,9 @@ main(int argc, char **argv)
       throw VI::InputError("step-twophase is serial (a 1D finite volume "
                            "problem): run it on one MPI rank, not " +
                            std::to_string(ranks));
+    // One thread: with a few thousand unknowns, TBB's threads cost more
+    // than they bring.
+    dealii::MultithreadInfo::set_thread_limit(1);
     StepTwoPhase::Parameters parameters;
     parameters.parse(prm);
     StepTwoPhase::TwoPhaseProblem problem(parameters, prm, comm);

@@ -25,15 +25,15 @@ namespace StepTwoPhase
     write_estimators(std::ostream &out, const EstimatorValues &eta)
     {
       out << ' ' << eta.disc << ' ' << eta.lin << ' ' << eta.alg << ' '
-          << eta.flux << ' ' << eta.nonconformity << ' '
-          << eta.phase_transition;
+          << eta.flux << ' ' << eta.nonconformity << ' ' << eta.equilibrium
+          << ' ' << eta.phase_transition;
     }
 
     void
     read_estimators(std::istream &in, EstimatorValues &eta)
     {
       in >> eta.disc >> eta.lin >> eta.alg >> eta.flux >> eta.nonconformity >>
-        eta.phase_transition;
+        eta.equilibrium >> eta.phase_transition;
     }
 
     /// Reads "keyword value" and checks the keyword.

@@ -55,11 +55,8 @@ namespace StepTwoPhase
    *   error of the amounts |K| (l_c^lin(U_K) - l_c(U_K)) / dt;
    * - Theta_alg: the lifting of the algebraic residual r_c,K of the
    *   linearised balance (in 1D the lifting from x = 0, where the flux is
-   *   data, is unique: Theta_alg(x_{K+1/2}) = sum of r over the cells left
-   *   of the face).
-   * Then Theta_disc + Theta_lin + Theta_alg is locally conservative for the
-   * nonlinear amounts of U (interpolated linearly in time), and the residual
-   * estimators vanish.
+   *   data, is unique: Theta_alg(x_{K+1/2}) = minus the sum of r over the
+   *   cells left of the face);
    * - Theta_eq: the lifting of the amounts in the wrong phase, which an
    *   iterate has where it violates the discrete phase equilibrium
    *   C(1 - S_K, b_K) = 0 (the fluxes do not see it): for hydrogen
@@ -69,6 +66,9 @@ namespace StepTwoPhase
    *   dissolve, the dissolved excess that should form gas, or negative
    *   gas; for water phi rho_w (S_K - 1)^+. It vanishes at the discrete
    *   solution, and is part of the linearisation error.
+   * Theta_disc + Theta_lin + Theta_alg is locally conservative for the
+   * nonlinear amounts of U (interpolated linearly in time): the residual
+   * estimators vanish identically and are not computed.
    *
    * *Estimators* on a cell K (Phi_c the physical flux of the reconstructed
    * fields with the cell's saturation; 4-point Gauss quadrature in space,

@@ -731,6 +731,12 @@ namespace StepTwoPhase
       data_out.add_data_vector(values, name, DataOut<1>::type_cell_data);
     data_out.build_patches(2);
     DataOutBase::VtkFlags flags(years(time));
+    flags.compression_level = DataOutBase::VtkFlags::best_speed;
+    flags.physical_units    = {{"P_l", "Pa"},
+                               {"P_g", "Pa"},
+                               {"P_l_reconstructed", "Pa"},
+                               {"P_g_reconstructed", "Pa"},
+                               {"eta_phase_transition", "m yr"}};
     data_out.set_flags(flags);
     const std::string file = "solution-" + number.str() + ".vtu";
     std::ofstream     vtu(dir + "/" + file);
@@ -841,6 +847,7 @@ namespace StepTwoPhase
         s["eta_alg"]                    = r.eta.alg;
         s["eta_flux"]                   = r.eta.flux;
         s["eta_nonconformity"]          = r.eta.nonconformity;
+        s["eta_equilibrium"]            = r.eta.equilibrium;
         s["eta_phase_transition"]       = years(r.eta.phase_transition);
         s["wall_seconds"]               = r.wall_seconds;
         VI::Json iterations             = VI::Json::array();
