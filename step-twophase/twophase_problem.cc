@@ -949,12 +949,11 @@ namespace StepTwoPhase
     write_tables();
     write_summary("converged", "");
 
-    unsigned int newton = 0, linear = 0, cut_steps = 0;
+    unsigned int newton = 0, linear = 0;
     for (const StepRecord &r : records)
       {
         newton += r.newton + r.rejected_newton;
         linear += r.linear + r.rejected_linear;
-        cut_steps += (r.cuts > 0);
       }
     std::cout << "\n"
               << records.size() << " time steps (" << cuts.size() << " cuts), "
@@ -962,6 +961,31 @@ namespace StepTwoPhase
               << " GMRES iterations, " << std::setprecision(3)
               << run_timer.wall_time() << " s" << std::setprecision(6)
               << std::endl;
+
+    // The benchmark's quantities at x = 0, on the time grid of the run.
+    const auto with_gas = [](const StepRecord &r) {
+      return r.gas_saturation_x0 > gas_threshold;
+    };
+    const auto first_gas =
+      std::find_if(records.begin(), records.end(), with_gas);
+    if (first_gas != records.end())
+      {
+        const auto peak =
+          std::max_element(records.begin(),
+                           records.end(),
+                           [](const auto &a, const auto &b) {
+                             return a.gas_saturation_x0 < b.gas_saturation_x0;
+                           });
+        const auto gone = std::find_if_not(peak, records.end(), with_gas);
+        std::cout << "At x = 0: gas from t = " << years(first_gas->time)
+                  << " yr, max S_g = " << peak->gas_saturation_x0
+                  << " at t = " << years(peak->time) << " yr, ";
+        if (gone != records.end())
+          std::cout << "gone at t = " << years(gone->time) << " yr";
+        else
+          std::cout << "still present at the end";
+        std::cout << std::endl;
+      }
     std::cout << "Output in " << parameters.output.directory
               << "/: convergence.txt, x0.csv, profile-*.csv, solution.pvd, "
                  "summary.json, checkpoint.txt"
