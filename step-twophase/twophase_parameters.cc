@@ -1,0 +1,479 @@
+#include "twophase_parameters.h"
+
+#include <algorithm>
+#include <deal.II/base/utilities.h>
+#include <sstream>
+#include <vi/errors.h>
+
+namespace StepTwoPhase
+{
+  using dealii::ParameterHandler;
+  using dealii::Patterns::Bool;
+  using dealii::Patterns::Double;
+  using dealii::Patterns::Integer;
+  using dealii::Patterns::List;
+  using dealii::Patterns::Selection;
+
+  namespace
+  {
+    /// Throw InputError "Section/Name = value must be <condition>" unless ok.
+    void
+    require(const bool         ok,
+            const std::string &name,
+            const double       value,
+            const std::string &condition)
+    {
+      if (!ok)
+        {
+          std::ostringstream message;
+          message << name << " = " << value << " must be " << condition;
+          throw VI::InputError(message.str());
+        }
+    }
+  } // namespace
+
+
+  void
+  Parameters::declare(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Physics");
+    {
+      prm.declare_entry("Porosity", "0.15", Double(), "phi, in (0, 1].");
+      prm.declare_entry("Permeability",
+                        "5e-20",
+                        Double(),
+                        "Intrinsic permeability K, m^2 (> 0).");
+      prm.declare_entry("van Genuchten pressure",
+                        "2e6",
+                        Double(),
+                        "P_r of P_cp = P_r (S_e^(-1/m) - 1)^(1/n), Pa (> 0).");
+      prm.declare_entry("van Genuchten n",
+                        "1.49",
+                        Double(),
+                        "n > 1 of van Genuchten-Mualem; m = 1 - 1/n.");
+      prm.declare_entry("Residual liquid saturation",
+                        "0.4",
+                        Double(),
+                        "S_lr in the effective saturation S_e = (S - S_lr) / "
+                        "(1 - S_lr - S_gr); S_lr, S_gr >= 0, S_lr + S_gr < 1.");
+      prm.declare_entry("Residual gas saturation", "0", Double(), "S_gr.");
+      prm.declare_entry("Liquid viscosity",
+                        "1e-3",
+                        Double(),
+                        "mu_l, Pa s (> 0).");
+      prm.declare_entry("Gas viscosity", "9e-6", Double(), "mu_g, Pa s (> 0).");
+      prm.declare_entry("Water density",
+                        "1000",
+                        Double(),
+                        "rho_w, kg/m^3 (> 0); the liquid is incompressible.");
+      prm.declare_entry("Water molar mass",
+                        "1e-2",
+                        Double(),
+                        "M_w, kg/mol (> 0; the benchmark's value, not water's "
+                        "0.018). The liquid has beta^l = rho_w / M_w moles "
+                        "per m^3.");
+      prm.declare_entry("Hydrogen molar mass",
+                        "2e-3",
+                        Double(),
+                        "M_h, kg/mol (> 0).");
+      prm.declare_entry("Henry constant",
+                        "7.65e-6",
+                        Double(),
+                        "H, mol/(Pa m^3) (> 0): at equilibrium with gas, the "
+                        "liquid holds H P^g moles of hydrogen per m^3.");
+      prm.declare_entry("Diffusion coefficient",
+                        "3e-9",
+                        Double(),
+                        "D of dissolved hydrogen (Fick), m^2/s (>= 0).");
+      prm.declare_entry("Temperature", "303", Double(), "T, K (> 0).");
+      prm.declare_entry("Gas constant",
+                        "8.314",
+                        Double(),
+                        "R, J/(mol K) (> 0); ideal gas P^g = rho^g R T / M_h.");
+      prm.declare_entry("Regularization",
+                        "1e-5",
+                        Double(),
+                        "Width eps in S_e, in (0, 0.1], of the intervals "
+                        "[1 - eps, 1] and [0, eps] where the van "
+                        "Genuchten-Mualem laws (infinite slopes at S_e = 1) "
+                        "are replaced by linear pieces.");
+    }
+    prm.leave_subsection();
+
+    prm.enter_subsection("Boundary conditions");
+    {
+      prm.declare_entry("Injection rate",
+                        "5.57e-6",
+                        Double(),
+                        "Hydrogen injected at x = 0, kg/(m^2 year) (>= 0); no "
+                        "water flows through x = 0.");
+      prm.declare_entry("Injection duration",
+                        "5e5",
+                        Double(),
+                        "Years of injection (>= 0); no flux at x = 0 after.");
+      prm.declare_entry("Right pressure",
+                        "1e6",
+                        Double(),
+                        "Liquid pressure at x = L, Pa (> 0); also the initial "
+                        "pressure and the pressure scale P_ref.");
+      prm.declare_entry("Right saturation",
+                        "1",
+                        Double(),
+                        "Liquid saturation at x = L and initially, in "
+                        "(S_lr, 1].");
+      prm.declare_entry("Right molar fraction",
+                        "0",
+                        Double(),
+                        "Dissolved hydrogen at x = L and initially (>= 0); "
+                        "the right state must satisfy the phase equilibrium "
+                        "constraint.");
+    }
+    prm.leave_subsection();
+
+    prm.enter_subsection("Mesh");
+    {
+      prm.declare_entry("Length",
+                        "200",
+                        Double(),
+                        "L, m (> 0): Omega = (0, L).");
+      prm.declare_entry("Number of cells",
+                        "1000",
+                        Integer(1, 10000000),
+                        "Uniform cells of the finite volume mesh.");
+    }
+    prm.leave_subsection();
+
+    prm.enter_subsection("Time stepping");
+    {
+      prm.declare_entry("Final time", "1e6", Double(), "Years (> 0).");
+      prm.declare_entry("Time step",
+                        "5000",
+                        Double(),
+                        "Nominal time step, years (> 0). Steps are shortened "
+                        "to land on the output times, the end of the "
+                        "injection and the final time.");
+      prm.declare_entry("Minimal time step",
+                        "1",
+                        Double(),
+                        "Years, in (0, Time step]: a step that fails with a "
+                        "shorter one ends the run (exit status 2).");
+      prm.declare_entry("Reduction factor",
+                        "0.5",
+                        Double(),
+                        "A failed step (no convergence, NaN, saturation "
+                        "outside [0, 1]) is retried with dt times this "
+                        "factor, in (0, 1).");
+      prm.declare_entry("Growth factor",
+                        "2",
+                        Double(),
+                        "After a reduction, each successful step multiplies "
+                        "dt by this factor (>= 1) until the nominal step is "
+                        "reached again.");
+      prm.declare_entry("Saturation tolerance",
+                        "1e-6",
+                        Double(),
+                        "A step whose saturation leaves [0, 1] by more than "
+                        "this (>= 0) counts as failed; the adaptive strategy "
+                        "does not stop Newton at such an iterate.");
+      prm.declare_entry("Output times",
+                        "2500, 12500, 42500, 105000, 350000, 500000, 1000000",
+                        List(Double()),
+                        "Years, in [0, Final time]: VTU and profile CSV "
+                        "written at these times (the defaults are the times "
+                        "of the published figures, the end of the injection "
+                        "and the final time).");
+      prm.declare_entry("Checkpoint interval",
+                        "20",
+                        Integer(0),
+                        "Write the state every this many steps (and at the "
+                        "end) to Output/Directory/checkpoint.txt; 0: only at "
+                        "the end.");
+      prm.declare_entry("Resume",
+                        "false",
+                        Bool(),
+                        "Continue from Output/Directory/checkpoint.txt "
+                        "(written by a run with the same parameters, except "
+                        "the final time, output and checkpoint settings).");
+    }
+    prm.leave_subsection();
+
+    // The shared sections, with the defaults this problem needs: Newton's
+    // balance residuals cannot go below about 1e-10 (rounding in S, through
+    // the steep capillary pressure, in the gas fluxes), nor GMRES's
+    // relative residual below about 1e-11; the estimators are cheap enough
+    // to be checked at every GMRES iteration.
+    VI::NonlinearSolverParameters::declare(prm, "exact|inexact|adaptive");
+    prm.enter_subsection("Nonlinear solver");
+    prm.set("Tolerance", "1e-8");
+    prm.declare_entry("Solver",
+                      "semismooth-newton",
+                      Selection("semismooth-newton|kinsol"),
+                      "semismooth-newton: the suite's semismooth Newton "
+                      "(min or FB, the strategies above); kinsol: SUNDIALS "
+                      "KINSOL, Newton with line search on the "
+                      "Fischer-Burmeister form (exact or inexact strategy; "
+                      "inexact takes KINSOL's forcing terms).");
+    prm.leave_subsection();
+
+    VI::LinearSolverParameters::declare(prm, "gmres|direct", "gmres");
+    prm.enter_subsection("Linear solver");
+    prm.set("Tolerance", "1e-10");
+    prm.set("Check interval", "1");
+    prm.set("Krylov dimension", "50");
+    prm.declare_entry("Ordering",
+                      "cell-wise",
+                      Selection("cell-wise|field-wise"),
+                      "Numbering of the unknowns. cell-wise: (S, P, chi) cell "
+                      "after cell, a block tridiagonal matrix whose ILU(0) is "
+                      "its exact LU factorisation (GMRES converges in one "
+                      "iteration); field-wise: all S, all P, all chi, where "
+                      "ILU(0) drops the fill between the fields and GMRES "
+                      "iterates (the setting of the strategy comparisons).");
+    prm.leave_subsection();
+
+    VI::OutputParameters::declare(prm);
+    prm.enter_subsection("Output");
+    prm.declare_entry("Progress interval",
+                      "1",
+                      Integer(1),
+                      "Print a progress line every this many time steps.");
+    prm.leave_subsection();
+  }
+
+
+  void
+  Parameters::parse(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Physics");
+    {
+      PhysicalParameters &p    = physics;
+      p.porosity               = prm.get_double("Porosity");
+      p.permeability           = prm.get_double("Permeability");
+      p.van_genuchten_pressure = prm.get_double("van Genuchten pressure");
+      p.van_genuchten_n        = prm.get_double("van Genuchten n");
+      p.residual_liquid_saturation =
+        prm.get_double("Residual liquid saturation");
+      p.residual_gas_saturation = prm.get_double("Residual gas saturation");
+      p.liquid_viscosity        = prm.get_double("Liquid viscosity");
+      p.gas_viscosity           = prm.get_double("Gas viscosity");
+      p.water_density           = prm.get_double("Water density");
+      p.water_molar_mass        = prm.get_double("Water molar mass");
+      p.hydrogen_molar_mass     = prm.get_double("Hydrogen molar mass");
+      p.henry_constant          = prm.get_double("Henry constant");
+      p.diffusion_coefficient   = prm.get_double("Diffusion coefficient");
+      p.temperature             = prm.get_double("Temperature");
+      p.gas_constant            = prm.get_double("Gas constant");
+      p.regularization          = prm.get_double("Regularization");
+
+      const std::string s = "Physics/";
+      require(p.porosity > 0 && p.porosity <= 1,
+              s + "Porosity",
+              p.porosity,
+              "in (0, 1]");
+      require(p.permeability > 0, s + "Permeability", p.permeability, "> 0");
+      require(p.van_genuchten_pressure > 0,
+              s + "van Genuchten pressure",
+              p.van_genuchten_pressure,
+              "> 0");
+      require(p.van_genuchten_n > 1,
+              s + "van Genuchten n",
+              p.van_genuchten_n,
+              "> 1 (m = 1 - 1/n must be positive)");
+      require(p.residual_liquid_saturation >= 0,
+              s + "Residual liquid saturation",
+              p.residual_liquid_saturation,
+              ">= 0");
+      require(p.residual_gas_saturation >= 0,
+              s + "Residual gas saturation",
+              p.residual_gas_saturation,
+              ">= 0");
+      require(p.residual_liquid_saturation + p.residual_gas_saturation < 1,
+              s + "Residual liquid saturation + Residual gas saturation",
+              p.residual_liquid_saturation + p.residual_gas_saturation,
+              "< 1");
+      require(p.liquid_viscosity > 0,
+              s + "Liquid viscosity",
+              p.liquid_viscosity,
+              "> 0");
+      require(p.gas_viscosity > 0, s + "Gas viscosity", p.gas_viscosity, "> 0");
+      require(p.water_density > 0, s + "Water density", p.water_density, "> 0");
+      require(p.water_molar_mass > 0,
+              s + "Water molar mass",
+              p.water_molar_mass,
+              "> 0");
+      require(p.hydrogen_molar_mass > 0,
+              s + "Hydrogen molar mass",
+              p.hydrogen_molar_mass,
+              "> 0");
+      require(p.henry_constant > 0,
+              s + "Henry constant",
+              p.henry_constant,
+              "> 0");
+      require(p.diffusion_coefficient >= 0,
+              s + "Diffusion coefficient",
+              p.diffusion_coefficient,
+              ">= 0");
+      require(p.temperature > 0, s + "Temperature", p.temperature, "> 0");
+      require(p.gas_constant > 0, s + "Gas constant", p.gas_constant, "> 0");
+      require(p.regularization > 0 && p.regularization <= 0.1,
+              s + "Regularization",
+              p.regularization,
+              "in (0, 0.1]");
+    }
+    prm.leave_subsection();
+
+    prm.enter_subsection("Boundary conditions");
+    {
+      BoundaryParameters &b        = boundary;
+      const double        rate     = prm.get_double("Injection rate");
+      const double        duration = prm.get_double("Injection duration");
+      b.right_pressure             = prm.get_double("Right pressure");
+      b.right_saturation           = prm.get_double("Right saturation");
+      b.right_molar_fraction       = prm.get_double("Right molar fraction");
+      const std::string s          = "Boundary conditions/";
+      require(rate >= 0, s + "Injection rate", rate, ">= 0");
+      require(duration >= 0, s + "Injection duration", duration, ">= 0");
+      require(b.right_pressure > 0,
+              s + "Right pressure",
+              b.right_pressure,
+              "> 0");
+      require(b.right_saturation > physics.residual_liquid_saturation &&
+                b.right_saturation <= 1,
+              s + "Right saturation",
+              b.right_saturation,
+              "in (S_lr, 1]");
+      require(b.right_molar_fraction >= 0,
+              s + "Right molar fraction",
+              b.right_molar_fraction,
+              ">= 0");
+      b.injection_rate     = rate / seconds_per_year;
+      b.injection_duration = duration * seconds_per_year;
+
+      // The right state must satisfy 1 - S >= 0, H P^g - beta^l chi >= 0 and
+      // (1 - S)(H P^g - beta^l chi) = 0, up to rounding.
+      const TwoPhaseModel model(physics);
+      const double        Pg =
+        b.right_pressure + model.capillary_pressure(b.right_saturation).value;
+      const double chi_eq          = model.equilibrium_molar_fraction(Pg);
+      const double undersaturation = (chi_eq - b.right_molar_fraction) / chi_eq;
+      if (undersaturation < -1e-8 ||
+          (b.right_saturation < 1 && undersaturation > 1e-8))
+        {
+          std::ostringstream message;
+          message << "Boundary conditions: the right state (saturation "
+                  << b.right_saturation << ", molar fraction "
+                  << b.right_molar_fraction
+                  << ") violates the phase equilibrium: the molar fraction "
+                     "must be at most H P^g / beta^l = "
+                  << chi_eq << ", and equal to it where gas is present";
+          throw VI::InputError(message.str());
+        }
+    }
+    prm.leave_subsection();
+
+    prm.enter_subsection("Mesh");
+    {
+      mesh.length  = prm.get_double("Length");
+      mesh.n_cells = prm.get_integer("Number of cells");
+      require(mesh.length > 0, "Mesh/Length", mesh.length, "> 0");
+    }
+    prm.leave_subsection();
+
+    prm.enter_subsection("Time stepping");
+    {
+      TimeSteppingParameters &t      = time;
+      const std::string       s      = "Time stepping/";
+      const double            T      = prm.get_double("Final time");
+      const double            dt     = prm.get_double("Time step");
+      const double            dt_min = prm.get_double("Minimal time step");
+      t.reduction_factor             = prm.get_double("Reduction factor");
+      t.growth_factor                = prm.get_double("Growth factor");
+      t.saturation_tolerance         = prm.get_double("Saturation tolerance");
+      t.checkpoint_interval          = prm.get_integer("Checkpoint interval");
+      t.resume                       = prm.get_bool("Resume");
+      require(T > 0, s + "Final time", T, "> 0");
+      require(dt > 0, s + "Time step", dt, "> 0");
+      require(dt_min > 0 && dt_min <= dt,
+              s + "Minimal time step",
+              dt_min,
+              "in (0, Time step]");
+      require(t.reduction_factor > 0 && t.reduction_factor < 1,
+              s + "Reduction factor",
+              t.reduction_factor,
+              "in (0, 1)");
+      require(t.growth_factor >= 1,
+              s + "Growth factor",
+              t.growth_factor,
+              ">= 1");
+      require(t.saturation_tolerance >= 0,
+              s + "Saturation tolerance",
+              t.saturation_tolerance,
+              ">= 0");
+      t.final_time        = T * seconds_per_year;
+      t.time_step         = dt * seconds_per_year;
+      t.minimal_time_step = dt_min * seconds_per_year;
+
+      t.output_times.clear();
+      for (const double year : dealii::Utilities::string_to_double(
+             dealii::Utilities::split_string_list(prm.get("Output times"))))
+        {
+          if (!(year >= 0 && year <= T))
+            {
+              std::ostringstream message;
+              message << s << "Output times: " << year
+                      << " years is outside [0, Final time = " << T
+                      << " years]";
+              throw VI::InputError(message.str());
+            }
+          t.output_times.push_back(year * seconds_per_year);
+        }
+      std::sort(t.output_times.begin(), t.output_times.end());
+      t.output_times.erase(std::unique(t.output_times.begin(),
+                                       t.output_times.end()),
+                           t.output_times.end());
+    }
+    prm.leave_subsection();
+
+    nonlinear_solver.parse(prm);
+    prm.enter_subsection("Nonlinear solver");
+    nonlinear_solver_package = prm.get("Solver");
+    prm.leave_subsection();
+    if (nonlinear_solver_package == "kinsol")
+      {
+        if (nonlinear_solver.c_function != "fischer-burmeister")
+          throw VI::InputError(
+            "Nonlinear solver/Solver = kinsol needs C-function = "
+            "fischer-burmeister (KINSOL's line search needs a smooth merit "
+            "function)");
+        if (nonlinear_solver.strategy == "adaptive")
+          throw VI::InputError(
+            "Nonlinear solver/Solver = kinsol supports the strategies exact "
+            "and inexact; the adaptive strategy needs Solver = "
+            "semismooth-newton");
+      }
+
+    linear_solver.parse(prm);
+    prm.enter_subsection("Linear solver");
+    ordering = prm.get("Ordering");
+    prm.leave_subsection();
+    if (linear_solver.preconditioner != "ilu")
+      throw VI::InputError(
+        "Linear solver/Preconditioner = " + linear_solver.preconditioner +
+        ": step-twophase preconditions GMRES with ilu only");
+    if (linear_solver.ilu_fill != 0)
+      throw VI::InputError(
+        "Linear solver/ILU fill = " + std::to_string(linear_solver.ilu_fill) +
+        ": step-twophase implements ILU(0) only");
+    if (linear_solver.solver == "direct" &&
+        nonlinear_solver.strategy != "exact")
+      throw VI::InputError(
+        "Nonlinear solver/Strategy = " + nonlinear_solver.strategy +
+        " needs Linear solver/Solver = gmres (a direct "
+        "solver has no algebraic error to control)");
+
+    output.parse(prm);
+    prm.enter_subsection("Output");
+    progress_interval = prm.get_integer("Progress interval");
+    prm.leave_subsection();
+  }
+} // namespace StepTwoPhase
