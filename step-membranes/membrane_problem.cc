@@ -36,7 +36,7 @@ namespace StepMembranes
     VI::ProblemParameters::declare(prm,
                                    VI::membrane_test_case_names(),
                                    "seed-smooth");
-    VI::MeshParameters::declare(prm, "global");
+    VI::MeshParameters::declare(prm, "global|adaptive");
     VI::DiscretizationParameters::declare(prm, "fem");
     VI::NonlinearSolverParameters::declare(prm, "exact|inexact|adaptive");
     VI::LinearSolverParameters::declare(prm, "direct|gmres", "direct");
@@ -61,6 +61,9 @@ namespace StepMembranes
       throw VI::InputError("Nonlinear solver/Strategy = " + strategy +
                            " needs an iterative linear solver: set Linear "
                            "solver/Solver = gmres");
+    if (mesh.refinement == "adaptive" && !estimators.enabled)
+      throw VI::InputError("Mesh/Refinement = adaptive marks the cells with "
+                           "the estimators: set Estimators/Enabled = true");
     if (strategy == "adaptive" && !estimators.enabled)
       throw VI::InputError("Nonlinear solver/Strategy = adaptive stops the "
                            "solvers with the estimators: set "
@@ -222,6 +225,10 @@ namespace StepMembranes
                                              u2_constraints,
                                              relevant_system,
                                              system_constraints);
+    VI::NodalFields::make_system_constraints(hanging_node_constraints,
+                                             hanging_node_constraints,
+                                             relevant_system,
+                                             system_hanging_constraints);
     contact_rows.reinit(owned_nodes, u1_constraints);
 
     DynamicSparsityPattern scalar_pattern(relevant_nodes);
@@ -490,6 +497,14 @@ namespace StepMembranes
     TimerOutput::Scope t(timer, "newton: residual");
     system_matrix.vmult(R, X);
     R -= system_rhs;
+    // The condensed rows of hanging nodes do not hold for the conforming X
+    // (its values there come from the constraints, not from those rows).
+    for (const types::global_dof_index i : owned_nodes)
+      if (hanging_node_constraints.is_constrained(i))
+        for (const unsigned int field :
+             {VI::NodalFields::u1, VI::NodalFields::u2})
+          R(index(i, field)) = 0;
+    R.compress(VectorOperation::insert);
 
     VI::ResidualNorms norms;
     norms.complementarity = contact_rows.evaluate(C, X, multiplier_scale, R);
@@ -570,7 +585,12 @@ namespace StepMembranes
         }
     };
     newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
-      return solve_linearized(rhs, dX);
+      const unsigned int iterations = solve_linearized(rhs, dX);
+      // The rows of hanging nodes are trivial in the condensed matrix: the
+      // update there follows the constraints (linear, homogeneous), so
+      // that every iterate stays conforming.
+      system_hanging_constraints.distribute(dX);
+      return iterations;
     };
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &step) {
@@ -743,7 +763,14 @@ namespace StepMembranes
 
     VI::NodalFields::extract(X, VI::NodalFields::u1, u1);
     VI::NodalFields::extract(X, VI::NodalFields::u2, u2);
+    // (a GMRES iterate need not satisfy the hanging node constraints; its
+    // conforming version has the same residual in the condensed rows)
+    hanging_node_constraints.distribute(u1);
+    hanging_node_constraints.distribute(u2);
     VI::average_at_violated_nodes(data.mu1, data.mu2, u1, u2, s1, s2);
+    // (hanging nodes follow the averaged values of their parents)
+    hanging_node_constraints.distribute(s1);
+    hanging_node_constraints.distribute(s2);
     ghosted(u1, it.u1);
     ghosted(u2, it.u2);
     ghosted(s1, it.s1);
@@ -997,7 +1024,7 @@ namespace StepMembranes
     std::vector<dealii::Vector<float>> indicators;
     if (final_estimate)
       {
-        const std::pair<const char *, const dealii::Vector<float> *>
+        const std::pair<const char *, const dealii::Vector<double> *>
           cell_data[] = {{"eta", &final_estimate->cell_total},
                          {"eta_flux", &final_estimate->cell_flux},
                          {"eta_residual", &final_estimate->cell_residual},
@@ -1014,7 +1041,8 @@ namespace StepMembranes
                                      name,
                                      DataOut<dim>::type_cell_data);
           }
-        indicators.push_back(final_estimate->cell_contact);
+        indicators.emplace_back(final_estimate->cell_contact.begin(),
+                                final_estimate->cell_contact.end());
         data_out.add_data_vector(indicators.back(),
                                  "eta_contact",
                                  DataOut<dim>::type_cell_data);
@@ -1030,17 +1058,28 @@ namespace StepMembranes
   }
 
 
-  // Global refinement; with nested iteration the current solution is
-  // carried to the new mesh by SolutionTransfer (as finite element
-  // functions: the dual coefficients X3 are recomputed on the new mesh).
+  // Global refinement, or the cells marked by the estimate of the last
+  // solution; with nested iteration the current solution is carried to the
+  // new mesh by SolutionTransfer (as finite element functions: the dual
+  // coefficients X3 are recomputed on the new mesh).
   template <int dim>
   void
   MembraneProblem<dim>::refine_mesh()
   {
     TimerOutput::Scope t(timer, "refinement");
-    for (const auto &cell : triangulation.active_cell_iterators())
-      if (cell->is_locally_owned())
-        cell->set_refine_flag();
+    const auto        &mesh = parameters.mesh;
+    if (mesh.refinement == "adaptive")
+      {
+        Assert(final_estimate, ExcInternalError());
+        VI::mark_cells_for_refinement(triangulation,
+                                      final_estimate->cell_total,
+                                      mesh.marking,
+                                      mesh.refinement_fraction);
+      }
+    else
+      for (const auto &cell : triangulation.active_cell_iterators())
+        if (cell->is_locally_owned())
+          cell->set_refine_flag();
     triangulation.prepare_coarsening_and_refinement();
 
     if (parameters.nonlinear_solver.nested_iteration)

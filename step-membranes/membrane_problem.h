@@ -23,6 +23,7 @@
 #include <vi/flux_reconstruction.h>
 #include <vi/geometry.h>
 #include <vi/linear_solvers.h>
+#include <vi/marking.h>
 #include <vi/parameters.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
@@ -184,6 +185,8 @@ namespace StepMembranes
     IndexSet owned_system, relevant_system;
 
     AffineConstraints<double> hanging_node_constraints;
+    /// Hanging node constraints of u1 and u2 in the system numbering.
+    AffineConstraints<double> system_hanging_constraints;
     AffineConstraints<double> u1_constraints, u2_constraints;
     AffineConstraints<double> system_constraints;
     VI::ContactRows           contact_rows;

@@ -321,9 +321,9 @@ namespace VI
         estimate.cell_algebraic(index)     = cell[algebraic_squared];
         estimate.cell_nonconformity(index) = cell[nonc_total];
         estimate.cell_contact(index)       = cell[contact_cone];
-        estimate.cell_total(index)         = cell[flux_residual_total] +
-                                     cell[nonc_total] + C * C * cell[negative] +
-                                     cell[contact_cone];
+        estimate.cell_total(index) =
+          cell[flux_residual_total] + cell[nonc_total] +
+          C * C * cell[negative] + cell[contact_cone] + cell[dirichlet_squared];
       }
 
     const MPI_Comm             comm = in.potential->get_communicator();

@@ -2,6 +2,7 @@
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/grid_tools.h>
+#include <deal.II/lac/la_parallel_vector.h>
 #include <deal.II/lac/lapack_full_matrix.h>
 #include <deal.II/lac/vector.h>
 
@@ -11,6 +12,8 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <set>
+#include <sstream>
 
 namespace VI
 {
@@ -57,24 +60,68 @@ namespace VI
   void
   FluxReconstruction<dim>::reinit(const DoFHandler<dim> &potential)
   {
-    const Triangulation<dim> &tria = potential.get_triangulation();
-    AssertThrow(!tria.has_hanging_nodes(),
-                ExcMessage("The flux reconstruction on vertex patches needs "
-                           "a mesh without hanging nodes."));
+    const Triangulation<dim> &tria   = potential.get_triangulation();
+    const MPI_Comm            comm   = potential.get_communicator();
+    const unsigned int        rank   = Utilities::MPI::this_mpi_process(comm);
+    const unsigned int        n_rank = Utilities::MPI::n_mpi_processes(comm);
 
     dof_handler.reinit(tria);
     dof_handler.distribute_dofs(fe_flux);
     owned_dofs = dof_handler.locally_owned_dofs();
     DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_dofs);
+    hanging_constraints.clear();
+    hanging_constraints.reinit(relevant_dofs);
+    DoFTools::make_hanging_node_constraints(dof_handler, hanging_constraints);
+    hanging_constraints.close();
 
     patches.clear();
     cell_patches.assign(tria.n_active_cells(), {});
     n_local_solvers = 0;
 
-    const auto      vertex_cells    = GridTools::vertex_to_cell_map(tria);
-    const IndexSet &owned_potential = potential.locally_owned_dofs();
+    // The conforming hat functions: Q1 with its hanging node constraints,
+    // one patch per unconstrained (regular) vertex, numbered by its degree
+    // of freedom. hats_of[j] lists the cells where psi_j does not vanish,
+    // with psi_j's values at their vertices.
+    DoFHandler<dim> hats(tria);
+    hats.distribute_dofs(fe_hat);
+    IndexSet relevant_hats;
+    DoFTools::extract_locally_relevant_dofs(hats, relevant_hats);
+    AffineConstraints<double> hat_constraints(relevant_hats);
+    DoFTools::make_hanging_node_constraints(hats, hat_constraints);
+    hat_constraints.close();
 
-    // Boundary vertices: those of boundary faces.
+    const unsigned int n_vertices = GeometryInfo<dim>::vertices_per_cell;
+    std::map<types::global_dof_index,
+             std::map<CellIterator, std::vector<double>>>
+                                                    hats_of;
+    std::map<types::global_dof_index, unsigned int> vertex_of;
+    for (const auto &hat_cell : hats.active_cell_iterators())
+      if (!hat_cell->is_artificial())
+        {
+          const CellIterator cell(hat_cell);
+          for (const unsigned int v : hat_cell->vertex_indices())
+            {
+              const auto i   = hat_cell->vertex_dof_index(v, 0);
+              const auto add = [&](const types::global_dof_index j,
+                                   const double                  w) {
+                auto &values = hats_of[j][cell];
+                values.resize(n_vertices, 0.);
+                values[v] = w;
+              };
+              if (hat_constraints.is_constrained(i))
+                for (const auto &[j, w] :
+                     *hat_constraints.get_constraint_entries(i))
+                  add(j, w);
+              else
+                {
+                  add(i, 1.);
+                  vertex_of[i] = hat_cell->vertex_index(v);
+                }
+            }
+        }
+
+    // A patch is complete here if every cell around a, and the finer cells
+    // beyond the hanging faces at a, are owned or ghost.
     std::vector<bool> at_boundary(tria.n_vertices(), false);
     for (const auto &cell : tria.active_cell_iterators())
       if (!cell->is_artificial())
@@ -82,6 +129,53 @@ namespace VI
           if (cell->face(f)->at_boundary())
             for (unsigned int v = 0; v < cell->face(f)->n_vertices(); ++v)
               at_boundary[cell->face(f)->vertex_index(v)] = true;
+    const auto complete = [&](const types::global_dof_index j) {
+      const auto vertex = vertex_of.find(j);
+      if (vertex == vertex_of.end())
+        return false;
+      for (const auto &[cell, values] : hats_of[j])
+        for (const unsigned int f : cell->face_indices())
+          {
+            bool contains_a = false;
+            for (unsigned int w = 0; w < cell->face(f)->n_vertices(); ++w)
+              contains_a |= (cell->face(f)->vertex_index(w) == vertex->second);
+            if (!contains_a || cell->face(f)->at_boundary())
+              continue;
+            if (cell->face(f)->has_children())
+              {
+                for (unsigned int c = 0; c < cell->face(f)->n_children(); ++c)
+                  if (cell->neighbor_child_on_subface(f, c)->is_artificial())
+                    return false;
+              }
+            else if (cell->neighbor(f)->is_artificial())
+              return false;
+          }
+      return true;
+    };
+
+    // The lowest rank that sees a patch whole solves it.
+    LinearAlgebra::distributed::Vector<double> solver_rank(
+      hats.locally_owned_dofs(), relevant_hats, comm);
+    for (const auto j : relevant_hats)
+      solver_rank(j) = n_rank;
+    for (const auto &[j, cells] : hats_of)
+      if (!hat_constraints.is_constrained(j) && complete(j))
+        solver_rank(j) = rank;
+    solver_rank.compress(VectorOperation::min);
+    solver_rank.update_ghost_values();
+    for (const auto j : hats.locally_owned_dofs())
+      if (!hat_constraints.is_constrained(j) && solver_rank(j) == n_rank)
+        {
+          std::ostringstream where;
+          if (vertex_of.count(j))
+            where << " at " << tria.get_vertices()[vertex_of[j]];
+          AssertThrow(false,
+                      ExcMessage("Flux reconstruction: no process sees the "
+                                 "whole vertex patch" +
+                                 where.str() +
+                                 " (its hanging nodes reach beyond the ghost "
+                                 "cells); use fewer processes."));
+        }
 
     // Patch matrices shared between patches of the same normalised shape.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
@@ -94,117 +188,146 @@ namespace VI
                                QGauss<dim>(2),
                                update_quadrature_points);
 
-    std::vector<bool>                    visited(tria.n_vertices(), false);
     std::vector<types::global_dof_index> rt_dofs(fe_flux.n_dofs_per_cell());
-    for (const auto &potential_cell : potential.active_cell_iterators())
-      if (potential_cell->is_locally_owned())
-        for (const unsigned int v : potential_cell->vertex_indices())
+    std::vector<bool>                    on_face(fe_flux.n_dofs_per_cell());
+    for (const auto &[j, cell_hats] : hats_of)
+      {
+        if (hat_constraints.is_constrained(j) || solver_rank(j) != double(rank))
+          continue;
+        const unsigned int a = vertex_of[j];
+        Patch              patch;
+        patch.vertex          = a;
+        patch.interior        = !at_boundary[a];
+        const Point<dim> &x_a = tria.get_vertices()[a];
+
+        // Cells in a canonical order (by angle around a, then distance),
+        // so that patches of the same shape get the same local numbering.
+        std::vector<CellIterator> cells;
+        for (const auto &entry : cell_hats)
+          cells.push_back(entry.first);
+        const auto polar = [&](const CellIterator &c) {
+          const auto d = c->center() - x_a;
+          return std::make_pair(std::atan2(d[1], d[0]), d.norm());
+        };
+        std::sort(cells.begin(),
+                  cells.end(),
+                  [&](const CellIterator &c1, const CellIterator &c2) {
+                    return polar(c1) < polar(c2);
+                  });
+
+        // The free fluxes: the dofs on faces where psi_a does not vanish
+        // (the others carry sigma^a . n = 0), or their parents on the
+        // coarse side of a hanging face; and the dofs inside the cells.
+        std::set<types::global_dof_index> free;
+        for (const auto &cell : cells)
           {
-            const unsigned int a = potential_cell->vertex_index(v);
-            if (visited[a] || !owned_potential.is_element(
-                                potential_cell->vertex_dof_index(v, 0)))
-              continue;
-            visited[a] = true;
-
-            Patch patch;
-            patch.vertex          = a;
-            patch.interior        = !at_boundary[a];
-            const Point<dim> &x_a = tria.get_vertices()[a];
-
-            // Cells in a canonical order (by angle around a), so that
-            // patches of the same shape get the same local numbering.
-            std::vector<CellIterator> cells(vertex_cells[a].begin(),
-                                            vertex_cells[a].end());
-            std::sort(cells.begin(),
-                      cells.end(),
-                      [&](const CellIterator &c1, const CellIterator &c2) {
-                        const auto d1 = c1->center() - x_a,
-                                   d2 = c2->center() - x_a;
-                        return std::atan2(d1[1], d1[0]) <
-                               std::atan2(d2[1], d2[0]);
-                      });
-
-            std::map<types::global_dof_index, int> sigma_numbers;
-            patch.n_q = 0;
-            for (const auto &cell : cells)
+            const auto &psi = cell_hats.at(cell);
+            typename DoFHandler<dim>::active_cell_iterator dof_cell(
+              &tria, cell->level(), cell->index(), &dof_handler);
+            dof_cell->get_dof_indices(rt_dofs);
+            std::fill(on_face.begin(), on_face.end(), false);
+            std::vector<bool> is_free(fe_flux.n_dofs_per_cell(), true);
+            for (const unsigned int f : cell->face_indices())
               {
-                PatchCell patch_cell;
-                patch_cell.cell         = cell;
-                patch_cell.local_vertex = numbers::invalid_unsigned_int;
-                for (const unsigned int w : cell->vertex_indices())
-                  if (cell->vertex_index(w) == a)
-                    patch_cell.local_vertex = w;
-                Assert(patch_cell.local_vertex != numbers::invalid_unsigned_int,
-                       ExcInternalError());
-
-                typename DoFHandler<dim>::active_cell_iterator dof_cell(
-                  &tria, cell->level(), cell->index(), &dof_handler);
-                dof_cell->get_dof_indices(rt_dofs);
-
-                // Zero normal flux on the faces away from a (where psi_a
-                // vanishes): the outer boundary of the patch.
-                std::vector<bool> fixed(fe_flux.n_dofs_per_cell(), false);
-                for (const unsigned int f : cell->face_indices())
+                bool nonzero = false;
+                for (unsigned int w = 0; w < cell->face(f)->n_vertices(); ++w)
+                  nonzero |=
+                    psi[GeometryInfo<dim>::face_to_cell_vertices(f, w)] != 0.;
+                for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f); ++i)
                   {
-                    bool contains_a = false;
-                    for (unsigned int w = 0; w < cell->face(f)->n_vertices();
-                         ++w)
-                      contains_a |= (cell->face(f)->vertex_index(w) == a);
-                    if (!contains_a)
-                      for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f);
-                           ++i)
-                        fixed[fe_flux.face_to_cell_index(i, f)] = true;
+                    const unsigned int k = fe_flux.face_to_cell_index(i, f);
+                    on_face[k]           = true;
+                    is_free[k]           = nonzero;
                   }
-                patch_cell.sigma_index.resize(fe_flux.n_dofs_per_cell());
-                for (unsigned int j = 0; j < fe_flux.n_dofs_per_cell(); ++j)
-                  if (fixed[j])
-                    patch_cell.sigma_index[j] = -1;
+              }
+            for (unsigned int k = 0; k < fe_flux.n_dofs_per_cell(); ++k)
+              if (is_free[k])
+                {
+                  if (hanging_constraints.is_constrained(rt_dofs[k]))
+                    for (const auto &entry :
+                         *hanging_constraints.get_constraint_entries(
+                           rt_dofs[k]))
+                      free.insert(entry.first);
                   else
-                    {
-                      const auto inserted =
-                        sigma_numbers.emplace(rt_dofs[j],
-                                              int(patch.sigma_dofs.size()));
-                      if (inserted.second)
-                        patch.sigma_dofs.push_back(rt_dofs[j]);
-                      patch_cell.sigma_index[j] = inserted.first->second;
-                    }
-                patch_cell.q_offset = patch.n_q;
-                patch.n_q += fe_divergence.n_dofs_per_cell();
-                patch.cells.push_back(patch_cell);
-              }
-
-            // The shape of the patch, normalised by its size: quadrature
-            // points relative to a, line orientations, fixed fluxes.
-            double h = 0;
-            for (const auto &cell : cells)
-              h = std::max(h, cell->diameter());
-            std::vector<std::int64_t> key = {patch.interior,
-                                             std::int64_t(cells.size())};
-            for (const auto &patch_cell : patch.cells)
-              {
-                shape_values.reinit(patch_cell.cell);
-                for (const auto &x : shape_values.get_quadrature_points())
-                  for (unsigned int d = 0; d < dim; ++d)
-                    key.push_back(std::llround((x[d] - x_a[d]) / h * 1e9));
-                for (const unsigned int l : patch_cell.cell->line_indices())
-                  key.push_back(patch_cell.cell->line_orientation(l));
-                for (const int i : patch_cell.sigma_index)
-                  key.push_back(i);
-              }
-            auto &solver = solvers[key];
-            if (!solver)
-              {
-                solver = make_local_solver(patch);
-                ++n_local_solvers;
-              }
-            patch.solver = solver;
-
-            const unsigned int patch_number = patches.size();
-            for (unsigned int c = 0; c < patch.cells.size(); ++c)
-              cell_patches[patch.cells[c].cell->active_cell_index()]
-                .emplace_back(patch_number, c);
-            patches.push_back(std::move(patch));
+                    free.insert(rt_dofs[k]);
+                }
           }
+
+        std::map<types::global_dof_index, unsigned int> sigma_numbers;
+        const auto number = [&](const types::global_dof_index g) {
+          const auto inserted =
+            sigma_numbers.emplace(g, (unsigned int)patch.sigma_dofs.size());
+          if (inserted.second)
+            patch.sigma_dofs.push_back(g);
+          return inserted.first->second;
+        };
+        patch.n_q = 0;
+        for (const auto &cell : cells)
+          {
+            PatchCell patch_cell;
+            patch_cell.cell = cell;
+            patch_cell.hat  = cell_hats.at(cell);
+            typename DoFHandler<dim>::active_cell_iterator dof_cell(
+              &tria, cell->level(), cell->index(), &dof_handler);
+            dof_cell->get_dof_indices(rt_dofs);
+            patch_cell.sigma_index.resize(fe_flux.n_dofs_per_cell());
+            for (unsigned int k = 0; k < fe_flux.n_dofs_per_cell(); ++k)
+              if (hanging_constraints.is_constrained(rt_dofs[k]))
+                {
+                  for (const auto &[g, w] :
+                       *hanging_constraints.get_constraint_entries(rt_dofs[k]))
+                    if (free.count(g))
+                      patch_cell.sigma_index[k].emplace_back(number(g), w);
+                }
+              else if (free.count(rt_dofs[k]))
+                patch_cell.sigma_index[k].emplace_back(number(rt_dofs[k]), 1.);
+            patch_cell.q_offset = patch.n_q;
+            patch.n_q += fe_divergence.n_dofs_per_cell();
+            patch.cells.push_back(patch_cell);
+          }
+
+        // The shape of the patch, normalised by its size: quadrature
+        // points relative to a, line orientations, psi_a, free fluxes.
+        double h = 0;
+        for (const auto &cell : cells)
+          h = std::max(h, cell->diameter());
+        std::vector<std::int64_t> key = {patch.interior,
+                                         std::int64_t(cells.size())};
+        for (const auto &patch_cell : patch.cells)
+          {
+            shape_values.reinit(patch_cell.cell);
+            for (const auto &x : shape_values.get_quadrature_points())
+              for (unsigned int d = 0; d < dim; ++d)
+                key.push_back(std::llround((x[d] - x_a[d]) / h * 1e9));
+            for (const unsigned int l : patch_cell.cell->line_indices())
+              key.push_back(patch_cell.cell->line_orientation(l));
+            for (const double value : patch_cell.hat)
+              key.push_back(std::llround(value * 1e9));
+            for (const auto &expansion : patch_cell.sigma_index)
+              {
+                key.push_back(-1);
+                for (const auto &[I, w] : expansion)
+                  {
+                    key.push_back(I);
+                    key.push_back(std::llround(w * 1e9));
+                  }
+              }
+          }
+        auto &solver = solvers[key];
+        if (!solver)
+          {
+            solver = make_local_solver(patch);
+            ++n_local_solvers;
+          }
+        patch.solver = solver;
+
+        const unsigned int patch_number = patches.size();
+        for (unsigned int c = 0; c < patch.cells.size(); ++c)
+          cell_patches[patch.cells[c].cell->active_cell_index()].emplace_back(
+            patch_number, c);
+        patches.push_back(std::move(patch));
+      }
+    hats.clear();
   }
 
 
@@ -238,28 +361,23 @@ namespace VI
           {
             const double dx = flux_values.JxW(q);
             for (const unsigned int i : flux_values.dof_indices())
-              {
-                const int I = patch_cell.sigma_index[i];
-                if (I < 0)
-                  continue;
-                const auto   tau_i = flux_values[flux].value(i, q);
-                const double div_i = flux_values[flux].divergence(i, q);
-                for (const unsigned int j : flux_values.dof_indices())
-                  {
-                    const int J = patch_cell.sigma_index[j];
-                    if (J >= 0)
+              for (const auto &[I, w_i] : patch_cell.sigma_index[i])
+                {
+                  const auto   tau_i = w_i * flux_values[flux].value(i, q);
+                  const double div_i = w_i * flux_values[flux].divergence(i, q);
+                  for (const unsigned int j : flux_values.dof_indices())
+                    for (const auto &[J, w_j] : patch_cell.sigma_index[j])
                       matrix(I, J) +=
-                        tau_i * flux_values[flux].value(j, q) * dx;
-                  }
-                for (unsigned int k = 0; k < fe_divergence.n_dofs_per_cell();
-                     ++k)
-                  {
-                    const double b = div_i * q_values.shape_value(k, q) * dx;
-                    const unsigned int K = n_sigma + patch_cell.q_offset + k;
-                    matrix(K, I) += b;
-                    matrix(I, K) += b;
-                  }
-              }
+                        tau_i * (w_j * dx) * flux_values[flux].value(j, q);
+                  for (unsigned int k = 0; k < fe_divergence.n_dofs_per_cell();
+                       ++k)
+                    {
+                      const double b = div_i * q_values.shape_value(k, q) * dx;
+                      const unsigned int K = n_sigma + patch_cell.q_offset + k;
+                      matrix(K, I) += b;
+                      matrix(I, K) += b;
+                    }
+                }
             if (patch.interior)
               for (unsigned int k = 0; k < fe_divergence.n_dofs_per_cell(); ++k)
                 {
@@ -332,9 +450,15 @@ namespace VI
                 const Patch       &patch      = patches[p];
                 const PatchCell   &patch_cell = patch.cells[c];
                 const unsigned int n_sigma    = patch.sigma_dofs.size();
-                const unsigned int v          = patch_cell.local_vertex;
-                const double       psi        = hat_values.shape_value(v, q);
-                const auto         grad_psi   = hat_values.shape_grad(v, q);
+                double             psi        = 0;
+                Tensor<1, dim>     grad_psi;
+                for (unsigned int v = 0; v < patch_cell.hat.size(); ++v)
+                  if (patch_cell.hat[v] != 0.)
+                    {
+                      psi += patch_cell.hat[v] * hat_values.shape_value(v, q);
+                      grad_psi +=
+                        patch_cell.hat[v] * hat_values.shape_grad(v, q);
+                    }
                 for (unsigned int f = 0; f < n_fields; ++f)
                   {
                     const double c_a =
@@ -343,11 +467,8 @@ namespace VI
                         0.;
                     const Tensor<1, dim> weighted_flux = psi * dx * flux[f][q];
                     for (const unsigned int j : flux_values.dof_indices())
-                      {
-                        const int J = patch_cell.sigma_index[j];
-                        if (J >= 0)
-                          rhs[p](J, f) -= weighted_flux * tau[j];
-                      }
+                      for (const auto &[J, w] : patch_cell.sigma_index[j])
+                        rhs[p](J, f) -= w * (weighted_flux * tau[j]);
                     const double g =
                       ((source[f][q] + c_a) * psi - flux[f][q] * grad_psi) * dx;
                     for (unsigned int k = 0;
@@ -379,11 +500,17 @@ namespace VI
             accumulated[f].add(patches[p].sigma_dofs, values);
           }
       }
+    // The fluxes on the fine side of hanging faces from the coarse side.
+    TrilinosWrappers::MPI::Vector owned(owned_dofs, comm);
     for (unsigned int f = 0; f < n_fields; ++f)
       {
         accumulated[f].compress(VectorOperation::add);
+        for (const auto i : owned_dofs)
+          owned(i) = accumulated[f](i);
+        owned.compress(VectorOperation::insert);
+        hanging_constraints.distribute(owned);
         sigma[f]->reinit(owned_dofs, relevant_dofs, comm);
-        *sigma[f] = accumulated[f];
+        *sigma[f] = owned;
       }
   }
 

@@ -139,7 +139,21 @@ namespace VI
       prm.declare_entry("Refinement",
                         "global",
                         Selection(refinements),
-                        "How the mesh is refined between cycles.");
+                        "How the mesh is refined between cycles: every "
+                        "cell (global), or the cells marked by the "
+                        "estimators (adaptive).");
+      prm.declare_entry("Marking",
+                        "dorfler",
+                        Selection("dorfler|fixed-fraction"),
+                        "Adaptive refinement: dorfler refines the fewest "
+                        "cells that carry the Refinement fraction of the "
+                        "squared estimate; fixed-fraction refines the "
+                        "Refinement fraction of the cells with the largest "
+                        "indicators.");
+      prm.declare_entry("Refinement fraction",
+                        "0.5",
+                        Double(0., 1.),
+                        "theta of the marking (see Marking), in (0, 1].");
       prm.declare_entry("Cycles",
                         "5",
                         Integer(1, 30),
@@ -157,7 +171,12 @@ namespace VI
       geometry            = prm.get("Geometry");
       initial_refinements = prm.get_integer("Initial refinements");
       refinement          = prm.get("Refinement");
-      cycles              = prm.get_integer("Cycles");
+      marking             = prm.get("Marking");
+      refinement_fraction = prm.get_double("Refinement fraction");
+      if (refinement_fraction <= 0.)
+        throw InputError("Mesh/Refinement fraction must be in (0, 1]; got " +
+                         prm.get("Refinement fraction"));
+      cycles = prm.get_integer("Cycles");
     }
     prm.leave_subsection();
   }

@@ -83,7 +83,9 @@ TEST(Gmres, ConvergesWithAndWithoutRestarts)
       EXPECT_LE(system.residual(x), 1e-10 * system.b.l2_norm() * 1.01)
         << "Krylov dimension " << krylov_dimension;
       if (krylov_dimension >= 60)
-        EXPECT_LE(report.iterations, 60u); // full GMRES: at most n steps
+        {
+          EXPECT_LE(report.iterations, 60u); // full GMRES: at most n steps
+        }
     }
 }
 

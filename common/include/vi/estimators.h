@@ -47,14 +47,15 @@ namespace VI
     double dirichlet = 0;
 
     // Cellwise indicators (squared norms, for output and marking).
-    dealii::Vector<float> cell_flux;          ///< sum_alpha eta_F,K^2
-    dealii::Vector<float> cell_residual;      ///< sum_alpha eta_R,K^2
-    dealii::Vector<float> cell_algebraic;     ///< |mu^(-1/2) sigma_alg|_K^2
-    dealii::Vector<float> cell_nonconformity; ///< |||s~_h - u_h|||_K^2
-    dealii::Vector<float> cell_contact;       ///< eta_C~,K
+    dealii::Vector<double> cell_flux;          ///< sum_alpha eta_F,K^2
+    dealii::Vector<double> cell_residual;      ///< sum_alpha eta_R,K^2
+    dealii::Vector<double> cell_algebraic;     ///< |mu^(-1/2) sigma_alg|_K^2
+    dealii::Vector<double> cell_nonconformity; ///< |||s~_h - u_h|||_K^2
+    dealii::Vector<double> cell_contact;       ///< eta_C~,K
     /// eta_K^2 = sum_alpha (eta_F + eta_R)^2 + |||s~ - u_h|||_K^2
-    ///           + C^2 |lambda^neg|_K^2 + eta_C~,K: the local indicator.
-    dealii::Vector<float> cell_total;
+    ///           + C^2 |lambda^neg|_K^2 + eta_C~,K + |||G|||_K^2: the local
+    ///           indicator.
+    dealii::Vector<double> cell_total;
   };
 
 

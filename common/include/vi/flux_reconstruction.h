@@ -8,6 +8,7 @@
 #include <deal.II/fe/fe_q.h>
 #include <deal.II/fe/fe_raviart_thomas.h>
 #include <deal.II/fe/mapping.h>
+#include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <functional>
@@ -50,9 +51,19 @@ namespace VI
    * geometry at all (Piola transform), so sharing keeps the equilibration
    * exact.
    *
-   * Each process handles the patches of the vertices it owns (the owner of
-   * the vertex degree of freedom of the potential's DoFHandler); patches use
-   * owned and ghost cells.
+   * On meshes with hanging nodes psi_a is the conforming hat function of a
+   * regular vertex a (the hanging vertices, whose values are constrained,
+   * carry no patch): on a cell it is the Q1 function with value 1 at a and
+   * the constraint weight (1/2) at the hanging vertices that depend on a,
+   * so omega_a also contains the fine cells that touch those hanging
+   * vertices; RT_p(omega_a) is made H(div)-conforming across the hanging
+   * faces by the hanging node constraints of FE_RaviartThomas.
+   *
+   * In parallel, a patch is solved by one process that sees all of its
+   * cells (owned or ghost): the lowest rank on which it is complete. On
+   * meshes without hanging nodes that is always the case for the owner of
+   * a; with hanging nodes a patch can reach two cells beyond the ones at a,
+   * and if no process sees it whole, reinit() says so.
    */
   template <int dim>
   class FluxReconstruction
@@ -97,9 +108,8 @@ namespace VI
 
     /**
      * Build the Raviart-Thomas space and the patches of the vertices owned
-     * here, on the mesh of `potential` (a continuous, scalar DoFHandler whose
-     * vertex degrees of freedom decide vertex ownership). The mesh must not
-     * have hanging nodes.
+     * by this process, on the mesh of `potential` (the mesh may have
+     * hanging nodes).
      */
     void
     reinit(const dealii::DoFHandler<dim> &potential);
@@ -132,10 +142,13 @@ namespace VI
     struct PatchCell
     {
       CellIterator cell;
-      unsigned int local_vertex; ///< a as a vertex of this cell
-      /// local RT dof -> index of sigma^a, or -1 if fixed to zero
-      std::vector<int> sigma_index;
-      unsigned int     q_offset; ///< first Q_p index of this cell
+      /// psi_a on this cell: its values at the cell's vertices
+      std::vector<double> hat;
+      /// local RT dof -> (index of sigma^a, weight) pairs: one pair with
+      /// weight 1 for a free dof, the constraint's entries for a dof on a
+      /// hanging face, none for a dof fixed to zero
+      std::vector<std::vector<std::pair<unsigned int, double>>> sigma_index;
+      unsigned int q_offset; ///< first Q_p index of this cell
     };
 
     struct Patch
@@ -151,15 +164,16 @@ namespace VI
     std::shared_ptr<const LocalSolver>
     make_local_solver(const Patch &patch) const;
 
-    const dealii::Mapping<dim>   &mapping;
-    const unsigned int            degree;
-    dealii::FE_RaviartThomas<dim> fe_flux;
-    dealii::FE_DGQ<dim>           fe_divergence;
-    dealii::FE_Q<dim>             fe_hat;
-    dealii::QGauss<dim>           quadrature;
-    dealii::DoFHandler<dim>       dof_handler;
-    dealii::IndexSet              owned_dofs, relevant_dofs;
-    std::vector<Patch>            patches;
+    const dealii::Mapping<dim>       &mapping;
+    const unsigned int                degree;
+    dealii::FE_RaviartThomas<dim>     fe_flux;
+    dealii::FE_DGQ<dim>               fe_divergence;
+    dealii::FE_Q<dim>                 fe_hat;
+    dealii::QGauss<dim>               quadrature;
+    dealii::DoFHandler<dim>           dof_handler;
+    dealii::AffineConstraints<double> hanging_constraints; ///< of RT_p
+    dealii::IndexSet                  owned_dofs, relevant_dofs;
+    std::vector<Patch>                patches;
     /// For every active cell: (patch, position in patch.cells) pairs.
     std::vector<std::vector<std::pair<unsigned int, unsigned int>>>
                  cell_patches;

@@ -45,6 +45,8 @@ namespace VI
     std::string  geometry            = "square";
     unsigned int initial_refinements = 3;
     std::string  refinement          = "global";
+    std::string  marking             = "dorfler";
+    double       refinement_fraction = 0.5;
     unsigned int cycles              = 5;
 
     static void

@@ -1,0 +1,124 @@
+#!/usr/bin/env python3
+"""Estimator-driven adaptive refinement against uniform refinement
+(doc/performance.md): the energy error and the estimate against the number
+of unknowns for the seed's jump test and the L-shape corner singularity,
+Q1 and Q2, with the Newton iterations of every cycle (nested iteration).
+
+Writes doc/data/adaptivity.{csv,md} and doc/data/adaptivity-<case>.png.
+Usage, from the repository root after ./demo.sh or ./test.sh:
+  bench/membranes_adaptivity.py
+STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree can
+be rebuilt while the study runs).
+"""
+import csv
+import json
+import os
+import subprocess
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PROGRAM = os.environ.get("STEP_MEMBRANES",
+                         os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
+DATA = os.path.join(ROOT, "doc", "data")
+OUT = os.path.join(ROOT, "output", "bench-adaptivity")
+
+CASES = {"seed-jump": "membranes-seed-jump.prm", "l-shape": "membranes-l-shape.prm"}
+# Cycles so that both refinements reach about 1e4 - 1e5 unknowns per field.
+RUNS = [(case, p, refinement, cycles)
+        for case in CASES
+        for p, uniform_cycles, adaptive_cycles in ((1, 6, 16), (2, 5, 12))
+        for refinement, cycles in (("global", uniform_cycles),
+                                   ("adaptive", adaptive_cycles))]
+
+
+def run(case, p, refinement, cycles):
+    name = f"{case}-p{p}-{refinement}"
+    directory = os.path.join(OUT, name)
+    settings = {"Discretization/Polynomial degree": p, "Mesh/Refinement": refinement,
+                "Mesh/Cycles": cycles, "Mesh/Initial refinements": 2,
+                "Mesh/Marking": "dorfler", "Mesh/Refinement fraction": 0.5,
+                "Output/Write VTU": "false", "Output/Directory": directory}
+    command = [PROGRAM, os.path.join(ROOT, "parameters", CASES[case])]
+    for key, value in settings.items():
+        command += ["--set", f"{key}={value}"]
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    with open(os.path.join(directory, "summary.json")) as f:
+        summary = json.load(f)
+    print(f"  {name}: done", flush=True)
+    return summary["cycles"]
+
+
+def main():
+    os.makedirs(DATA, exist_ok=True)
+    rows = []
+    for case, p, refinement, cycles in RUNS:
+        for c in run(case, p, refinement, cycles):
+            rows.append({"case": case, "p": p, "refinement": refinement,
+                         "cycle": c["cycle"], "cells": c["cells"],
+                         "dofs_per_field": c["dofs_per_field"],
+                         "newton": c["newton_iterations"],
+                         "error_energy": c["error_energy"], "eta": c["eta"],
+                         "effectivity": c["effectivity"],
+                         "wall_seconds": c["wall_seconds"]})
+    with open(os.path.join(DATA, "adaptivity.csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+
+    # The convergence order in DoFs over the last three cycles of each run.
+    lines = ["| case | p | refinement | cycles | final DoFs per field | final error | "
+             "order in DoFs (last 3 cycles) | optimal | Newton per cycle | effectivity range |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    import math
+    for case, p, refinement, cycles in RUNS:
+        r = [x for x in rows if (x["case"], x["p"], x["refinement"]) == (case, p, refinement)]
+        a, b = r[-3], r[-1]
+        order = -math.log(b["error_energy"] / a["error_energy"]) / math.log(
+            b["dofs_per_field"] / a["dofs_per_field"])
+        newton = " ".join(str(x["newton"]) for x in r)
+        eff = [x["effectivity"] for x in r]
+        lines.append(f"| {case} | {p} | {refinement} | {len(r)} | {b['dofs_per_field']} | "
+                     f"{b['error_energy']:.3e} | {order:.2f} | {p / 2:.2f} | {newton} | "
+                     f"{min(eff):.2f} - {max(eff):.2f} |")
+    with open(os.path.join(DATA, "adaptivity.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+    for case in CASES:
+        dat = os.path.join(DATA, f"adaptivity-{case}.dat")
+        series = []
+        with open(dat, "w") as f:
+            for p in (1, 2):
+                for refinement in ("global", "adaptive"):
+                    f.write(f"# {case} p={p} {refinement}\n")
+                    for x in rows:
+                        if (x["case"], x["p"], x["refinement"]) == (case, p, refinement):
+                            f.write(f"{x['dofs_per_field']} {x['error_energy']} {x['eta']}\n")
+                    f.write("\n\n")
+                    series.append((p, refinement))
+        colours = {1: "#0072b2", 2: "#d55e00"}
+        plots = []
+        for n, (p, refinement) in enumerate(series):
+            dash = "dt 1" if refinement == "adaptive" else "dt 2"
+            plots.append(f"'{dat}' index {n} using 1:2 with linespoints {dash} pt 7 "
+                         f"lc rgb '{colours[p]}' title 'error, Q{p}, {refinement}'")
+            plots.append(f"'{dat}' index {n} using 1:3 with lines {dash} lw 1 "
+                         f"lc rgb '{colours[p]}' notitle")
+        plots.append("2*x**(-0.5) with lines dt 3 lc rgb 'gray' title 'DoFs^{-1/2}'")
+        plots.append("2*x**(-1.0) with lines dt 4 lc rgb 'gray' title 'DoFs^{-1}'")
+        script = f"""set terminal pngcairo size 900,600 font ',12'
+set output '{DATA}/adaptivity-{case}.png'
+set logscale xy
+set format y '10^{{%L}}'
+set xlabel 'unknowns per field'
+set ylabel 'energy error (points), estimate (thin lines)'
+set title '{case}: uniform (dashed) and Dorfler-adaptive (solid) refinement'
+set key bottom left
+set grid
+plot {', '.join(plots)}
+"""
+        subprocess.run(["gnuplot"], input=script.encode(), check=True)
+        os.remove(dat)
+    print(f"wrote {DATA}/adaptivity.*")
+
+
+if __name__ == "__main__":
+    main()

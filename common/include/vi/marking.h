@@ -1,0 +1,32 @@
+#pragma once
+
+#include <deal.II/distributed/tria.h>
+#include <deal.II/lac/vector.h>
+
+#include <string>
+
+namespace VI
+{
+  /**
+   * Marking of cells for refinement from the squared cell indicators
+   * eta_K^2 (the cell values of a ContactEstimate), on a distributed mesh
+   * (only the entries of locally owned cells are read):
+   *
+   * - "dorfler" (bulk chasing): refine a set M of cells of least
+   *   cardinality with sum_{K in M} eta_K^2 >= theta sum_K eta_K^2,
+   *   theta = `fraction`;
+   * - "fixed-fraction": refine the `fraction` of cells with the largest
+   *   indicators.
+   *
+   * Both set the refinement flags through
+   * parallel::distributed::GridRefinement, whose global thresholds make the
+   * marking independent of the partition; no coarsening.
+   */
+  template <int dim>
+  void
+  mark_cells_for_refinement(
+    dealii::parallel::distributed::Triangulation<dim> &triangulation,
+    const dealii::Vector<double>                      &squared_indicators,
+    const std::string                                 &strategy,
+    const double                                       fraction);
+} // namespace VI
