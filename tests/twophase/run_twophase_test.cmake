@@ -8,13 +8,9 @@
 #                       REFERENCE, the table of the uninterrupted run.
 #   MODE = serial-only: run PRM on 2 MPI ranks: exit status 1, exactly the
 #                       line of REFERENCE on stderr, nothing written.
-file(REMOVE_RECURSE ${WORKDIR})
-file(MAKE_DIRECTORY ${WORKDIR})
-get_filename_component(prm_name ${PRM} NAME)
-configure_file(${PRM} ${WORKDIR}/${prm_name} COPYONLY)
-# A session directory of its own for OpenMPI (see run_prm_test.cmake), and
-# no report of mpirun's own on a non-zero exit status.
-set(ENV{TMPDIR} ${WORKDIR})
+include(${CMAKE_CURRENT_LIST_DIR}/../test_helpers.cmake)
+prepare_work_directory()
+# No report of mpirun's own on a non-zero exit status.
 set(ENV{OMPI_MCA_orte_execute_quiet} 1)
 
 function(run_program expected_status)
@@ -45,23 +41,12 @@ if(MODE STREQUAL "resume")
   if(NOT screen MATCHES "Resuming at t = 10000 yr \\(step 4\\)")
     message(FATAL_ERROR "the second run did not resume at step 4:\n${screen}")
   endif()
-  execute_process(COMMAND ${NUMDIFF} -q -r 1e-6 -a 1e-12 -s " \t\n|"
-      ${REFERENCE} ${WORKDIR}/output/convergence.txt
-    RESULT_VARIABLE differ)
-  if(NOT differ EQUAL 0)
-    execute_process(COMMAND ${NUMDIFF} -r 1e-6 -a 1e-12 -s " \t\n|"
-      ${REFERENCE} ${WORKDIR}/output/convergence.txt)
-    message(FATAL_ERROR "the resumed run differs from ${REFERENCE}")
-  endif()
+  compare_table(${REFERENCE} ${WORKDIR}/output/convergence.txt
+    "the resumed run")
 elseif(MODE STREQUAL "serial-only")
   run_program(1 ${MPIEXEC} --allow-run-as-root --oversubscribe -np 2
     ${PROGRAM} ${prm_name})
-  file(READ ${REFERENCE} expected)
-  string(STRIP "${expected}" expected)
-  string(STRIP "${errors}" errors)
-  if(NOT errors STREQUAL expected)
-    message(FATAL_ERROR "expected on stderr:\n${expected}\ngot:\n${errors}")
-  endif()
+  expect_error_line(${REFERENCE} "${errors}")
   if(EXISTS ${WORKDIR}/output)
     message(FATAL_ERROR "the run on 2 ranks wrote output/")
   endif()

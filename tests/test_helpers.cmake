@@ -1,0 +1,40 @@
+# Pieces shared by the test runners (run_prm_test.cmake and the runners of
+# single programs, e.g. tests/twophase/run_twophase_test.cmake), included in
+# their -P scripts.
+
+# A fresh WORKDIR with a copy of PRM (so that messages name the file without
+# a machine's path; sets prm_name), and a session directory of its own for
+# OpenMPI: two MPI processes started at the same moment race on creating a
+# shared one under /tmp.
+macro(prepare_work_directory)
+  file(REMOVE_RECURSE ${WORKDIR})
+  file(MAKE_DIRECTORY ${WORKDIR})
+  get_filename_component(prm_name ${PRM} NAME)
+  configure_file(${PRM} ${WORKDIR}/${prm_name} COPYONLY)
+  set(ENV{TMPDIR} ${WORKDIR})
+endmacro()
+
+# Fail unless the table `produced` equals `reference` to numdiff's relative
+# 1e-6 and absolute 1e-12 (printing the differences); `what` names the run.
+function(compare_table reference produced what)
+  set(numdiff_options -r 1e-6 -a 1e-12 -s " \t\n|")
+  execute_process(COMMAND ${NUMDIFF} -q ${numdiff_options}
+      ${reference} ${produced}
+    RESULT_VARIABLE differ)
+  if(NOT differ EQUAL 0)
+    execute_process(COMMAND ${NUMDIFF} ${numdiff_options}
+      ${reference} ${produced})
+    message(FATAL_ERROR "${what} differs from ${reference}")
+  endif()
+endfunction()
+
+# Fail unless `errors` (the program's stderr) is exactly the line in
+# `reference`.
+function(expect_error_line reference errors)
+  file(READ ${reference} expected)
+  string(STRIP "${expected}" expected)
+  string(STRIP "${errors}" errors)
+  if(NOT errors STREQUAL expected)
+    message(FATAL_ERROR "expected on stderr:\n${expected}\ngot:\n${errors}")
+  endif()
+endfunction()
