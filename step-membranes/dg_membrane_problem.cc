@@ -19,6 +19,7 @@
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -269,6 +270,7 @@ namespace StepMembranes
     {
       FullMatrix<double>                   matrix;
       dealii::Vector<double>               rhs[2];
+      dealii::Vector<double>               lumped_mass; ///< (psi_I, 1)_K
       std::vector<types::global_dof_index> dofs;
       std::vector<FaceCopyData>            faces;
     };
@@ -313,6 +315,10 @@ namespace StepMembranes
         c.matrix.reinit(n, n);
         for (auto &v : c.rhs)
           v.reinit(n);
+        c.lumped_mass.reinit(n);
+        for (const unsigned int q : values.quadrature_point_indices())
+          for (unsigned int i = 0; i < n; ++i)
+            c.lumped_mass(i) += values.shape_value(i, q) * values.JxW(q);
         c.dofs.resize(n);
         c.faces.clear();
         cell->get_dof_indices(c.dofs);
@@ -389,8 +395,15 @@ namespace StepMembranes
                                 row_values.data());
             }
     };
+    coupling.reinit(owned_nodes, comm);
+    lumped_mass.reinit(owned_nodes, comm);
     const auto copier = [&](const CellCopyData &c) {
       add(c.matrix, c.dofs);
+      for (unsigned int i = 0; i < c.dofs.size(); ++i)
+        {
+          lumped_mass(c.dofs[i]) = c.lumped_mass(i);
+          coupling(c.dofs[i])    = mass_lumped() ? c.lumped_mass(i) : 1.;
+        }
       for (unsigned int a = 0; a < 2; ++a)
         for (unsigned int i = 0; i < c.dofs.size(); ++i)
           system_rhs(index(c.dofs[i], a)) += c.rhs[a](i);
@@ -411,17 +424,21 @@ namespace StepMembranes
                           face_worker);
     system_matrix.compress(VectorOperation::add);
     system_rhs.compress(VectorOperation::add);
+    coupling.compress(VectorOperation::insert);
+    lumped_mass.compress(VectorOperation::insert);
 
-    // The coupling: -(lambda_h, v1) + (lambda_h, v2) with the dual basis is
-    // -X3_I, +X3_I in the rows of node I (D = I).
+    // The coupling: -<lambda_h, v1>_h + <lambda_h, v2>_h with the dual basis
+    // is -D_I X3_I, +D_I X3_I in the rows of node I: D = I for the L2
+    // bracket, the lumped masses (psi_I, 1)_K for p = 1.
     for (const types::global_dof_index i : contact_rows.nodes())
       {
+        const double D = coupling(i);
         system_matrix.set(index(i, VI::NodalFields::u1),
                           index(i, multiplier),
-                          -1.);
+                          -D);
         system_matrix.set(index(i, VI::NodalFields::u2),
                           index(i, multiplier),
-                          1.);
+                          D);
       }
     system_matrix.compress(VectorOperation::insert);
 
@@ -434,14 +451,17 @@ namespace StepMembranes
           local[0] += F * F;
           local[1] = std::max(local[1], std::abs(F));
         }
-    load_norm        = std::sqrt(Utilities::MPI::sum(local[0], comm));
-    multiplier_scale = Utilities::MPI::max(local[1], comm); // max D = 1
+    load_norm = std::sqrt(Utilities::MPI::sum(local[0], comm));
+    multiplier_scale =
+      Utilities::MPI::max(local[1], comm) /
+      std::max(coupling.linfty_norm(), std::numeric_limits<double>::min());
 
     // Row weights in force units: mu_r S_ii for rows that enforce u1 = u2,
-    // D_I = 1 for rows that enforce X3 = 0.
+    // D_I for rows that enforce X3 = 0.
     const double mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
     stiffness_weight.resize(owned_nodes.n_elements());
-    multiplier_weight.assign(owned_nodes.n_elements(), 1.);
+    multiplier_weight.assign(coupling.begin(),
+                             coupling.begin() + owned_nodes.n_elements());
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
       {
         const auto i = owned_nodes.nth_index_in_set(k);
@@ -500,6 +520,86 @@ namespace StepMembranes
 
 
   template <int dim>
+  bool
+  DGMembraneProblem<dim>::mass_lumped() const
+  {
+    return fe.degree == 1;
+  }
+
+
+  // lambda_h from its coefficients X3 in the dual basis: the nodal values
+  // for the lumped bracket of p = 1, M_K^{-1} X3 for the L2 bracket.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::multiplier_function(const Vector &X3,
+                                              Vector       &lambda) const
+  {
+    if (mass_lumped())
+      {
+        lambda.reinit(owned_nodes, relevant_nodes, comm);
+        lambda = X3;
+      }
+    else
+      function_from_moments(X3, lambda);
+  }
+
+
+  // On every owned cell: the nodal values lambda_N(x_I) = m_I / (psi_I,
+  // 1)_K, whose mean is sum_I m_I / |K|; where lambda_N < 0 at a point of
+  // the estimator's quadrature and the mean is positive, lambda = mean +
+  // theta (lambda_N - mean) with the largest theta in [0, 1] that keeps
+  // lambda >= 0 at those points (the limiter of Zhang and Shu); with a
+  // negative mean, the mean.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::limited_nodal_function(const Vector &moments,
+                                                 Vector       &lambda) const
+  {
+    FEValues<dim>                        values(*mapping,
+                         fe,
+                         flux_reconstruction->get_quadrature(),
+                         update_values | update_JxW_values);
+    const unsigned int                   n = fe.n_dofs_per_cell();
+    std::vector<types::global_dof_index> dofs(n);
+    std::vector<double>                  nodal(n);
+    Vector                               owned(owned_nodes, comm);
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          cell->get_dof_indices(dofs);
+          double sum = 0, volume = 0;
+          for (unsigned int i = 0; i < n; ++i)
+            {
+              nodal[i] = moments(dofs[i]) / lumped_mass(dofs[i]);
+              sum += moments(dofs[i]);
+            }
+          for (const unsigned int q : values.quadrature_point_indices())
+            volume += values.JxW(q);
+          const double mean    = sum / volume;
+          double       minimum = *std::min_element(nodal.begin(), nodal.end());
+          for (const unsigned int q : values.quadrature_point_indices())
+            {
+              double value = 0;
+              for (unsigned int i = 0; i < n; ++i)
+                value += nodal[i] * values.shape_value(i, q);
+              minimum = std::min(minimum, value);
+            }
+          double theta = 1.;
+          if (mean <= 0)
+            theta = 0.;
+          else if (minimum < 0)
+            theta = mean / (mean - minimum);
+          for (unsigned int i = 0; i < n; ++i)
+            owned(dofs[i]) = mean + theta * (nodal[i] - mean);
+        }
+    owned.compress(VectorOperation::insert);
+    lambda.reinit(owned_nodes, relevant_nodes, comm);
+    lambda = owned;
+  }
+
+
+  template <int dim>
   void
   DGMembraneProblem<dim>::moments_of_function(const Vector &v,
                                               Vector       &moments) const
@@ -546,9 +646,15 @@ namespace StepMembranes
         std::vector<Vector *> fields = {&u1, &u2, &lambda};
         solution_transfer->interpolate(fields);
         solution_transfer.reset();
-        Vector ghosted(owned_nodes, relevant_nodes, comm);
-        ghosted = lambda;
-        moments_of_function(ghosted, X3);
+        // X3: the nodal values of lambda_h (p = 1), its moments (p >= 2).
+        if (mass_lumped())
+          X3 = lambda;
+        else
+          {
+            Vector ghosted(owned_nodes, relevant_nodes, comm);
+            ghosted = lambda;
+            moments_of_function(ghosted, X3);
+          }
         VI::NodalFields::insert(X3, multiplier, solution);
       }
     else if (parameters.nonlinear_solver.initial_guess == "data")
@@ -705,11 +811,21 @@ namespace StepMembranes
         VI::NodalFields::extract(X, a, field);
         u[a] = ghosted(field);
       }
-    VI::NodalFields::extract(X, multiplier, field);
-    function_from_moments(field, lambda);
-    for (double &m : field)
+    // The multiplier of the estimate: on every cell, the nodal function
+    // lambda_N(x_I) = <lambda_h, psi_I>_h / (psi_I, 1)_K (the discrete
+    // lambda_h itself for p = 1), scaled towards its cell mean where it is
+    // negative at a quadrature point (positivity-preserving limiter). It has
+    // the cell means of the L2 representative lambda* = M_K^{-1}
+    // (<lambda_h, psi_I>_h)_I, which the fluxes equilibrate (compatibility),
+    // and that is all the theorem needs (doc/step-membranes.md).
+    Vector lambda_source, moments(owned_nodes, comm);
+    VI::NodalFields::extract(X, multiplier, moments);
+    moments.scale(coupling);
+    function_from_moments(moments, lambda_source);
+    limited_nodal_function(moments, lambda);
+    for (double &m : moments)
       m = std::max(m, 0.);
-    function_from_moments(field, lambda_nonnegative);
+    limited_nodal_function(moments, lambda_nonnegative);
 
     Vector R(owned_system, comm);
     system_matrix.vmult(R, X);
@@ -761,7 +877,7 @@ namespace StepMembranes
       const typename DoFHandler<dim>::active_cell_iterator dof_cell(
         &triangulation, cell->level(), cell->index(), &dof_handler);
       values.reinit(dof_cell);
-      values.get_function_values(lambda, lambda_values);
+      values.get_function_values(lambda_source, lambda_values);
       for (unsigned int a = 0; a < 2; ++a)
         {
           values.get_function_gradients(u[a], flux[a]);
@@ -792,6 +908,7 @@ namespace StepMembranes
     in.g1                  = data.g1.get();
     in.g2                  = data.g2.get();
     in.friedrichs_constant = VI::friedrichs_constant(geometry);
+    in.mass_lumped         = true; // the nodal multiplier, see above
     in.u1                  = &u[0];
     in.u2                  = &u[1];
     in.lambda              = &lambda;
@@ -820,7 +937,7 @@ namespace StepMembranes
     u1 -= u2;
     gap_h = u1;
     VI::NodalFields::extract(solution, multiplier, field);
-    function_from_moments(field, lambda_h);
+    multiplier_function(field, lambda_h);
     n_contact_nodes = contact_rows.contact_set(solution, field);
     contact_set     = field;
   }

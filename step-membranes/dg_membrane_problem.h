@@ -59,21 +59,23 @@ namespace StepMembranes
    * Galerkin method"): find u1h, u2h in the broken space X_h^p = prod_K
    * Q_p(K) and lambda_h in Lambda_h^p with
    *
-   *   mu1 A_h(u1h, v1) - sum_K (lambda_h, v1)_K = (f1, v1) + mu1 G_h1(v1),
-   *   mu2 A_h(u2h, v2) + sum_K (lambda_h, v2)_K = (f2, v2) + mu2 G_h2(v2),
-   *   (u1h - u2h)|K (x_I) >= 0, (lambda_h|K, psi_I)_K >= 0,
-   *   (lambda_h, u1h - u2h) = 0,
+   *   mu1 A_h(u1h, v1) - <lambda_h, v1>_h = (f1, v1) + mu1 G_h1(v1),
+   *   mu2 A_h(u2h, v2) + <lambda_h, v2>_h = (f2, v2) + mu2 G_h2(v2),
+   *   (u1h - u2h)|K (x_I) >= 0, <lambda_h|K, psi_I>_h,K >= 0,
+   *   <lambda_h, u1h - u2h>_h = 0,
    *
    * for all broken v and every node x_I of every cell K (its own support
    * points: the Gauss-Lobatto nodes of FE_DGQArbitraryNodes). A_h and the
    * weakly imposed Dirichlet data G_h are those of VI::InteriorPenalty.
    * Lambda_h^p is the broken Q_p with the cell-local basis dual to the nodal
-   * basis for the L2 product of the cell, (Theta_I, psi_J)_K = delta_IJ,
-   * for every p (also p = 1): the coupling block is D = I and the
-   * complementarity is nodewise, the FEM structure
+   * basis for a bracket <.,.>_h: the L2 product of the cell for p >= 2 (the
+   * slides' Lambda_h^p, (Theta_I, psi_J)_K = delta_IJ, D = I), the
+   * mass-lumped one for p = 1 (X3 = nodal values of lambda_h >= 0, D =
+   * diag((psi_I, 1)_K)), as the conforming method. The coupling block is
+   * diagonal and the complementarity nodewise, the FEM structure
    *
-   *   [mu1 S_h   0   -I] X = F,   X1 - X2 >= 0,  X3 >= 0,  (X1 - X2).X3 = 0,
-   *   [0   mu2 S_h   +I]
+   *   [mu1 S_h   0   -D] X = F,   X1 - X2 >= 0,  X3 >= 0,  (X1 - X2).X3 = 0,
+   *   [0   mu2 S_h   +D]
    *
    * with the (for NIPG and IIPG nonsymmetric) dG stiffness S_h, solved by
    * the same semismooth Newton and linear solvers. With Dirichlet data
@@ -139,6 +141,16 @@ namespace StepMembranes
      */
     void
     function_from_moments(const Vector &moments, Vector &v) const;
+    /// p = 1: the bracket <.,.>_h is mass-lumped (X3 = nodal values).
+    bool
+    mass_lumped() const;
+    /// lambda_h (ghosted) from its dual coefficients X3 (no ghosts).
+    void
+    multiplier_function(const Vector &X3, Vector &lambda) const;
+    /// The multiplier of the estimate from the moments <lambda_h, psi_I>_h:
+    /// nodal values m_I / (psi_I, 1)_K, limited towards the cell mean.
+    void
+    limited_nodal_function(const Vector &moments, Vector &lambda) const;
     /// The inverse map: moments_I = (v, psi_I)_K; v ghosted, moments not.
     void
     moments_of_function(const Vector &v, Vector &moments) const;
@@ -171,6 +183,8 @@ namespace StepMembranes
     TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E ; J_C]
     Vector                         system_rhs;    ///< F
     Vector                         solution;      ///< X
+    Vector                         coupling;      ///< D_I per node
+    Vector                         lumped_mass;   ///< (psi_I, 1)_K per node
     double                         load_norm        = 0;
     double                         multiplier_scale = 0;
     std::vector<double> stiffness_weight, multiplier_weight, row_weights;

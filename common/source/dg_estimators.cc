@@ -416,7 +416,7 @@ namespace VI
     e.contact_cone        = total[contact_cone];
     // 2 (lambda_h, u1h - u2h) = 2 sum_i X3_i (X1_i - X2_i) vanishes with the
     // discrete complementarity (the dual basis); the rest is discretisation.
-    e.contact_lin  = total[contact_discrete];
+    e.contact_lin  = in.mass_lumped ? 0. : total[contact_discrete];
     e.contact_disc = e.contact_cone - e.contact_lin;
     e.dirichlet    = std::sqrt(total[dirichlet_squared]);
 

@@ -55,6 +55,9 @@ namespace VI
     const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
     const dealii::Function<dim> *g1 = nullptr, *g2 = nullptr;
     double                       friedrichs_constant = 0;
+    /// p = 1: lambda_h is the nodal function of the mass-lumped bracket, and
+    /// the whole contact term is a discretisation term.
+    bool mass_lumped = false;
 
     using Vector = dealii::TrilinosWrappers::MPI::Vector;
     /// On `broken`: the iterate, the multiplier lambda_h (and its part from
