@@ -55,8 +55,9 @@ namespace VI
     const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
     const dealii::Function<dim> *g1 = nullptr, *g2 = nullptr;
     double                       friedrichs_constant = 0;
-    /// p = 1: lambda_h is the nodal function of the mass-lumped bracket, and
-    /// the whole contact term is a discretisation term.
+    /// lambda is a nodal (lumped) representative of the discrete multiplier,
+    /// for which (lambda, u1h - u2h) does not vanish exactly at a solution:
+    /// the whole contact term is then a discretisation term.
     bool mass_lumped = false;
 
     using Vector = dealii::TrilinosWrappers::MPI::Vector;
