@@ -37,7 +37,7 @@ namespace StepMembranes
                                    VI::membrane_test_case_names(),
                                    "seed-smooth");
     VI::MeshParameters::declare(prm, "global|adaptive");
-    VI::DiscretizationParameters::declare(prm, "fem");
+    VI::DiscretizationParameters::declare(prm, "fem|sipg|nipg|iipg");
     VI::NonlinearSolverParameters::declare(prm, "exact|inexact|adaptive");
     VI::LinearSolverParameters::declare(prm, "direct|gmres", "direct");
     VI::EstimatorParameters::declare(prm);

@@ -1,0 +1,100 @@
+#pragma once
+
+#include <deal.II/base/function.h>
+#include <deal.II/base/quadrature.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/lac/trilinos_vector.h>
+
+#include <vi/estimators.h>
+#include <vi/interior_penalty.h>
+
+namespace VI
+{
+  /**
+   * A posteriori estimate of a discontinuous Galerkin iterate of the
+   * two-membrane problem (doc/step-membranes.md, dG section, has the
+   * theorem). The error is measured in the dG energy norm
+   *
+   *   |||v|||_dG^2 = |||v|||_h^2 + |v|_J^2,
+   *   |||v|||_h^2  = sum_K mu1 |grad v1|_K^2 + mu2 |grad v2|_K^2 (broken),
+   *   |v|_J^2      = sum_alpha mu_alpha sum_F gamma_F / h_F |[[v_alpha]]|_F^2,
+   *
+   * with the scheme's penalty; for v = u - u_h, [[v]] = -[u_h] inside and
+   * g - u_h on the boundary, so the jump part of the error is computable
+   * and enters the estimate as it is. The members of ContactEstimate have
+   * the meaning of the conforming case with u_h the broken iterate and s~
+   * the cone reconstruction of its Oswald interpolate.
+   */
+  struct DGContactEstimate : public ContactEstimate
+  {
+    /// Guaranteed bound of the broken part |||u - u_h|||_h.
+    double broken = 0;
+    /// |u_h|_J (= |u - u_h|_J): the jump part of the error.
+    double jump = 0;
+    /// sum_alpha mu_alpha |grad_h u_alpha,h - grad s_alpha|^2, the
+    /// non-conformity of u_h against its Oswald interpolate (reported).
+    double oswald = 0;
+  };
+
+
+  template <int dim>
+  struct DGContactEstimatorInput
+  {
+    const dealii::Mapping<dim>    *mapping    = nullptr;
+    const dealii::DoFHandler<dim> *broken     = nullptr; ///< FE_DGQ
+    const dealii::DoFHandler<dim> *continuous = nullptr; ///< FE_Q, same nodes
+    const dealii::DoFHandler<dim> *flux       = nullptr; ///< RT_p
+    /// The cell quadrature of the flux reconstruction (a tensor Gauss rule)
+    /// and the face quadrature of the dG assembly.
+    const dealii::Quadrature<dim>     *quadrature      = nullptr;
+    const dealii::Quadrature<dim - 1> *face_quadrature = nullptr;
+    const InteriorPenalty             *penalty         = nullptr;
+
+    double                       mu1 = 1, mu2 = 1;
+    const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
+    const dealii::Function<dim> *g1 = nullptr, *g2 = nullptr;
+    double                       friedrichs_constant = 0;
+    /// lambda is a nodal (lumped) representative of the discrete multiplier,
+    /// for which (lambda, u1h - u2h) does not vanish exactly at a solution:
+    /// the whole contact term is then a discretisation term.
+    bool mass_lumped = false;
+
+    using Vector = dealii::TrilinosWrappers::MPI::Vector;
+    /// On `broken`: the iterate, the multiplier lambda_h (and its part from
+    /// the nonnegative coefficients), the algebraic residuals r_h.
+    const Vector *u1 = nullptr, *u2 = nullptr;
+    const Vector *lambda = nullptr, *lambda_nonnegative = nullptr;
+    const Vector *r1 = nullptr, *r2 = nullptr;
+    /// On `continuous`: s_h, the Oswald interpolate with the nodal values
+    /// of g on the boundary, averaged at the nodes where s1 < s2.
+    const Vector *s1 = nullptr, *s2 = nullptr;
+    /// On `flux`: the equilibrated fluxes.
+    const Vector *sigma1 = nullptr, *sigma2 = nullptr;
+  };
+
+
+  /// Evaluate the estimate (collective over the processes of the mesh).
+  template <int dim>
+  DGContactEstimate
+  estimate_dg_contact_error(const DGContactEstimatorInput<dim> &input);
+
+
+  /**
+   * |v|_J of the broken pair (v1, v2) with boundary data (g1, g2): the jump
+   * seminorm of the dG energy norm (collective).
+   */
+  template <int dim>
+  double
+  jump_seminorm(const dealii::Mapping<dim>                  &mapping,
+                const dealii::DoFHandler<dim>               &broken,
+                const dealii::Quadrature<dim - 1>           &face_quadrature,
+                const InteriorPenalty                       &penalty,
+                const double                                 mu1,
+                const double                                 mu2,
+                const dealii::TrilinosWrappers::MPI::Vector &v1,
+                const dealii::TrilinosWrappers::MPI::Vector &v2,
+                const dealii::Function<dim>                 &g1,
+                const dealii::Function<dim>                 &g2,
+                dealii::Vector<float> *cellwise = nullptr);
+} // namespace VI

@@ -1,0 +1,458 @@
+#include <deal.II/base/mpi.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/fe/fe_interface_values.h>
+#include <deal.II/fe/fe_values.h>
+
+#include <vi/dg_estimators.h>
+
+#include <array>
+#include <cmath>
+#include <memory>
+
+namespace VI
+{
+  using namespace dealii;
+
+  template <int dim>
+  double
+  jump_seminorm(const Mapping<dim>                  &mapping,
+                const DoFHandler<dim>               &broken,
+                const Quadrature<dim - 1>           &face_quadrature,
+                const InteriorPenalty               &penalty,
+                const double                         mu1,
+                const double                         mu2,
+                const TrilinosWrappers::MPI::Vector &v1,
+                const TrilinosWrappers::MPI::Vector &v2,
+                const Function<dim>                 &g1,
+                const Function<dim>                 &g2,
+                dealii::Vector<float>               *cellwise)
+  {
+    FEInterfaceValues<dim>               interface(mapping,
+                                     broken.get_fe(),
+                                     face_quadrature,
+                                     update_values | update_JxW_values |
+                                       update_quadrature_points);
+    FEFaceValues<dim>                    boundary(mapping,
+                               broken.get_fe(),
+                               face_quadrature,
+                               update_values | update_JxW_values |
+                                 update_quadrature_points);
+    const unsigned int                   n_q = face_quadrature.size();
+    std::vector<double>                  here(n_q), there(n_q);
+    const TrilinosWrappers::MPI::Vector *v[2]  = {&v1, &v2};
+    const Function<dim>                 *g[2]  = {&g1, &g2};
+    const double                         mu[2] = {mu1, mu2};
+
+    if (cellwise)
+      cellwise->reinit(broken.get_triangulation().n_active_cells());
+    double local = 0;
+    for (const auto &cell : broken.active_cell_iterators())
+      {
+        if (!cell->is_locally_owned())
+          continue;
+        double cell_sum = 0;
+        for (const unsigned int f : cell->face_indices())
+          {
+            const double gamma =
+              penalty.penalty(InteriorPenalty::normal_extent<dim>(cell, f));
+            // Each interior face is seen from both sides: half from each.
+            double                       weight = 0.5;
+            const FEFaceValuesBase<dim> *values;
+            if (cell->at_boundary(f))
+              {
+                weight = 1.;
+                boundary.reinit(cell, f);
+                values = &boundary;
+              }
+            else
+              {
+                interface.reinit(cell,
+                                 f,
+                                 numbers::invalid_unsigned_int,
+                                 cell->neighbor(f),
+                                 cell->neighbor_of_neighbor(f),
+                                 numbers::invalid_unsigned_int);
+                values = &interface.get_fe_face_values(0);
+              }
+            for (unsigned int a = 0; a < 2; ++a)
+              {
+                values->get_function_values(*v[a], here);
+                if (cell->at_boundary(f))
+                  for (unsigned int q = 0; q < n_q; ++q)
+                    there[q] = g[a]->value(values->quadrature_point(q));
+                else
+                  interface.get_fe_face_values(1).get_function_values(*v[a],
+                                                                      there);
+                for (unsigned int q = 0; q < n_q; ++q)
+                  cell_sum += weight * mu[a] * gamma *
+                              std::pow(here[q] - there[q], 2) * values->JxW(q);
+              }
+          }
+        local += cell_sum;
+        if (cellwise)
+          (*cellwise)(cell->active_cell_index()) = cell_sum;
+      }
+    return std::sqrt(
+      Utilities::MPI::sum(local,
+                          broken.get_triangulation().get_communicator()));
+  }
+
+
+  namespace
+  {
+    // The global sums of the estimate, reduced over processes in one call.
+    enum Sum : unsigned int
+    {
+      flux_residual,     // sum (eta_F + eta_R)^2
+      flux_squared,      // sum eta_F^2
+      residual_squared,  // sum eta_R^2
+      remainder_1,       // |r1|^2
+      remainder_2,       // |r2|^2
+      nonc_total,        // |||s~ - u_h|||_h^2
+      nonc_cone,         // |||s~ - (s + G)|||^2
+      oswald_squared,    // |||s - u_h|||_h^2
+      negative,          // |lambda^neg|^2
+      negative_disc,     // |lambda~^neg|^2
+      negative_lin,      // |lambda^neg - lambda~^neg|^2
+      positive,          // |lambda^pos|^2
+      contact_total,     // 2 (lambda^pos, u1h - u2h)
+      contact_cone,      // 2 (lambda^pos, s~1 - s~2)
+      contact_discrete,  // 2 (lambda, u1h - u2h)
+      dirichlet_squared, // |||G|||^2
+      n_sums
+    };
+  } // namespace
+
+
+  template <int dim>
+  DGContactEstimate
+  estimate_dg_contact_error(const DGContactEstimatorInput<dim> &in)
+  {
+    const Triangulation<dim> &tria  = in.broken->get_triangulation();
+    const double              mu[2] = {in.mu1, in.mu2};
+    const double              theta = in.mu2 / (in.mu1 + in.mu2);
+
+    DGContactEstimate estimate;
+    for (auto *cell_values : {&estimate.cell_flux,
+                              &estimate.cell_residual,
+                              &estimate.cell_algebraic,
+                              &estimate.cell_nonconformity,
+                              &estimate.cell_contact,
+                              &estimate.cell_total})
+      cell_values->reinit(tria.n_active_cells());
+
+    const Quadrature<dim>           &quadrature = *in.quadrature;
+    const unsigned int               n_q        = quadrature.size();
+    FEValues<dim>                    broken_values(*in.mapping,
+                                in.broken->get_fe(),
+                                quadrature,
+                                update_values | update_gradients |
+                                  update_quadrature_points | update_JxW_values);
+    FEValues<dim>                    continuous_values(*in.mapping,
+                                    in.continuous->get_fe(),
+                                    quadrature,
+                                    update_values | update_gradients |
+                                      update_inverse_jacobians);
+    FEValues<dim>                    flux_values(*in.mapping,
+                              in.flux->get_fe(),
+                              quadrature,
+                              update_values | update_gradients);
+    const FEValuesExtractors::Vector sigma(0);
+
+    std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], flux[2];
+    std::vector<double> u[2], s[2], r[2], div_flux[2], f(n_q), lambda(n_q),
+      lambda_nonnegative(n_q);
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        for (auto *v : {&grad_u[a], &grad_s[a], &flux[a]})
+          v->resize(n_q);
+        for (auto *v : {&u[a], &s[a], &r[a], &div_flux[a]})
+          v->resize(n_q);
+      }
+    const TrilinosWrappers::MPI::Vector *u_vectors[2]    = {in.u1, in.u2},
+                                        *s_vectors[2]    = {in.s1, in.s2},
+                                        *r_vectors[2]    = {in.r1, in.r2},
+                                        *flux_vectors[2] = {in.sigma1,
+                                                            in.sigma2};
+    const Function<dim> *forces[2]                       = {in.f1, in.f2};
+    const Function<dim> *g[2]                            = {in.g1, in.g2};
+
+    // The lifting G of g - s_h into the cells at the boundary: s_h
+    // interpolates g at the boundary nodes only. On a cell with a boundary
+    // face F, G = delta_F(t) (1 - n) in the reference coordinates (t along
+    // F, n away from it), delta_F = g - s_h on F; delta vanishes at the
+    // vertices, so G is continuous and s_h + G = g on the boundary. Face
+    // values at the points that share the tangential coordinate of the
+    // (tensor-product Gauss) cell quadrature points.
+    const unsigned int n_1d = std::lround(std::sqrt(double(n_q)));
+    AssertThrow(dim == 2 && n_1d * n_1d == n_q,
+                ExcMessage("The Dirichlet lifting needs a 2d tensor-product "
+                           "Gauss quadrature."));
+    const QGauss<1>                             gauss_1d(n_1d);
+    std::vector<std::unique_ptr<FEValues<dim>>> face_values;
+    for (unsigned int face = 0; face < GeometryInfo<dim>::faces_per_cell;
+         ++face)
+      {
+        std::vector<Point<dim>> points(n_1d);
+        for (unsigned int k = 0; k < n_1d; ++k)
+          {
+            points[k][face / 2]     = double(face % 2);
+            points[k][1 - face / 2] = gauss_1d.point(k)[0];
+          }
+        face_values.emplace_back(std::make_unique<FEValues<dim>>(
+          *in.mapping,
+          in.continuous->get_fe(),
+          Quadrature<dim>(points, std::vector<double>(n_1d, 1.)),
+          update_values | update_gradients | update_jacobians |
+            update_quadrature_points));
+      }
+    std::vector<double>         G[2], face_s(n_1d);
+    std::vector<Tensor<1, dim>> grad_G[2], face_grad_s(n_1d);
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        G[a].resize(n_q);
+        grad_G[a].resize(n_q);
+      }
+
+    std::array<double, n_sums> sums{};
+    const double               C =
+      in.friedrichs_constant * std::sqrt(1. / in.mu1 + 1. / in.mu2);
+
+    for (const auto &broken_cell : in.broken->active_cell_iterators())
+      {
+        if (!broken_cell->is_locally_owned())
+          continue;
+        const typename DoFHandler<dim>::active_cell_iterator continuous_cell(
+          &tria, broken_cell->level(), broken_cell->index(), in.continuous),
+          flux_cell(&tria, broken_cell->level(), broken_cell->index(), in.flux);
+        broken_values.reinit(broken_cell);
+        continuous_values.reinit(continuous_cell);
+        flux_values.reinit(flux_cell);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            broken_values.get_function_values(*u_vectors[a], u[a]);
+            broken_values.get_function_gradients(*u_vectors[a], grad_u[a]);
+            broken_values.get_function_values(*r_vectors[a], r[a]);
+            continuous_values.get_function_values(*s_vectors[a], s[a]);
+            continuous_values.get_function_gradients(*s_vectors[a], grad_s[a]);
+            flux_values[sigma].get_function_values(*flux_vectors[a], flux[a]);
+            flux_values[sigma].get_function_divergences(*flux_vectors[a],
+                                                        div_flux[a]);
+          }
+        broken_values.get_function_values(*in.lambda, lambda);
+        broken_values.get_function_values(*in.lambda_nonnegative,
+                                          lambda_nonnegative);
+
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            std::fill(G[a].begin(), G[a].end(), 0.);
+            std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
+          }
+        if (broken_cell->at_boundary())
+          for (const unsigned int face : broken_cell->face_indices())
+            if (broken_cell->face(face)->at_boundary())
+              {
+                FEValues<dim> &on_face = *face_values[face];
+                on_face.reinit(continuous_cell);
+                const unsigned int normal = face / 2, tangent = 1 - normal;
+                for (unsigned int a = 0; a < 2; ++a)
+                  {
+                    on_face.get_function_values(*s_vectors[a], face_s);
+                    on_face.get_function_gradients(*s_vectors[a], face_grad_s);
+                    for (unsigned int q = 0; q < n_q; ++q)
+                      {
+                        // cell point (x0, x1) = (p_(q % n), p_(q / n))
+                        const unsigned int k =
+                          tangent == 0 ? q % n_1d : q / n_1d;
+                        const double      xn     = quadrature.point(q)[normal];
+                        const double      weight = (face % 2) ? xn : 1. - xn;
+                        const Point<dim> &y      = on_face.quadrature_point(k);
+                        Tensor<1, dim>    along;
+                        for (unsigned int d = 0; d < dim; ++d)
+                          along[d] = on_face.jacobian(k)[d][tangent];
+                        const double delta = g[a]->value(y) - face_s[k];
+                        const double delta_prime =
+                          (g[a]->gradient(y) - face_grad_s[k]) * along;
+                        Tensor<1, dim> reference_gradient;
+                        reference_gradient[tangent] = delta_prime * weight;
+                        reference_gradient[normal] =
+                          (face % 2) ? delta : -delta;
+                        G[a][q] += delta * weight;
+                        const auto &inverse =
+                          continuous_values.inverse_jacobian(q);
+                        for (unsigned int d = 0; d < dim; ++d)
+                          for (unsigned int e = 0; e < dim; ++e)
+                            grad_G[a][q][d] +=
+                              inverse[e][d] * reference_gradient[e];
+                      }
+                  }
+              }
+
+        const double h_K          = broken_cell->diameter();
+        const auto   index        = broken_cell->active_cell_index();
+        double       cell[n_sums] = {};
+        double       flux_norm[2] = {}, residual[2] = {};
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            // (-1)^alpha for alpha = a + 1.
+            const double sign    = (a == 0) ? -1. : 1.;
+            const double sqrt_mu = std::sqrt(mu[a]);
+            forces[a]->value_list(broken_values.get_quadrature_points(), f);
+            for (unsigned int q = 0; q < n_q; ++q)
+              {
+                const double dx = broken_values.JxW(q);
+                flux_norm[a] += (sqrt_mu * grad_u[a][q] + flux[a][q] / sqrt_mu)
+                                  .norm_square() *
+                                dx;
+                residual[a] +=
+                  std::pow(f[q] - sign * lambda[q] - r[a][q] - div_flux[a][q],
+                           2) *
+                  dx;
+                cell[remainder_1 + a] += r[a][q] * r[a][q] * dx;
+              }
+            flux_norm[a] = std::sqrt(flux_norm[a]);
+            residual[a]  = h_K / numbers::PI / sqrt_mu * std::sqrt(residual[a]);
+            cell[flux_residual] += std::pow(flux_norm[a] + residual[a], 2);
+            cell[flux_squared] += std::pow(flux_norm[a], 2);
+            cell[residual_squared] += std::pow(residual[a], 2);
+          }
+
+        // The cone reconstruction s~ = (s + G) + (theta w, -(1 - theta) w),
+        // w = ((s2 + G2) - (s1 + G1))^+: s~1 - s~2 = ((s1 + G1) - (s2 +
+        // G2))^+ >= 0 and s~ = g on the boundary, i.e. s~ is in K_g.
+        for (unsigned int q = 0; q < n_q; ++q)
+          {
+            const double         dx = broken_values.JxW(q);
+            const double         S1 = s[0][q] + G[0][q], S2 = s[1][q] + G[1][q];
+            const Tensor<1, dim> grad_S1 = grad_s[0][q] + grad_G[0][q],
+                                 grad_S2 = grad_s[1][q] + grad_G[1][q];
+            const Tensor<1, dim> grad_w =
+              (S2 > S1) ? grad_S2 - grad_S1 : Tensor<1, dim>();
+            const Tensor<1, dim> d1 = grad_S1 + theta * grad_w - grad_u[0][q],
+                                 d2 = grad_S2 - (1 - theta) * grad_w -
+                                      grad_u[1][q];
+            cell[nonc_total] +=
+              (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
+            cell[nonc_cone] +=
+              (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
+              grad_w.norm_square() * dx;
+            cell[oswald_squared] +=
+              (mu[0] * (grad_s[0][q] - grad_u[0][q]).norm_square() +
+               mu[1] * (grad_s[1][q] - grad_u[1][q]).norm_square()) *
+              dx;
+
+            const double negative_part = std::min(lambda[q], 0.);
+            const double negative_part_disc =
+              std::min(lambda_nonnegative[q], 0.);
+            const double positive_part = std::max(lambda[q], 0.);
+            const double gap           = u[0][q] - u[1][q];
+            cell[negative] += negative_part * negative_part * dx;
+            cell[negative_disc] += negative_part_disc * negative_part_disc * dx;
+            cell[negative_lin] +=
+              std::pow(negative_part - negative_part_disc, 2) * dx;
+            cell[positive] += positive_part * positive_part * dx;
+            cell[contact_total] += 2. * positive_part * gap * dx;
+            cell[contact_cone] +=
+              2. * positive_part * std::max(S1 - S2, 0.) * dx;
+            cell[contact_discrete] += 2. * lambda[q] * gap * dx;
+            cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
+                                        mu[1] * grad_G[1][q].norm_square()) *
+                                       dx;
+          }
+
+        for (unsigned int k = 0; k < n_sums; ++k)
+          sums[k] += cell[k];
+        estimate.cell_flux(index) =
+          std::pow(flux_norm[0], 2) + std::pow(flux_norm[1], 2);
+        estimate.cell_residual(index)      = cell[residual_squared];
+        estimate.cell_algebraic(index)     = 0;
+        estimate.cell_nonconformity(index) = cell[nonc_total];
+        estimate.cell_contact(index)       = cell[contact_cone];
+        estimate.cell_total(index) = cell[flux_residual] + cell[nonc_total] +
+                                     C * C * cell[negative] +
+                                     cell[contact_cone];
+      }
+
+    const MPI_Comm             comm = tria.get_communicator();
+    std::array<double, n_sums> total{};
+    Utilities::MPI::sum(ArrayView<const double>(sums.data(), n_sums),
+                        comm,
+                        ArrayView<double>(total.data(), n_sums));
+
+    // The jumps, and their share of the local indicators.
+    dealii::Vector<float> cell_jumps;
+    DGContactEstimate    &e = estimate;
+    e.jump                  = jump_seminorm(*in.mapping,
+                           *in.broken,
+                           *in.face_quadrature,
+                           *in.penalty,
+                           in.mu1,
+                           in.mu2,
+                           *in.u1,
+                           *in.u2,
+                           *in.g1,
+                           *in.g2,
+                           &cell_jumps);
+    for (unsigned int c = 0; c < cell_jumps.size(); ++c)
+      e.cell_total(c) += cell_jumps(c);
+
+    e.remainder =
+      in.friedrichs_constant *
+      std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
+    const double eta_flux = std::sqrt(total[flux_residual]);
+    e.eta_1               = eta_flux + e.remainder;
+    e.flux_disc           = std::sqrt(total[flux_squared]);
+    e.residual            = std::sqrt(total[residual_squared]);
+    e.flux_alg            = 0;
+    e.nonc_1              = std::sqrt(total[nonc_total]);
+    e.nonc_1_disc         = e.nonc_1;
+    e.nonc_1_lin          = 0;
+    e.oswald              = std::sqrt(total[oswald_squared]);
+    e.nonc_2              = C * std::sqrt(total[negative]);
+    e.nonc_2_disc         = C * std::sqrt(total[negative_disc]);
+    e.nonc_2_lin          = C * std::sqrt(total[negative_lin]);
+    e.nonc_3              = 2. * C * std::sqrt(total[positive]) * e.nonc_1;
+    e.contact_pos         = total[contact_total];
+    e.contact_cone        = total[contact_cone];
+    // 2 (lambda_h, u1h - u2h) = 2 sum_i X3_i (X1_i - X2_i) vanishes with the
+    // discrete complementarity (the dual basis); the rest is discretisation.
+    e.contact_lin  = in.mass_lumped ? 0. : total[contact_discrete];
+    e.contact_disc = e.contact_cone - e.contact_lin;
+    e.dirichlet    = std::sqrt(total[dirichlet_squared]);
+
+    // |||e|||_h^2 <= a |||e|||_h + b (the proof of the conforming case with
+    // broken gradients), hence |||e|||_h <= a/2 + (a^2/4 + b)^(1/2), and the
+    // jumps of the error are those of u_h.
+    const double a = e.eta_1 + e.nonc_1 + e.nonc_2;
+    const double b = (e.eta_1 + e.nonc_2) * e.nonc_1 + 0.5 * e.contact_cone;
+    e.broken       = 0.5 * a + std::sqrt(std::max(0.25 * a * a + b, 0.));
+    e.eta          = std::sqrt(e.broken * e.broken + e.jump * e.jump);
+
+    // Components: broken <= D + L + A with the parts below (a/2 + (a^2/4 +
+    // b)^(1/2) <= a + b^(1/2)), and (broken^2 + J^2)^(1/2) <= (D^2 +
+    // J^2)^(1/2) + L + A.
+    const double cross = std::sqrt((e.eta_1 + e.nonc_2) * e.nonc_1);
+    const double D     = eta_flux + e.nonc_1 + e.nonc_2_disc + cross +
+                     std::sqrt(std::max(e.contact_disc, 0.) / 2.);
+    e.eta_disc = std::sqrt(D * D + e.jump * e.jump);
+    e.eta_lin  = e.nonc_2_lin + std::sqrt(std::max(e.contact_lin, 0.) / 2.);
+    e.eta_alg  = e.remainder;
+    return estimate;
+  }
+
+
+  template DGContactEstimate
+  estimate_dg_contact_error(const DGContactEstimatorInput<2> &);
+  template double
+  jump_seminorm(const Mapping<2> &,
+                const DoFHandler<2> &,
+                const Quadrature<1> &,
+                const InteriorPenalty &,
+                const double,
+                const double,
+                const TrilinosWrappers::MPI::Vector &,
+                const TrilinosWrappers::MPI::Vector &,
+                const Function<2> &,
+                const Function<2> &,
+                dealii::Vector<float> *);
+} // namespace VI

@@ -1,0 +1,1281 @@
+#include "dg_membrane_problem.h"
+
+#include <deal.II/base/utilities.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_interface_values.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_q.h>
+#include <deal.II/grid/filtered_iterator.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/sparsity_tools.h>
+#include <deal.II/meshworker/mesh_loop.h>
+#include <deal.II/meshworker/scratch_data.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <vi/errors.h>
+#include <vi/estimators.h>
+#include <vi/nodal_fields.h>
+#include <vi/program.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+namespace StepMembranes
+{
+  using VI::NodalFields::index;
+  using VI::NodalFields::multiplier;
+  using VI::NodalFields::n_fields;
+
+  void
+  DGParameters::declare(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Discretization");
+    {
+      std::ostringstream default_value;
+      default_value << VI::InteriorPenalty::default_penalty_constant;
+      prm.declare_entry(
+        "Penalty",
+        default_value.str(),
+        Patterns::Double(),
+        "Interior penalty methods (sipg|nipg|iipg) only: the constant C > 0 "
+        "of the penalty gamma_F / h_F = C p (p + 1) / h_F on every face "
+        "(h_F = min(|K|, |K'|) / |F|). The default 2 keeps SIPG coercive "
+        "for every p on rectangles (C (p + 1) / p > 3/2 suffices); NIPG is "
+        "stable for every C > 0.");
+    }
+    prm.leave_subsection();
+  }
+
+
+  void
+  DGParameters::parse(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Discretization");
+    penalty = prm.get_double("Penalty");
+    prm.leave_subsection();
+    if (!(penalty > 0.))
+      {
+        std::ostringstream message;
+        message << "Discretization/Penalty = " << penalty
+                << " must be positive";
+        throw VI::InputError(message.str());
+      }
+  }
+
+
+  template <int dim>
+  DGMembraneProblem<dim>::DGMembraneProblem(const Parameters   &parameters,
+                                            const DGParameters &dg_parameters,
+                                            ParameterHandler   &prm,
+                                            const MPI_Comm      comm)
+      : parameters(parameters)
+      , prm(prm)
+      , comm(comm)
+      , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
+      , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
+      , geometry(VI::geometry_from_name(parameters.mesh.geometry))
+      , data(VI::make_membrane_data<dim>(parameters.problem,
+                                         VI::geometry_center<dim>(geometry)))
+      , C(VI::ComplementarityFunction::from_name(
+          parameters.nonlinear_solver.c_function))
+      , penalty(
+          VI::InteriorPenalty::from_name(parameters.discretization.method,
+                                         dg_parameters.penalty,
+                                         parameters.discretization.degree))
+      , triangulation(comm)
+      , geometry_mapping(
+          VI::make_mapping<dim>(geometry, parameters.discretization.degree))
+      , mapping(std::make_unique<MappingQCache<dim>>(
+          dynamic_cast<const MappingQ<dim> &>(*geometry_mapping).get_degree()))
+      , fe(QGaussLobatto<1>(parameters.discretization.degree + 1))
+      , dof_handler(triangulation)
+      , quadrature(VI::FluxReconstruction<dim>::quadrature_points(
+          parameters.discretization.degree))
+      , face_quadrature(VI::FluxReconstruction<dim>::quadrature_points(
+          parameters.discretization.degree))
+      , fe_continuous(parameters.discretization.degree)
+      , continuous_dof_handler(triangulation)
+  {
+    check_parameters();
+  }
+
+
+  // What the dG discretisation does not (yet) offer ends as bad input
+  // before anything is computed.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::check_parameters() const
+  {
+    const std::string method = " is implemented for Method = fem only";
+    if (parameters.mesh.refinement != "global")
+      throw VI::InputError("Mesh/Refinement = " + parameters.mesh.refinement +
+                           method +
+                           "; use global with Method = " + penalty.name());
+    if (parameters.nonlinear_solver.strategy == "adaptive")
+      throw VI::InputError(
+        "Nonlinear solver/Strategy = adaptive" + method +
+        "; use exact or inexact with Method = " + penalty.name());
+    if (parameters.linear_solver.solver == "gmres" &&
+        parameters.linear_solver.preconditioner != "ilu")
+      throw VI::InputError("Linear solver/Preconditioner = " +
+                           parameters.linear_solver.preconditioner + method +
+                           "; use ilu with Method = " + penalty.name());
+  }
+
+
+  // The data must be finite and admit a solution: g1 >= g2 on the boundary.
+  // Checked on the first mesh (forces at the quadrature points, boundary data
+  // at the boundary nodes) before anything is written.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::check_data() const
+  {
+    std::string violation;
+    const auto  report = [&](const std::string &message) {
+      if (violation.empty())
+        violation = message;
+    };
+    const auto &unit_points = fe.get_unit_support_points();
+    for (const auto &cell : triangulation.active_cell_iterators())
+      if (cell->is_locally_owned() && violation.empty())
+        {
+          for (const auto &unit_point : quadrature.get_points())
+            {
+              const Point<dim> p =
+                mapping->transform_unit_to_real_cell(cell, unit_point);
+              for (const auto &[name, f] :
+                   {std::pair<const char *, const Function<dim> *>{
+                      "f1", data.f1.get()},
+                    {"f2", data.f2.get()}})
+                if (!std::isfinite(f->value(p)))
+                  {
+                    std::ostringstream message;
+                    message << name << " is not finite at (" << p
+                            << "): " << f->value(p);
+                    report(message.str());
+                  }
+            }
+          for (const unsigned int f : cell->face_indices())
+            if (cell->face(f)->at_boundary())
+              for (const auto &unit_point : unit_points)
+                {
+                  if (std::abs(unit_point[f / 2] - double(f % 2)) > 1e-12)
+                    continue;
+                  const Point<dim> p =
+                    mapping->transform_unit_to_real_cell(cell, unit_point);
+                  const double g1 = data.g1->value(p), g2 = data.g2->value(p);
+                  std::ostringstream message;
+                  if (!std::isfinite(g1) || !std::isfinite(g2))
+                    message << "the boundary data are not finite at (" << p
+                            << "): g1 = " << g1 << ", g2 = " << g2;
+                  else if (g1 - g2 <
+                           -1e-12 * std::max({1., std::abs(g1), std::abs(g2)}))
+                    message << "g1 < g2 on the boundary at (" << p
+                            << "): g1 = " << g1 << ", g2 = " << g2
+                            << "; the constraint u1 >= u2 cannot hold there";
+                  if (!message.str().empty())
+                    report(message.str());
+                }
+        }
+    for (const std::string &message :
+         Utilities::MPI::all_gather(comm, violation))
+      if (!message.empty())
+        throw VI::InputError("Problem: " + message);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::make_grid()
+  {
+    VI::make_coarse_mesh(geometry, triangulation);
+    triangulation.refine_global(parameters.mesh.initial_refinements);
+    mapping->initialize(*geometry_mapping, triangulation);
+  }
+
+
+  // Every node of every cell is an unknown (no strong Dirichlet data, no
+  // hanging nodes on globally refined meshes) and carries a contact pair.
+  // The matrix couples the nodes of neighbouring cells (flux sparsity).
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::setup_system()
+  {
+    TimerOutput::Scope t(timer, "setup");
+    mapping->initialize(*geometry_mapping, triangulation);
+    direct_solver.reset();
+    ilu.reset();
+
+    dof_handler.distribute_dofs(fe);
+    owned_nodes = dof_handler.locally_owned_dofs();
+    DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_nodes);
+    owned_system    = VI::NodalFields::system_index_set(owned_nodes);
+    relevant_system = VI::NodalFields::system_index_set(relevant_nodes);
+
+    AffineConstraints<double> no_constraints;
+    no_constraints.close();
+    contact_rows.reinit(owned_nodes, no_constraints);
+
+    DynamicSparsityPattern scalar_pattern(relevant_nodes);
+    DoFTools::make_flux_sparsity_pattern(dof_handler, scalar_pattern);
+    SparsityTools::distribute_sparsity_pattern(scalar_pattern,
+                                               owned_nodes,
+                                               comm,
+                                               relevant_nodes);
+    DynamicSparsityPattern system_pattern(relevant_system);
+    VI::NodalFields::make_system_sparsity(scalar_pattern,
+                                          owned_nodes,
+                                          system_pattern);
+    system_matrix.reinit(owned_system, owned_system, system_pattern, comm);
+    system_rhs.reinit(owned_system, comm);
+    solution.reinit(owned_system, comm);
+    for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
+      field->reinit(owned_nodes, relevant_nodes, comm);
+
+    if (parameters.estimators.enabled)
+      {
+        continuous_dof_handler.distribute_dofs(fe_continuous);
+        owned_continuous = continuous_dof_handler.locally_owned_dofs();
+        DoFTools::extract_locally_relevant_dofs(continuous_dof_handler,
+                                                relevant_continuous);
+        flux_reconstruction =
+          std::make_unique<VI::FluxReconstruction<dim>>(*mapping, fe.degree);
+        flux_reconstruction->reinit(continuous_dof_handler);
+        lifting = std::make_unique<VI::JumpLifting<dim>>(*mapping,
+                                                         fe.degree,
+                                                         quadrature,
+                                                         face_quadrature);
+        lifting->reinit(triangulation);
+      }
+  }
+
+
+  namespace
+  {
+    // One cell's contribution (with its boundary faces) and those of its
+    // interior faces: the dG stiffness without the tensions, and the load
+    // (f_alpha, v) + mu_alpha G_h,alpha(v) of both membranes.
+    struct FaceCopyData
+    {
+      FullMatrix<double>                   matrix;
+      std::vector<types::global_dof_index> dofs;
+    };
+
+    struct CellCopyData
+    {
+      FullMatrix<double>                   matrix;
+      dealii::Vector<double>               rhs[2];
+      dealii::Vector<double>               lumped_mass; ///< (psi_I, 1)_K
+      std::vector<types::global_dof_index> dofs;
+      std::vector<FaceCopyData>            faces;
+    };
+  } // namespace
+
+
+  // The interior penalty forms of VI::InteriorPenalty, assembled by
+  // mesh_loop: cells, boundary faces (weak Dirichlet data) and interior
+  // faces. Faces between two owned cells are visited once; faces with a
+  // ghost neighbour by both processes, each adding the rows it owns (the
+  // rows of its own cell's nodes). Then the coupling D = I and the scales
+  // of the residuals and of the constraint rows.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::assemble_system()
+  {
+    TimerOutput::Scope t(timer, "assembly");
+    system_matrix = 0;
+    system_rhs    = 0;
+
+    const double         mu[2]    = {data.mu1, data.mu2};
+    const Function<dim> *g[2]     = {data.g1.get(), data.g2.get()};
+    const Function<dim> *force[2] = {data.f1.get(), data.f2.get()};
+    const auto           owned_cells =
+      dof_handler.active_cell_iterators() | IteratorFilters::LocallyOwnedCell();
+    using Iterator = typename DoFHandler<dim>::active_cell_iterator;
+
+    const UpdateFlags flags = update_values | update_gradients |
+                              update_quadrature_points | update_JxW_values;
+    MeshWorker::ScratchData<dim> scratch(*mapping,
+                                         fe,
+                                         quadrature,
+                                         flags,
+                                         face_quadrature,
+                                         flags | update_normal_vectors);
+    CellCopyData                 copy;
+    const unsigned int           n = fe.n_dofs_per_cell();
+
+    const auto cell_worker =
+      [&](const Iterator &cell, MeshWorker::ScratchData<dim> &s, auto &c) {
+        const FEValues<dim> &values = s.reinit(cell);
+        c.matrix.reinit(n, n);
+        for (auto &v : c.rhs)
+          v.reinit(n);
+        c.lumped_mass.reinit(n);
+        for (const unsigned int q : values.quadrature_point_indices())
+          for (unsigned int i = 0; i < n; ++i)
+            c.lumped_mass(i) += values.shape_value(i, q) * values.JxW(q);
+        c.dofs.resize(n);
+        c.faces.clear();
+        cell->get_dof_indices(c.dofs);
+        std::vector<double> f(values.n_quadrature_points);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            force[a]->value_list(values.get_quadrature_points(), f);
+            for (const unsigned int q : values.quadrature_point_indices())
+              for (unsigned int i = 0; i < n; ++i)
+                c.rhs[a](i) += f[q] * values.shape_value(i, q) * values.JxW(q);
+          }
+        VI::InteriorPenalty::add_cell_matrix(values, c.matrix);
+      };
+
+    // - (grad u.n, v) + epsilon (grad v.n, u) + gamma / h (u, v) on the
+    // boundary, and the data epsilon (grad v.n, g) + gamma / h (g, v).
+    const auto boundary_worker = [&](const Iterator               &cell,
+                                     const unsigned int            face,
+                                     MeshWorker::ScratchData<dim> &s,
+                                     auto                         &c) {
+      const FEFaceValuesBase<dim> &values = s.reinit(cell, face);
+      const double h_F = VI::InteriorPenalty::normal_extent<dim>(cell, face);
+      penalty.add_boundary_matrix(values, h_F, c.matrix);
+      std::vector<double> data_values(values.n_quadrature_points);
+      for (unsigned int a = 0; a < 2; ++a)
+        {
+          g[a]->value_list(values.get_quadrature_points(), data_values);
+          for (double &value : data_values)
+            value *= mu[a];
+          penalty.add_boundary_rhs(values, h_F, data_values, c.rhs[a]);
+        }
+    };
+
+    // - ({grad u}.n, [v]) + epsilon ({grad v}.n, [u]) + gamma / h ([u], [v]).
+    const auto face_worker = [&](const Iterator               &cell,
+                                 const unsigned int            face,
+                                 const unsigned int            subface,
+                                 const Iterator               &neighbor,
+                                 const unsigned int            neighbor_face,
+                                 const unsigned int            neighbor_subface,
+                                 MeshWorker::ScratchData<dim> &s,
+                                 auto                         &c) {
+      const FEInterfaceValues<dim> &values = s.reinit(
+        cell, face, subface, neighbor, neighbor_face, neighbor_subface);
+      c.faces.emplace_back();
+      FaceCopyData &face_data = c.faces.back();
+      face_data.dofs          = values.get_interface_dof_indices();
+      face_data.matrix.reinit(face_data.dofs.size(), face_data.dofs.size());
+      penalty.add_face_matrix(values,
+                              VI::InteriorPenalty::normal_extent<dim>(cell,
+                                                                      face),
+                              face_data.matrix);
+    };
+
+    std::vector<types::global_dof_index> columns;
+    std::vector<double>                  row_values;
+    const auto add = [&](const FullMatrix<double>                   &local,
+                         const std::vector<types::global_dof_index> &dofs) {
+      for (const unsigned int field :
+           {VI::NodalFields::u1, VI::NodalFields::u2})
+        for (unsigned int i = 0; i < dofs.size(); ++i)
+          if (owned_nodes.is_element(dofs[i]))
+            {
+              columns.resize(dofs.size());
+              row_values.resize(dofs.size());
+              for (unsigned int j = 0; j < dofs.size(); ++j)
+                {
+                  columns[j]    = index(dofs[j], field);
+                  row_values[j] = mu[field] * local(i, j);
+                }
+              system_matrix.add(index(dofs[i], field),
+                                columns.size(),
+                                columns.data(),
+                                row_values.data());
+            }
+    };
+    coupling.reinit(owned_nodes, comm);
+    lumped_mass.reinit(owned_nodes, comm);
+    const auto copier = [&](const CellCopyData &c) {
+      add(c.matrix, c.dofs);
+      for (unsigned int i = 0; i < c.dofs.size(); ++i)
+        {
+          lumped_mass(c.dofs[i]) = c.lumped_mass(i);
+          coupling(c.dofs[i])    = mass_lumped() ? c.lumped_mass(i) : 1.;
+        }
+      for (unsigned int a = 0; a < 2; ++a)
+        for (unsigned int i = 0; i < c.dofs.size(); ++i)
+          system_rhs(index(c.dofs[i], a)) += c.rhs[a](i);
+      for (const FaceCopyData &face : c.faces)
+        add(face.matrix, face.dofs);
+    };
+
+    MeshWorker::mesh_loop(owned_cells,
+                          cell_worker,
+                          copier,
+                          scratch,
+                          copy,
+                          MeshWorker::assemble_own_cells |
+                            MeshWorker::assemble_boundary_faces |
+                            MeshWorker::assemble_own_interior_faces_once |
+                            MeshWorker::assemble_ghost_faces_both,
+                          boundary_worker,
+                          face_worker);
+    system_matrix.compress(VectorOperation::add);
+    system_rhs.compress(VectorOperation::add);
+    coupling.compress(VectorOperation::insert);
+    lumped_mass.compress(VectorOperation::insert);
+
+    // The coupling: -<lambda_h, v1>_h + <lambda_h, v2>_h with the dual basis
+    // is -D_I X3_I, +D_I X3_I in the rows of node I: D = I for the L2
+    // bracket, the lumped masses (psi_I, 1)_K for p = 1.
+    for (const types::global_dof_index i : contact_rows.nodes())
+      {
+        const double D = coupling(i);
+        system_matrix.set(index(i, VI::NodalFields::u1),
+                          index(i, multiplier),
+                          -D);
+        system_matrix.set(index(i, VI::NodalFields::u2),
+                          index(i, multiplier),
+                          D);
+      }
+    system_matrix.compress(VectorOperation::insert);
+
+    double local[2] = {0., 0.};
+    for (const types::global_dof_index i : owned_nodes)
+      for (const unsigned int field :
+           {VI::NodalFields::u1, VI::NodalFields::u2})
+        {
+          const double F = system_rhs(index(i, field));
+          local[0] += F * F;
+          local[1] = std::max(local[1], std::abs(F));
+        }
+    load_norm = std::sqrt(Utilities::MPI::sum(local[0], comm));
+    multiplier_scale =
+      Utilities::MPI::max(local[1], comm) /
+      std::max(coupling.linfty_norm(), std::numeric_limits<double>::min());
+
+    // Row weights in force units: mu_r S_ii for rows that enforce u1 = u2,
+    // D_I for rows that enforce X3 = 0.
+    const double mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    stiffness_weight.resize(owned_nodes.n_elements());
+    multiplier_weight.assign(coupling.begin(),
+                             coupling.begin() + owned_nodes.n_elements());
+    for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
+      {
+        const auto i = owned_nodes.nth_index_in_set(k);
+        stiffness_weight[k] =
+          mu_r * system_matrix.diag_element(index(i, VI::NodalFields::u1)) /
+          data.mu1;
+      }
+
+    if (!std::isfinite(system_rhs.l2_norm()))
+      throw VI::InputError(
+        "Problem: the load vector is not finite: f1, f2, g1 or g2 evaluate "
+        "to NaN or Inf somewhere in the domain");
+  }
+
+
+  // v = M_K^{-1} moments on every owned cell: the broken function whose
+  // L2 moments against the nodal basis are the given ones. The mass matrix
+  // is integrated with the quadrature of the flux reconstruction, so that
+  // (v, psi)_K computed there reproduces the moments exactly.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::function_from_moments(const Vector &moments,
+                                                Vector       &v) const
+  {
+    FEValues<dim>                        values(*mapping,
+                         fe,
+                         quadrature,
+                         update_values | update_JxW_values);
+    const unsigned int                   n = fe.n_dofs_per_cell();
+    FullMatrix<double>                   mass(n, n);
+    dealii::Vector<double>               local(n), coefficients(n);
+    std::vector<types::global_dof_index> dofs(n);
+    Vector                               owned(owned_nodes, comm);
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          mass = 0;
+          for (const unsigned int q : values.quadrature_point_indices())
+            for (unsigned int i = 0; i < n; ++i)
+              for (unsigned int j = 0; j < n; ++j)
+                mass(i, j) += values.shape_value(i, q) *
+                              values.shape_value(j, q) * values.JxW(q);
+          mass.gauss_jordan();
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < n; ++i)
+            local(i) = moments(dofs[i]);
+          mass.vmult(coefficients, local);
+          for (unsigned int i = 0; i < n; ++i)
+            owned(dofs[i]) = coefficients(i);
+        }
+    owned.compress(VectorOperation::insert);
+    v.reinit(owned_nodes, relevant_nodes, comm);
+    v = owned;
+  }
+
+
+  template <int dim>
+  bool
+  DGMembraneProblem<dim>::mass_lumped() const
+  {
+    return fe.degree == 1;
+  }
+
+
+  // lambda_h from its coefficients X3 in the dual basis: the nodal values
+  // for the lumped bracket of p = 1, M_K^{-1} X3 for the L2 bracket.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::multiplier_function(const Vector &X3,
+                                              Vector       &lambda) const
+  {
+    if (mass_lumped())
+      {
+        lambda.reinit(owned_nodes, relevant_nodes, comm);
+        lambda = X3;
+      }
+    else
+      function_from_moments(X3, lambda);
+  }
+
+
+  // On every owned cell: the nodal values lambda_N(x_I) = m_I / (psi_I,
+  // 1)_K, whose mean is sum_I m_I / |K|; where lambda_N < 0 at a point of
+  // the estimator's quadrature and the mean is positive, lambda = mean +
+  // theta (lambda_N - mean) with the largest theta in [0, 1] that keeps
+  // lambda >= 0 at those points (the limiter of Zhang and Shu); with a
+  // negative mean, the mean.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::limited_nodal_function(const Vector &moments,
+                                                 Vector       &lambda) const
+  {
+    FEValues<dim>                        values(*mapping,
+                         fe,
+                         flux_reconstruction->get_quadrature(),
+                         update_values | update_JxW_values);
+    const unsigned int                   n = fe.n_dofs_per_cell();
+    std::vector<types::global_dof_index> dofs(n);
+    std::vector<double>                  nodal(n);
+    Vector                               owned(owned_nodes, comm);
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          cell->get_dof_indices(dofs);
+          double sum = 0, volume = 0;
+          for (unsigned int i = 0; i < n; ++i)
+            {
+              nodal[i] = moments(dofs[i]) / lumped_mass(dofs[i]);
+              sum += moments(dofs[i]);
+            }
+          for (const unsigned int q : values.quadrature_point_indices())
+            volume += values.JxW(q);
+          const double mean    = sum / volume;
+          double       minimum = *std::min_element(nodal.begin(), nodal.end());
+          for (const unsigned int q : values.quadrature_point_indices())
+            {
+              double value = 0;
+              for (unsigned int i = 0; i < n; ++i)
+                value += nodal[i] * values.shape_value(i, q);
+              minimum = std::min(minimum, value);
+            }
+          double theta = 1.;
+          if (mean <= 0)
+            theta = 0.;
+          else if (minimum < 0)
+            theta = mean / (mean - minimum);
+          for (unsigned int i = 0; i < n; ++i)
+            owned(dofs[i]) = mean + theta * (nodal[i] - mean);
+        }
+    owned.compress(VectorOperation::insert);
+    lambda.reinit(owned_nodes, relevant_nodes, comm);
+    lambda = owned;
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::moments_of_function(const Vector &v,
+                                              Vector       &moments) const
+  {
+    FEValues<dim>                        values(*mapping,
+                         fe,
+                         quadrature,
+                         update_values | update_JxW_values);
+    const unsigned int                   n = fe.n_dofs_per_cell();
+    std::vector<double>                  v_values(quadrature.size());
+    std::vector<types::global_dof_index> dofs(n);
+    moments = 0;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          values.get_function_values(v, v_values);
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < n; ++i)
+            {
+              double moment = 0;
+              for (const unsigned int q : values.quadrature_point_indices())
+                moment +=
+                  v_values[q] * values.shape_value(i, q) * values.JxW(q);
+              moments(dofs[i]) = moment;
+            }
+        }
+    moments.compress(VectorOperation::insert);
+  }
+
+
+  // The iterate on a new mesh: the previous solution carried over as broken
+  // functions (nested iteration; the dual coefficients X3 are recomputed as
+  // moments on the new cells), or zero (or the data g) with zero multiplier.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::initialize_iterate()
+  {
+    solution = 0;
+    Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
+      lambda(owned_nodes, comm), X3(owned_nodes, comm);
+    if (solution_transfer)
+      {
+        std::vector<Vector *> fields = {&u1, &u2, &lambda};
+        solution_transfer->interpolate(fields);
+        solution_transfer.reset();
+        // X3: the nodal values of lambda_h (p = 1), its moments (p >= 2).
+        if (mass_lumped())
+          X3 = lambda;
+        else
+          {
+            Vector ghosted(owned_nodes, relevant_nodes, comm);
+            ghosted = lambda;
+            moments_of_function(ghosted, X3);
+          }
+        VI::NodalFields::insert(X3, multiplier, solution);
+      }
+    else if (parameters.nonlinear_solver.initial_guess == "data")
+      {
+        VectorTools::interpolate(*mapping, dof_handler, *data.g1, u1);
+        VectorTools::interpolate(*mapping, dof_handler, *data.g2, u2);
+      }
+    VI::NodalFields::insert(u1, VI::NodalFields::u1, solution);
+    VI::NodalFields::insert(u2, VI::NodalFields::u2, solution);
+  }
+
+
+  template <int dim>
+  VI::ResidualNorms
+  DGMembraneProblem<dim>::residual(const Vector &X, Vector &R) const
+  {
+    TimerOutput::Scope t(timer, "newton: residual");
+    system_matrix.vmult(R, X);
+    R -= system_rhs;
+    VI::ResidualNorms norms;
+    norms.complementarity = contact_rows.evaluate(C, X, multiplier_scale, R);
+    double        local   = 0;
+    const double *r       = R.begin();
+    for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
+      local += r[n_fields * k] * r[n_fields * k] +
+               r[n_fields * k + 1] * r[n_fields * k + 1];
+    norms.equations = std::sqrt(Utilities::MPI::sum(local, comm)) /
+                      std::max(load_norm, std::numeric_limits<double>::min());
+    return norms;
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::scale_constraint_rows(Vector    &v,
+                                                const bool divide) const
+  {
+    double     *x         = v.begin();
+    const auto &positions = contact_rows.local_positions();
+    for (std::size_t k = 0; k < positions.size(); ++k)
+      x[n_fields * positions[k] + 2] *=
+        divide ? 1. / row_weights[k] : row_weights[k];
+  }
+
+
+  // Semismooth Newton on E X = F, C(X) = 0: the solver of the conforming
+  // method, with the dG matrix.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::solve()
+  {
+    const auto &p = parameters.nonlinear_solver;
+    typename VI::SemismoothNewton<Vector>::AdditionalData settings;
+    settings.max_iterations = p.max_iterations;
+    settings.tolerance      = p.tolerance;
+    settings.line_search    = C.has_smooth_merit_function();
+    settings.name           = "semismooth Newton-" + C.name();
+    if (parameters.linear_solver.solver == "direct")
+      direct_solver =
+        std::make_unique<VI::LinearSolver>(parameters.linear_solver);
+
+    VI::SemismoothNewton<Vector> newton(settings);
+    newton.residual = [&](const Vector &X, Vector &R) {
+      return residual(X, R);
+    };
+    newton.setup_jacobian = [&](const Vector &X) {
+      {
+        TimerOutput::Scope t(timer, "newton: jacobian");
+        row_weights =
+          contact_rows.row_weights(C, X, stiffness_weight, multiplier_weight);
+        contact_rows.set_jacobian_rows(C, X, system_matrix, row_weights);
+        system_matrix.compress(VectorOperation::insert);
+      }
+      TimerOutput::Scope t(timer, "newton: preconditioner");
+      if (direct_solver)
+        direct_solver->initialize(system_matrix);
+      else
+        {
+          ilu = std::make_unique<TrilinosWrappers::PreconditionILU>();
+          ilu->initialize(system_matrix,
+                          TrilinosWrappers::PreconditionILU::AdditionalData(
+                            parameters.linear_solver.ilu_fill));
+        }
+    };
+    newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
+      return solve_linearized(rhs, dX);
+    };
+    if (parameters.output.verbose)
+      newton.monitor = [&](const VI::NewtonStep &step) {
+        pcout << "      k = " << std::setw(2) << step.iteration
+              << ": residuals " << std::scientific << std::setprecision(2)
+              << step.residual.equations << " (equations), "
+              << step.residual.complementarity << " (complementarity), "
+              << step.linear_iterations << " linear iterations"
+              << std::defaultfloat << std::endl;
+      };
+    newton_report = newton.solve(solution);
+  }
+
+
+  // A dX = rhs: sparse LU, or GMRES (right preconditioned, ILU) to the
+  // linear tolerance (exact) or the forcing term (inexact).
+  template <int dim>
+  unsigned int
+  DGMembraneProblem<dim>::solve_linearized(const Vector &rhs, Vector &dX)
+  {
+    TimerOutput::Scope t(timer, "newton: linear solve");
+    Vector             weighted_rhs(rhs);
+    scale_constraint_rows(weighted_rhs, false);
+    if (direct_solver)
+      return direct_solver->solve(weighted_rhs, dX);
+
+    const auto &linear    = parameters.linear_solver;
+    const auto &nonlinear = parameters.nonlinear_solver;
+    typename VI::Gmres<Vector>::AdditionalData settings;
+    settings.max_iterations     = linear.max_iterations;
+    settings.krylov_dimension   = linear.krylov_dimension;
+    settings.check_interval     = linear.check_interval;
+    settings.relative_tolerance = nonlinear.strategy == "inexact" ?
+                                    nonlinear.forcing_term :
+                                    linear.tolerance;
+    const auto A                = [&](Vector &dst, const Vector &src) {
+      system_matrix.vmult(dst, src);
+    };
+    const auto P = [&](Vector &dst, const Vector &src) {
+      ilu->vmult(dst, src);
+    };
+    dX = 0;
+    return VI::Gmres<Vector>(settings).solve(A, P, dX, weighted_rhs).iterations;
+  }
+
+
+  // The estimate of the iterate X (doc/step-membranes.md, dG section):
+  // - lambda_h and r_h: the broken functions with moments X3 and F - E X;
+  // - s_h: Oswald interpolation into FE_Q(p) with the nodal values of g on
+  //   the boundary, averaged where s1 < s2;
+  // - sigma_alpha: the vertex-patch reconstruction of the flux
+  //   -mu_alpha (grad_h u_alpha,h + epsilon L(u_alpha,h)), L the lifting of
+  //   the jumps, in equilibrium with f_alpha -/+ lambda_h - r_alpha,h.
+  template <int dim>
+  VI::DGContactEstimate
+  DGMembraneProblem<dim>::estimate(const Vector &X) const
+  {
+    TimerOutput::Scope t(timer, "estimators");
+    const auto         ghosted = [&](const Vector &v) {
+      Vector result(owned_nodes, relevant_nodes, comm);
+      result = v;
+      return result;
+    };
+    Vector field(owned_nodes, comm);
+    Vector u[2], r[2], lambda, lambda_nonnegative;
+    for (const unsigned int a : {VI::NodalFields::u1, VI::NodalFields::u2})
+      {
+        VI::NodalFields::extract(X, a, field);
+        u[a] = ghosted(field);
+      }
+    // The multiplier of the estimate: on every cell, the nodal function
+    // lambda_N(x_I) = <lambda_h, psi_I>_h / (psi_I, 1)_K (the discrete
+    // lambda_h itself for p = 1), scaled towards its cell mean where it is
+    // negative at a quadrature point (positivity-preserving limiter). It has
+    // the cell means of the L2 representative lambda* = M_K^{-1}
+    // (<lambda_h, psi_I>_h)_I, which the fluxes equilibrate (compatibility),
+    // and that is all the theorem needs (doc/step-membranes.md).
+    Vector lambda_source, moments(owned_nodes, comm);
+    VI::NodalFields::extract(X, multiplier, moments);
+    moments.scale(coupling);
+    function_from_moments(moments, lambda_source);
+    limited_nodal_function(moments, lambda);
+    for (double &m : moments)
+      m = std::max(m, 0.);
+    limited_nodal_function(moments, lambda_nonnegative);
+
+    Vector R(owned_system, comm);
+    system_matrix.vmult(R, X);
+    R.sadd(-1., 1., system_rhs);
+    for (const unsigned int a : {VI::NodalFields::u1, VI::NodalFields::u2})
+      {
+        VI::NodalFields::extract(R, a, field);
+        function_from_moments(field, r[a]);
+      }
+
+    const Function<dim> *g[2] = {data.g1.get(), data.g2.get()};
+    Vector               s_owned[2], s_averaged[2], s[2], L[2];
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        s_owned[a].reinit(owned_continuous, comm);
+        s_averaged[a].reinit(owned_continuous, comm);
+        VI::oswald_interpolation(*mapping,
+                                 dof_handler,
+                                 u[a],
+                                 continuous_dof_handler,
+                                 g[a],
+                                 s_owned[a]);
+        lifting->compute(dof_handler, u[a], *g[a], L[a]);
+      }
+    VI::average_at_violated_nodes(
+      data.mu1, data.mu2, s_owned[0], s_owned[1], s_averaged[0], s_averaged[1]);
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        s[a].reinit(owned_continuous, relevant_continuous, comm);
+        s[a] = s_averaged[a];
+      }
+
+    const double         epsilon = penalty.symmetry();
+    const double         mu[2]   = {data.mu1, data.mu2};
+    const double         sign[2] = {-1., 1.}; // (-1)^alpha
+    const Function<dim> *f[2]    = {data.f1.get(), data.f2.get()};
+    FEValues<dim>        values(*mapping,
+                         fe,
+                         flux_reconstruction->get_quadrature(),
+                         update_values | update_gradients |
+                           update_quadrature_points);
+    std::vector<double>  lambda_values(quadrature.size()),
+      r_values(quadrature.size());
+    std::vector<Tensor<1, dim>> lifting_values(quadrature.size());
+
+    typename VI::FluxReconstruction<dim>::Sources sources;
+    sources.n_fields    = 2;
+    sources.cell_values = [&](const auto &cell, auto &flux, auto &source) {
+      const typename DoFHandler<dim>::active_cell_iterator dof_cell(
+        &triangulation, cell->level(), cell->index(), &dof_handler);
+      values.reinit(dof_cell);
+      values.get_function_values(lambda_source, lambda_values);
+      for (unsigned int a = 0; a < 2; ++a)
+        {
+          values.get_function_gradients(u[a], flux[a]);
+          lifting->values(cell, L[a], lifting_values);
+          for (unsigned int q = 0; q < flux[a].size(); ++q)
+            flux[a][q] = mu[a] * (flux[a][q] + epsilon * lifting_values[q]);
+          f[a]->value_list(values.get_quadrature_points(), source[a]);
+          values.get_function_values(r[a], r_values);
+          for (unsigned int q = 0; q < source[a].size(); ++q)
+            source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+        }
+    };
+    Vector sigma[2];
+    flux_reconstruction->reconstruct(sources, {&sigma[0], &sigma[1]});
+
+    VI::DGContactEstimatorInput<dim> in;
+    in.mapping             = mapping.get();
+    in.broken              = &dof_handler;
+    in.continuous          = &continuous_dof_handler;
+    in.flux                = &flux_reconstruction->get_dof_handler();
+    in.quadrature          = &flux_reconstruction->get_quadrature();
+    in.face_quadrature     = &face_quadrature;
+    in.penalty             = &penalty;
+    in.mu1                 = data.mu1;
+    in.mu2                 = data.mu2;
+    in.f1                  = data.f1.get();
+    in.f2                  = data.f2.get();
+    in.g1                  = data.g1.get();
+    in.g2                  = data.g2.get();
+    in.friedrichs_constant = VI::friedrichs_constant(geometry);
+    in.mass_lumped         = true; // the nodal multiplier, see above
+    in.u1                  = &u[0];
+    in.u2                  = &u[1];
+    in.lambda              = &lambda;
+    in.lambda_nonnegative  = &lambda_nonnegative;
+    in.r1                  = &r[0];
+    in.r2                  = &r[1];
+    in.s1                  = &s[0];
+    in.s2                  = &s[1];
+    in.sigma1              = &sigma[0];
+    in.sigma2              = &sigma[1];
+    return VI::estimate_dg_contact_error(in);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::postprocess()
+  {
+    TimerOutput::Scope t(timer, "postprocess");
+    Vector             u1(owned_nodes, comm), u2(owned_nodes, comm),
+      field(owned_nodes, comm);
+    VI::NodalFields::extract(solution, VI::NodalFields::u1, u1);
+    VI::NodalFields::extract(solution, VI::NodalFields::u2, u2);
+    u1_h = u1;
+    u2_h = u2;
+    u1 -= u2;
+    gap_h = u1;
+    VI::NodalFields::extract(solution, multiplier, field);
+    multiplier_function(field, lambda_h);
+    n_contact_nodes = contact_rows.contact_set(solution, field);
+    contact_set     = field;
+  }
+
+
+  // The dG energy error |||u - u_h|||_dG^2 = sum_alpha mu_alpha
+  // (|grad_h (u_alpha - u_alpha,h)|^2 + sum_F gamma_F / h_F |[[u_alpha -
+  // u_alpha,h]]|_F^2): the broken H1 seminorm and the jumps of u_h (with
+  // g - u_h on the boundary); and the L2 error of the multiplier.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::compute_errors()
+  {
+    if (!data.has_exact_solution())
+      return;
+    TimerOutput::Scope     t(timer, "errors");
+    const QGauss<dim>      error_quadrature(fe.degree + 3);
+    dealii::Vector<double> cellwise(triangulation.n_active_cells());
+    const auto             error = [&](const Vector               &uh,
+                           const Function<dim>        &exact,
+                           const VectorTools::NormType norm) {
+      VectorTools::integrate_difference(
+        *mapping, dof_handler, uh, exact, cellwise, error_quadrature, norm);
+      return VectorTools::compute_global_error(triangulation, cellwise, norm);
+    };
+    const double e1 = error(u1_h, *data.exact_u1, VectorTools::H1_seminorm);
+    const double e2 = error(u2_h, *data.exact_u2, VectorTools::H1_seminorm);
+    error_broken    = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
+    error_jump      = VI::jump_seminorm(*mapping,
+                                   dof_handler,
+                                   face_quadrature,
+                                   penalty,
+                                   data.mu1,
+                                   data.mu2,
+                                   u1_h,
+                                   u2_h,
+                                   *data.g1,
+                                   *data.g2);
+    error_energy =
+      std::sqrt(error_broken * error_broken + error_jump * error_jump);
+    if (data.exact_lambda)
+      error_multiplier =
+        error(lambda_h, *data.exact_lambda, VectorTools::L2_norm);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::output_results(const unsigned int cycle) const
+  {
+    if (!parameters.output.write_vtu)
+      return;
+    TimerOutput::Scope t(timer, "output");
+    DataOut<dim>       data_out;
+    data_out.attach_dof_handler(dof_handler);
+    data_out.add_data_vector(u1_h, "u1");
+    data_out.add_data_vector(u2_h, "u2");
+    data_out.add_data_vector(gap_h, "gap");
+    data_out.add_data_vector(lambda_h, "lambda");
+    data_out.add_data_vector(contact_set, "contact");
+    dealii::Vector<float> subdomain(triangulation.n_active_cells());
+    subdomain = triangulation.locally_owned_subdomain();
+    data_out.add_data_vector(subdomain, "partition");
+
+    std::vector<dealii::Vector<double>> indicators;
+    if (final_estimate)
+      {
+        const std::pair<const char *, const dealii::Vector<double> *>
+          cell_data[] = {{"eta", &final_estimate->cell_total},
+                         {"eta_flux", &final_estimate->cell_flux},
+                         {"eta_residual", &final_estimate->cell_residual},
+                         {"eta_nonconformity",
+                          &final_estimate->cell_nonconformity}};
+        indicators.reserve(std::size(cell_data) + 1);
+        for (const auto &[name, squares] : cell_data)
+          {
+            indicators.emplace_back(squares->size());
+            for (unsigned int c = 0; c < squares->size(); ++c)
+              indicators.back()(c) = std::sqrt(std::abs((*squares)(c)));
+            data_out.add_data_vector(indicators.back(),
+                                     name,
+                                     DataOut<dim>::type_cell_data);
+          }
+        indicators.push_back(final_estimate->cell_contact);
+        data_out.add_data_vector(indicators.back(),
+                                 "eta_contact",
+                                 DataOut<dim>::type_cell_data);
+      }
+    data_out.build_patches(*mapping,
+                           fe.degree,
+                           geometry == VI::Geometry::disk ?
+                             DataOut<dim>::curved_inner_cells :
+                             DataOut<dim>::curved_boundary);
+    data_out.write_vtu_with_pvtu_record(
+      parameters.output.directory + "/", "solution", cycle, comm, 2, 8);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::refine_mesh()
+  {
+    TimerOutput::Scope t(timer, "refinement");
+    for (const auto &cell : triangulation.active_cell_iterators())
+      if (cell->is_locally_owned())
+        cell->set_refine_flag();
+    triangulation.prepare_coarsening_and_refinement();
+    if (parameters.nonlinear_solver.nested_iteration)
+      {
+        solution_transfer = std::make_unique<
+          parallel::distributed::SolutionTransfer<dim, Vector>>(dof_handler);
+        solution_transfer->prepare_for_coarsening_and_refinement(
+          std::vector<const Vector *>{&u1_h, &u2_h, &lambda_h});
+      }
+    triangulation.execute_coarsening_and_refinement();
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::record_cycle(const unsigned int cycle)
+  {
+    const double wall = cycle_timer.wall_time();
+    table.add_value("cycle", cycle);
+    table.add_value("cells", triangulation.n_global_active_cells());
+    table.add_value("dofs", dof_handler.n_dofs());
+    table.add_value("newton", newton_report.iterations);
+    table.add_value("linear", newton_report.linear_iterations);
+    table.add_value("contact", n_contact_nodes);
+    const auto scientific = [&](const std::string &key, const double value) {
+      table.add_value(key, value);
+      table.set_scientific(key, true);
+      table.set_precision(key, 4);
+    };
+    if (data.has_exact_solution())
+      {
+        scientific("error_energy", error_energy);
+        if (data.exact_lambda)
+          scientific("error_lambda", error_multiplier);
+      }
+    if (final_estimate)
+      {
+        scientific("eta", final_estimate->eta);
+        if (data.has_exact_solution())
+          {
+            table.add_value("effectivity", final_estimate->eta / error_energy);
+            table.set_precision("effectivity", 3);
+          }
+      }
+    table.add_value("wall_s", wall);
+    table.set_precision("wall_s", 3);
+
+    VI::Json record             = VI::Json::object();
+    record["cycle"]             = cycle;
+    record["cells"]             = triangulation.n_global_active_cells();
+    record["dofs"]              = n_fields * dof_handler.n_dofs();
+    record["dofs_per_field"]    = dof_handler.n_dofs();
+    record["newton_iterations"] = newton_report.iterations;
+    record["linear_iterations"] = newton_report.linear_iterations;
+    record["contact_nodes"]     = n_contact_nodes;
+    if (data.has_exact_solution())
+      {
+        record["error_energy"] = error_energy;
+        record["error_broken"] = error_broken;
+        record["error_jump"]   = error_jump;
+      }
+    if (data.exact_lambda)
+      record["error_lambda_l2"] = error_multiplier;
+    if (final_estimate)
+      {
+        const VI::DGContactEstimate &e = *final_estimate;
+        record["eta"]                  = e.eta;
+        record["eta_disc"]             = e.eta_disc;
+        record["eta_lin"]              = e.eta_lin;
+        record["eta_alg"]              = e.eta_alg;
+        if (data.has_exact_solution())
+          {
+            record["effectivity"]        = e.eta / error_energy;
+            record["effectivity_broken"] = e.broken / error_broken;
+          }
+        VI::Json json        = VI::Json::object();
+        json["eta"]          = e.eta;
+        json["eta_broken"]   = e.broken;
+        json["jump"]         = e.jump;
+        json["flux"]         = e.flux_disc;
+        json["residual"]     = e.residual;
+        json["remainder"]    = e.remainder;
+        json["nonc_1"]       = e.nonc_1;
+        json["oswald"]       = e.oswald;
+        json["nonc_2"]       = e.nonc_2;
+        json["nonc_3"]       = e.nonc_3;
+        json["contact_pos"]  = e.contact_pos;
+        json["contact_cone"] = e.contact_cone;
+        json["contact_lin"]  = e.contact_lin;
+        json["dirichlet"]    = e.dirichlet;
+        record["estimate"]   = json;
+      }
+    record["wall_seconds"] = wall;
+    VI::Json steps         = VI::Json::array();
+    for (const VI::NewtonStep &step : newton_report.steps)
+      {
+        VI::Json it                    = VI::Json::object();
+        it["k"]                        = step.iteration;
+        it["linear_iterations"]        = step.linear_iterations;
+        it["residual_equations"]       = step.residual.equations;
+        it["residual_complementarity"] = step.residual.complementarity;
+        it["step_length"]              = step.step_length;
+        steps.push_back(it);
+      }
+    record["newton_steps"] = steps;
+    summary["cycles"].push_back(record);
+  }
+
+
+  // The convergence table with rates in h (from the DoF counts): on the
+  // screen with the wall time, in convergence.txt without it.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::write_tables() const
+  {
+    std::vector<std::string> errors;
+    if (data.has_exact_solution())
+      errors.push_back("error_energy");
+    if (data.exact_lambda)
+      errors.push_back("error_lambda");
+    if (parameters.estimators.enabled)
+      errors.push_back("eta");
+    ConvergenceTable with_rates = table;
+    for (const std::string &key : errors)
+      with_rates.evaluate_convergence_rates(
+        key, "dofs", ConvergenceTable::reduction_rate_log2, dim);
+    pcout << std::endl;
+    if (Utilities::MPI::this_mpi_process(comm) == 0)
+      {
+        with_rates.write_text(std::cout, TableHandler::org_mode_table);
+        std::ofstream file(parameters.output.directory + "/convergence.txt");
+        std::vector<std::string> columns = {
+          "cycle", "cells", "dofs", "newton", "linear", "contact"};
+        columns.insert(columns.end(), errors.begin(), errors.end());
+        if (parameters.estimators.enabled && data.has_exact_solution())
+          columns.push_back("effectivity");
+        ConvergenceTable file_table = with_rates;
+        file_table.set_column_order(columns);
+        file_table.write_text(file, TableHandler::org_mode_table);
+      }
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::run()
+  {
+    const auto &nonlinear = parameters.nonlinear_solver;
+    const auto &linear    = parameters.linear_solver;
+    pcout << VI::run_header("step-membranes", comm) << std::endl;
+    pcout << "Test case " << data.name << " on the " << parameters.mesh.geometry
+          << ", " << penalty.label() << " Q" << fe.degree << " (penalty "
+          << penalty.penalty_constant() << " p (p + 1) / h_F), Newton-"
+          << C.name() << " (" << nonlinear.strategy << ")"
+          << (nonlinear.nested_iteration ? " with" : " without")
+          << " nested iteration, "
+          << (linear.solver == "direct" ?
+                "direct solver " + linear.direct_package :
+                "GMRES + " + linear.preconditioner)
+          << (parameters.estimators.enabled ? ", estimators on" : "")
+          << std::endl;
+
+    summary           = VI::make_summary("step-membranes", comm, prm);
+    summary["cycles"] = VI::Json::array();
+
+    make_grid();
+    check_data();
+    VI::prepare_output_directory(parameters.output.directory, comm);
+
+    for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
+      {
+        cycle_timer.restart();
+        if (cycle > 0)
+          refine_mesh();
+        setup_system();
+        assemble_system();
+        initialize_iterate();
+        pcout << "Cycle " << cycle << ": "
+              << triangulation.n_global_active_cells() << " cells, "
+              << n_fields * dof_handler.n_dofs() << " unknowns ("
+              << dof_handler.n_dofs() << " per field)" << std::endl;
+        try
+          {
+            solve();
+          }
+        catch (const VI::SolverFailure &failure)
+          {
+            summary["status"]  = "failed";
+            summary["failure"] = std::string(failure.what());
+            VI::write_summary(summary, parameters.output.directory, comm);
+            throw;
+          }
+        final_estimate.reset();
+        if (parameters.estimators.enabled)
+          final_estimate = estimate(solution);
+        postprocess();
+        compute_errors();
+        output_results(cycle);
+        cycle_timer.stop();
+
+        pcout << "   Newton-" << C.name() << ": " << newton_report.iterations
+              << " iterations";
+        if (linear.solver == "gmres")
+          pcout << ", " << newton_report.linear_iterations << " GMRES";
+        pcout << ", " << n_contact_nodes << " nodes in contact";
+        if (data.has_exact_solution())
+          pcout << ", energy error " << std::scientific << std::setprecision(3)
+                << error_energy << std::defaultfloat;
+        if (final_estimate)
+          {
+            pcout << ", estimate " << std::scientific << std::setprecision(3)
+                  << final_estimate->eta << std::defaultfloat;
+            if (data.has_exact_solution())
+              pcout << " (effectivity " << std::setprecision(3)
+                    << final_estimate->eta / error_energy << ")";
+          }
+        pcout << ", " << std::setprecision(3) << cycle_timer.wall_time() << " s"
+              << std::endl;
+        record_cycle(cycle);
+      }
+
+    write_tables();
+    summary["status"] = "converged";
+    summary["timing"] = VI::Json::object();
+    for (const auto &[section, seconds] :
+         timer.get_summary_data(TimerOutput::total_wall_time))
+      summary["timing"][section] = seconds;
+    VI::write_summary(summary, parameters.output.directory, comm);
+    pcout << "\nOutput in " << parameters.output.directory
+          << "/: solution_*.pvtu (ParaView), convergence.txt, summary.json"
+          << std::endl;
+  }
+
+
+  template class DGMembraneProblem<2>;
+} // namespace StepMembranes

@@ -1,0 +1,223 @@
+#pragma once
+
+#include <deal.II/base/conditional_ostream.h>
+#include <deal.II/base/convergence_table.h>
+#include <deal.II/base/index_set.h>
+#include <deal.II/base/parameter_handler.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/distributed/solution_transfer.h>
+#include <deal.II/distributed/tria.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/fe_dgq.h>
+#include <deal.II/fe/fe_q.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/fe/mapping_q_cache.h>
+#include <deal.II/lac/trilinos_precondition.h>
+#include <deal.II/lac/trilinos_sparse_matrix.h>
+#include <deal.II/lac/trilinos_vector.h>
+
+#include <vi/complementarity.h>
+#include <vi/contact_rows.h>
+#include <vi/dg_estimators.h>
+#include <vi/dg_reconstruction.h>
+#include <vi/flux_reconstruction.h>
+#include <vi/geometry.h>
+#include <vi/interior_penalty.h>
+#include <vi/linear_solvers.h>
+#include <vi/semismooth_newton.h>
+#include <vi/summary.h>
+#include <vi/test_cases.h>
+
+#include "membrane_problem.h"
+
+#include <memory>
+#include <optional>
+
+namespace StepMembranes
+{
+  using namespace dealii;
+
+  /**
+   * The parameters the discontinuous Galerkin methods add to the section
+   * Discretization: "Penalty", the constant C of gamma_F = C p (p + 1).
+   */
+  struct DGParameters
+  {
+    double penalty = VI::InteriorPenalty::default_penalty_constant;
+
+    static void
+    declare(ParameterHandler &prm);
+    void
+    parse(ParameterHandler &prm);
+  };
+
+
+  /**
+   * Contact between two membranes with interior penalty discontinuous
+   * Galerkin methods (SIPG, NIPG, IIPG; the seed's "The Discontinuous
+   * Galerkin method"): find u1h, u2h in the broken space X_h^p = prod_K
+   * Q_p(K) and lambda_h in Lambda_h^p with
+   *
+   *   mu1 A_h(u1h, v1) - <lambda_h, v1>_h = (f1, v1) + mu1 G_h1(v1),
+   *   mu2 A_h(u2h, v2) + <lambda_h, v2>_h = (f2, v2) + mu2 G_h2(v2),
+   *   (u1h - u2h)|K (x_I) >= 0, <lambda_h|K, psi_I>_h,K >= 0,
+   *   <lambda_h, u1h - u2h>_h = 0,
+   *
+   * for all broken v and every node x_I of every cell K (its own support
+   * points: the Gauss-Lobatto nodes of FE_DGQArbitraryNodes). A_h and the
+   * weakly imposed Dirichlet data G_h are those of VI::InteriorPenalty.
+   * Lambda_h^p is the broken Q_p with the cell-local basis dual to the nodal
+   * basis for a bracket <.,.>_h: the L2 product of the cell for p >= 2 (the
+   * slides' Lambda_h^p, (Theta_I, psi_J)_K = delta_IJ, D = I), the
+   * mass-lumped one for p = 1 (X3 = nodal values of lambda_h >= 0, D =
+   * diag((psi_I, 1)_K)), as the conforming method. The coupling block is
+   * diagonal and the complementarity nodewise, the FEM structure
+   *
+   *   [mu1 S_h   0   -D] X = F,   X1 - X2 >= 0,  X3 >= 0,  (X1 - X2).X3 = 0,
+   *   [0   mu2 S_h   +D]
+   *
+   * with the (for NIPG and IIPG nonsymmetric) dG stiffness S_h, solved by
+   * the same semismooth Newton and linear solvers. With Dirichlet data
+   * imposed weakly, every node of every cell carries a constraint pair.
+   *
+   * The a posteriori estimate (doc/step-membranes.md) reconstructs a
+   * conforming potential by Oswald interpolation and an equilibrated flux
+   * on vertex patches from the broken gradient and the lifting of the jumps.
+   */
+  template <int dim>
+  class DGMembraneProblem
+  {
+  public:
+    DGMembraneProblem(const Parameters   &parameters,
+                      const DGParameters &dg_parameters,
+                      ParameterHandler   &prm,
+                      const MPI_Comm      comm);
+
+    void
+    run();
+
+  private:
+    using Vector = TrilinosWrappers::MPI::Vector;
+
+    void
+    check_parameters() const;
+    void
+    check_data() const;
+    void
+    make_grid();
+    void
+    setup_system();
+    void
+    assemble_system();
+    void
+    initialize_iterate();
+    void
+    solve();
+    unsigned int
+    solve_linearized(const Vector &rhs, Vector &dX);
+    VI::ResidualNorms
+    residual(const Vector &X, Vector &R) const;
+    void
+    scale_constraint_rows(Vector &v, const bool divide) const;
+    VI::DGContactEstimate
+    estimate(const Vector &X) const;
+    void
+    postprocess();
+    void
+    compute_errors();
+    void
+    output_results(const unsigned int cycle) const;
+    void
+    refine_mesh();
+    void
+    record_cycle(const unsigned int cycle);
+    void
+    write_tables() const;
+
+    /**
+     * The broken function v with (v, psi_I)_K = moments_I on every owned
+     * cell K (v = M_K^{-1} moments, the dual basis); v is ghosted.
+     */
+    void
+    function_from_moments(const Vector &moments, Vector &v) const;
+    /// p = 1: the bracket <.,.>_h is mass-lumped (X3 = nodal values).
+    bool
+    mass_lumped() const;
+    /// lambda_h (ghosted) from its dual coefficients X3 (no ghosts).
+    void
+    multiplier_function(const Vector &X3, Vector &lambda) const;
+    /// The multiplier of the estimate from the moments <lambda_h, psi_I>_h:
+    /// nodal values m_I / (psi_I, 1)_K, limited towards the cell mean.
+    void
+    limited_nodal_function(const Vector &moments, Vector &lambda) const;
+    /// The inverse map: moments_I = (v, psi_I)_K; v ghosted, moments not.
+    void
+    moments_of_function(const Vector &v, Vector &moments) const;
+
+    const Parameters            parameters;
+    ParameterHandler           &prm;
+    const MPI_Comm              comm;
+    ConditionalOStream          pcout;
+    mutable TimerOutput         timer;
+    const VI::Geometry          geometry;
+    VI::MembraneData<dim>       data;
+    VI::ComplementarityFunction C;
+    const VI::InteriorPenalty   penalty;
+
+    parallel::distributed::Triangulation<dim> triangulation;
+    std::unique_ptr<Mapping<dim>>             geometry_mapping;
+    std::unique_ptr<MappingQCache<dim>>       mapping;
+    /// Broken Q_p on the Gauss-Lobatto nodes (those of FE_Q(p)).
+    FE_DGQArbitraryNodes<dim> fe;
+    DoFHandler<dim>           dof_handler;
+    /// One cell and one face quadrature for assembly, flux reconstruction,
+    /// lifting and estimators (compatibility of the patch problems).
+    QGauss<dim>     quadrature;
+    QGauss<dim - 1> face_quadrature;
+
+    IndexSet owned_nodes, relevant_nodes;
+    IndexSet owned_system, relevant_system;
+
+    VI::ContactRows                contact_rows;
+    TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E ; J_C]
+    Vector                         system_rhs;    ///< F
+    Vector                         solution;      ///< X
+    Vector                         coupling;      ///< D_I per node
+    Vector                         lumped_mass;   ///< (psi_I, 1)_K per node
+    double                         load_norm        = 0;
+    double                         multiplier_scale = 0;
+    std::vector<double> stiffness_weight, multiplier_weight, row_weights;
+
+    std::unique_ptr<VI::LinearSolver>                  direct_solver;
+    std::unique_ptr<TrilinosWrappers::PreconditionILU> ilu;
+
+    // The estimators: the continuous space of the potential reconstruction
+    // (FE_Q(p), also deciding vertex ownership of the patches), the flux
+    // reconstruction and the lifting of the jumps.
+    FE_Q<dim>                                    fe_continuous;
+    DoFHandler<dim>                              continuous_dof_handler;
+    IndexSet                                     owned_continuous;
+    IndexSet                                     relevant_continuous;
+    std::unique_ptr<VI::FluxReconstruction<dim>> flux_reconstruction;
+    std::unique_ptr<VI::JumpLifting<dim>>        lifting;
+
+    // The discrete solution as finite element functions (with ghosts).
+    Vector u1_h, u2_h, gap_h, lambda_h, contact_set;
+
+    std::unique_ptr<parallel::distributed::SolutionTransfer<dim, Vector>>
+      solution_transfer;
+
+    VI::NewtonReport                     newton_report;
+    std::optional<VI::DGContactEstimate> final_estimate;
+    types::global_dof_index              n_contact_nodes  = 0;
+    double                               error_broken     = 0;
+    double                               error_jump       = 0;
+    double                               error_energy     = 0;
+    double                               error_multiplier = 0;
+    Timer                                cycle_timer;
+
+    ConvergenceTable table;
+    VI::Json         summary;
+  };
+} // namespace StepMembranes
