@@ -18,6 +18,7 @@
 #include <cmath>
 #include <deal.II/base/point.h>
 #include <deal.II/base/quadrature_lib.h>
+#include <deal.II/fe/fe_dgp.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/tria.h>
 #include <deal.II/lac/full_matrix.h>
@@ -126,26 +127,60 @@ namespace StepHHO
 
 
     /**
+     * The basis functions of the cell element (FE_DGP(p)) that span
+     * P_k(K), k <= p: FE_DGP's basis functions are products of Legendre
+     * polynomials on the reference cell, and those of FE_DGP(k) are among
+     * them. Returned as indices into the basis of `cell_fe`.
+     */
+    template <int dim>
+    std::vector<unsigned int>
+    subspace_basis(const FiniteElement<dim> &cell_fe, const unsigned int k)
+    {
+      const FE_DGP<dim>         sub_fe(k);
+      const QGauss<dim>         points(k + 2);
+      std::vector<unsigned int> indices;
+      for (unsigned int i = 0; i < sub_fe.n_dofs_per_cell(); ++i)
+        for (unsigned int j = 0; j < cell_fe.n_dofs_per_cell(); ++j)
+          {
+            bool equal = true;
+            for (const Point<dim> &x : points.get_points())
+              equal = equal && std::abs(sub_fe.shape_value(i, x) -
+                                        cell_fe.shape_value(j, x)) < 1e-12;
+            if (equal)
+              {
+                indices.push_back(j);
+                break;
+              }
+          }
+      AssertDimension(indices.size(), sub_fe.n_dofs_per_cell());
+      return indices;
+    }
+
+
+    /**
      * The gradient reconstruction G_K : P_p(K) x prod_F P_{p-1}(F) ->
-     * P_p(K)^dim of the slides: for all q in P_p(K)^dim,
+     * P_k(K)^dim: for all q in P_k(K)^dim,
      *
-     *   (G_K(v), q)_K = (grad v_K, q)_K + (v_dK - v_K, q.n_K)_dK.
+     *   (G_K(v), q)_K = (grad v_K, q)_K + (v_dK - v_K, q.n_K)_dK,
      *
-     * Returns the matrix G with G_K(v) = sum_{d,j} (G v)_{d n_c + j} P_j e_d,
-     * i.e. the solution of M_G G = B, and the Gram matrix M_G of the basis
-     * {P_j e_d} (block diagonal with the cell mass matrix). The consistent
-     * part of the HHO bilinear form is then (G_K v, G_K w)_K = w^T G^T M_G G v.
+     * with k = p in the slides, or k = p - 1. The basis of P_k(K) is given by
+     * `gradient_basis`: indices j of the cell element's basis functions P_j
+     * (subspace_basis()). Returns the matrix G with G_K(v) = sum_{d,m}
+     * (G v)_{d n_g + m} P_{j_m} e_d (n_g = dim P_k), i.e. the solution of
+     * M_G G = B, and the Gram matrix M_G of this basis. The consistent part
+     * of the HHO bilinear form is then (G_K v, G_K w)_K = w^T G^T M_G G v.
      *
-     * What it reproduces (checked in the unit tests): for v in P_{p-1}(K)
-     * with v_F = the trace of v, G_K(v) = grad v on any cell, since then
-     * v_dK - v_K = 0. For v in P_p(K) and v_F the L2 projection of its trace
-     * onto P_{p-1}(F), the boundary term
-     *   sum_F (Pi_F v - v, q.n)_F
-     * pairs the degree-p parts of v and q.n along each face; on a
-     * parallelogram those of opposite faces cancel (same tangent, opposite
-     * normal), so G_K(v) = grad v for all v in P_p(K). On the meshes of
-     * step-hho (squares) the reconstruction is therefore exact on the whole
-     * cell space.
+     * What it reproduces, for v in P_p(K) and v_F the L2 projection of its
+     * trace onto P_{p-1}(F) (checked in the unit tests):
+     * - k = p - 1: q.n is in P_{p-1}(F) on every straight face, so the face
+     *   term vanishes and G_K(v) is the L2 projection of grad v onto
+     *   P_{p-1}(K)^dim on any straight-sided cell: grad v itself on
+     *   parallelograms (where FE_DGP is P_p in physical coordinates).
+     * - k = p: the face term sum_F (Pi_F v - v, q.n)_F pairs the degree-p
+     *   parts of v and q.n along each face; on a parallelogram those of
+     *   opposite faces cancel (same tangent, opposite normal), so again
+     *   G_K(v) = grad v, now in a larger space. On other cells the
+     *   cancellation is only approximate.
      *
      * `cell_values` (the cell element, with values, gradients and JxW),
      * `trace_values` (the cell element on faces, with values, normals and
@@ -159,6 +194,7 @@ namespace StepHHO
       FEValues<dim>                                    &cell_values,
       FEFaceValues<dim>                                &trace_values,
       FEFaceValues<dim>                                &face_values,
+      const std::vector<unsigned int>                  &gradient_basis,
       FullMatrix<double>                               &G,
       FullMatrix<double>                               &gradient_mass)
     {
@@ -166,23 +202,26 @@ namespace StepHHO
       const unsigned int        n_c = cell_values.get_fe().n_dofs_per_cell();
       const unsigned int        n_f = face_fe.n_dofs_per_cell();
       const unsigned int        n   = n_c + n_f;
+      const unsigned int        n_g = gradient_basis.size();
 
-      // Cell mass matrix M and B = the right-hand side, row (d, j) for the
-      // test function q = P_j e_d.
-      FullMatrix<double> M(n_c, n_c), B(dim * n_c, n);
+      // Mass matrix M of the basis of P_k and B = the right-hand side, row
+      // (d, m) for the test function q = P_{j_m} e_d.
+      FullMatrix<double> M(n_g, n_g), B(dim * n_g, n);
       cell_values.reinit(cell);
       for (const unsigned int q : cell_values.quadrature_point_indices())
         {
           const double dx = cell_values.JxW(q);
-          for (unsigned int j = 0; j < n_c; ++j)
+          for (unsigned int m = 0; m < n_g; ++m)
             {
-              const double P_j = cell_values.shape_value(j, q);
+              const double P_m = cell_values.shape_value(gradient_basis[m], q);
+              for (unsigned int l = 0; l < n_g; ++l)
+                M(m, l) +=
+                  P_m * cell_values.shape_value(gradient_basis[l], q) * dx;
               for (unsigned int i = 0; i < n_c; ++i)
                 {
-                  M(j, i) += P_j * cell_values.shape_value(i, q) * dx;
                   const Tensor<1, dim> grad_i = cell_values.shape_grad(i, q);
                   for (unsigned int d = 0; d < dim; ++d)
-                    B(d * n_c + j, i) += grad_i[d] * P_j * dx;
+                    B(d * n_g + m, i) += grad_i[d] * P_m * dx;
                 }
             }
         }
@@ -195,39 +234,38 @@ namespace StepHHO
             {
               const Tensor<1, dim> &normal = trace_values.normal_vector(q);
               const double          ds     = trace_values.JxW(q);
-              for (unsigned int j = 0; j < n_c; ++j)
+              for (unsigned int m = 0; m < n_g; ++m)
                 for (unsigned int d = 0; d < dim; ++d)
                   {
                     const double q_dot_n =
-                      trace_values.shape_value(j, q) * normal[d] * ds;
+                      trace_values.shape_value(gradient_basis[m], q) *
+                      normal[d] * ds;
                     for (unsigned int i = 0; i < n_c; ++i)
-                      B(d * n_c + j, i) -=
+                      B(d * n_g + m, i) -=
                         trace_values.shape_value(i, q) * q_dot_n;
                     for (unsigned int k = 0; k < face_fe.n_dofs_per_face(f);
                          ++k)
                       {
                         const unsigned int i = face_fe.face_to_cell_index(k, f);
-                        B(d * n_c + j, n_c + i) +=
+                        B(d * n_g + m, n_c + i) +=
                           face_values.shape_value(i, q) * q_dot_n;
                       }
                   }
             }
         }
 
-      FullMatrix<double> M_inverse(n_c, n_c);
+      FullMatrix<double> M_inverse(n_g, n_g);
       M_inverse.invert(M);
-      G.reinit(dim * n_c, n);
-      gradient_mass.reinit(dim * n_c, dim * n_c);
+      G.reinit(dim * n_g, n);
+      gradient_mass.reinit(dim * n_g, dim * n_g);
       for (unsigned int d = 0; d < dim; ++d)
-        for (unsigned int j = 0; j < n_c; ++j)
-          {
-            for (unsigned int l = 0; l < n_c; ++l)
-              {
-                gradient_mass(d * n_c + j, d * n_c + l) = M(j, l);
-                for (unsigned int i = 0; i < n; ++i)
-                  G(d * n_c + j, i) += M_inverse(j, l) * B(d * n_c + l, i);
-              }
-          }
+        for (unsigned int m = 0; m < n_g; ++m)
+          for (unsigned int l = 0; l < n_g; ++l)
+            {
+              gradient_mass(d * n_g + m, d * n_g + l) = M(m, l);
+              for (unsigned int i = 0; i < n; ++i)
+                G(d * n_g + m, i) += M_inverse(m, l) * B(d * n_g + l, i);
+            }
     }
 
 
@@ -310,7 +348,8 @@ namespace StepHHO
 
 
     /**
-     * The local HHO matrix of one membrane with unit tension,
+     * The local HHO matrix of one membrane with unit tension, with G_K in
+     * P_k(K)^dim (the basis `gradient_basis`, see gradient_reconstruction()),
      *
      *   a_K(v, w) = (G_K v, G_K w)_K + s_K(v, w),
      *
@@ -319,14 +358,20 @@ namespace StepHHO
     template <int dim>
     void
     local_hho_matrix(const typename Triangulation<dim>::cell_iterator &cell,
-                     FEValues<dim>      &cell_values,
-                     FEFaceValues<dim>  &trace_values,
-                     FEFaceValues<dim>  &face_values,
-                     FullMatrix<double> &A)
+                     FEValues<dim>                   &cell_values,
+                     FEFaceValues<dim>               &trace_values,
+                     FEFaceValues<dim>               &face_values,
+                     const std::vector<unsigned int> &gradient_basis,
+                     FullMatrix<double>              &A)
     {
       FullMatrix<double> G, gradient_mass;
-      gradient_reconstruction(
-        cell, cell_values, trace_values, face_values, G, gradient_mass);
+      gradient_reconstruction(cell,
+                              cell_values,
+                              trace_values,
+                              face_values,
+                              gradient_basis,
+                              G,
+                              gradient_mass);
       stabilisation(cell, trace_values, face_values, A);
       FullMatrix<double> MG(G.m(), G.n());
       gradient_mass.mmult(MG, G);

@@ -50,6 +50,24 @@
 // d3 = M3^{-1} (s3 - Ga K_CC^{-1} (s1/mu1 - s2/mu2)). Q couples the two
 // membranes only where nodes are (partly) in contact. After the face solve,
 // dx3 = d3 + W (dy1 - dy2) and stage 1 recover the cell unknowns.
+//
+// Mean and difference. Both membranes have the same local operator, so the
+// condensed system splits exactly: with m = mu1 + mu2 and the face unknowns
+// of the weighted mean and of the difference of the membranes,
+//
+//   ds = (mu1 dy1 + mu2 dy2) / m,   dd = dy1 - dy2,
+//   dy1 = ds + (mu2 / m) dd,        dy2 = ds - (mu1 / m) dd,
+//
+// the energy mu1 dy1.Sc dy1 + mu2 dy2.Sc dy2 + dd.Q dd of the condensed
+// matrix is m ds.Sc ds + (mu1 mu2 / m) dd.Sc dd + dd.Q dd (the cross terms
+// cancel). The system is block diagonal:
+//
+//   m Sc ds = b1 + b2,   (mu1 mu2 / m Sc + Q) dd = (mu2 b1 - mu1 b2) / m,
+//
+// for the right-hand side (b1, b2) above. The first block is the HHO
+// discretisation of -Lap(mu1 u1 + mu2 u2) = f1 + f2, which the contact does
+// not see; it is the same in every Newton step. The second, the obstacle
+// problem for u1 - u2, carries all of the contact.
 
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/vector.h>
@@ -165,22 +183,15 @@ namespace StepHHO
       }
 
 
-      /// The cell's contribution to the condensed face matrix, 2 n_f x 2 n_f.
+      /// The cell's contribution to the condensed face matrix, 2 n_f x 2 n_f,
+      /// for the face unknowns (dy1, dy2).
       void
       condensed_matrix(const CellOperators &cell, FullMatrix<double> &S) const
       {
         const unsigned int n_f = cell.n_face;
+        FullMatrix<double> Q;
+        contact_coupling(cell, Q);
         S.reinit(2 * n_f, 2 * n_f);
-        FullMatrix<double> Q(n_f, n_f);
-        if (has_contact_terms)
-          {
-            cell.P.Tmmult(Q, W);
-            // Q is symmetric in exact arithmetic; make it so in floating
-            // point, so that the condensed matrix is exactly symmetric (CG).
-            for (unsigned int k = 0; k < n_f; ++k)
-              for (unsigned int l = 0; l < k; ++l)
-                Q(k, l) = Q(l, k) = 0.5 * (Q(k, l) + Q(l, k));
-          }
         for (unsigned int k = 0; k < n_f; ++k)
           for (unsigned int l = 0; l < n_f; ++l)
             {
@@ -189,6 +200,46 @@ namespace StepHHO
               S(k, n_f + l)       = -Q(k, l);
               S(n_f + k, l)       = -Q(k, l);
             }
+      }
+
+
+      /// The cell's contribution to the matrix of the mean, (mu1 + mu2) Sc.
+      static void
+      mean_matrix(const CellOperators &cell,
+                  const double         mu1,
+                  const double         mu2,
+                  FullMatrix<double>  &S_mean)
+      {
+        S_mean.reinit(cell.n_face, cell.n_face);
+        S_mean.add(mu1 + mu2, cell.Sc);
+      }
+
+
+      /// The cell's contribution to the matrix of the difference,
+      /// mu1 mu2 / (mu1 + mu2) Sc + Q.
+      void
+      difference_matrix(const CellOperators &cell,
+                        FullMatrix<double>  &S_difference) const
+      {
+        contact_coupling(cell, S_difference);
+        S_difference.add(mu1 * mu2 / (mu1 + mu2), cell.Sc);
+      }
+
+
+      /// The coupling of the membranes through the contact rows, Q = P^T W.
+      void
+      contact_coupling(const CellOperators &cell, FullMatrix<double> &Q) const
+      {
+        const unsigned int n_f = cell.n_face;
+        Q.reinit(n_f, n_f);
+        if (!has_contact_terms)
+          return;
+        cell.P.Tmmult(Q, W);
+        // Q is symmetric in exact arithmetic; make it so in floating point,
+        // so that the condensed matrices are symmetric to the last bit (CG).
+        for (unsigned int k = 0; k < n_f; ++k)
+          for (unsigned int l = 0; l < k; ++l)
+            Q(k, l) = Q(l, k) = 0.5 * (Q(k, l) + Q(l, k));
       }
 
 

@@ -232,46 +232,106 @@ TEST(HHOLocalOperators, PaduaPointsOfDegreeOne)
 }
 
 
+namespace
+{
+  /**
+   * G_K(I_K P_j) - Pi_k grad P_j for every basis function P_j of the cell
+   * space, with Pi_k the L2 projection onto the gradient space P_k(K)^2;
+   * returns the largest L2 norm of this defect relative to |grad P_j|_K.
+   * If exact is true, compares with grad P_j itself instead.
+   */
+  double
+  gradient_defect(LocalSetting &s, const unsigned int k, const bool exact)
+  {
+    const std::vector<unsigned int> basis = LO::subspace_basis(s.cell_fe, k);
+    FullMatrix<double>              G, gradient_mass;
+    LO::gradient_reconstruction<2>(s.cell,
+                                   s.cell_values,
+                                   s.trace_values,
+                                   s.face_values,
+                                   basis,
+                                   G,
+                                   gradient_mass);
+    const unsigned int n_c = s.cell_fe.n_dofs_per_cell(), n_g = basis.size();
+    FullMatrix<double> M_inverse(n_g, n_g);
+    for (unsigned int m = 0; m < n_g; ++m)
+      for (unsigned int l = 0; l < n_g; ++l)
+        M_inverse(m, l) = gradient_mass(m, l);
+    M_inverse.gauss_jordan();
+
+    double largest = 0;
+    for (unsigned int j = 0; j < n_c; ++j)
+      {
+        const Vector<double> v = s.interpolate(j);
+        Vector<double>       g(G.m()), moments(2 * n_g), projection(2 * n_g);
+        G.vmult(g, v);
+        // Coefficients of Pi_k grad P_j: M^{-1} (grad P_j, P_m e_d).
+        s.cell_values.reinit(s.cell);
+        for (const unsigned int q : s.cell_values.quadrature_point_indices())
+          for (unsigned int m = 0; m < n_g; ++m)
+            for (unsigned int d = 0; d < 2; ++d)
+              moments(d * n_g + m) += s.cell_values.shape_grad(j, q)[d] *
+                                      s.cell_values.shape_value(basis[m], q) *
+                                      s.cell_values.JxW(q);
+        for (unsigned int d = 0; d < 2; ++d)
+          for (unsigned int m = 0; m < n_g; ++m)
+            for (unsigned int l = 0; l < n_g; ++l)
+              projection(d * n_g + m) += M_inverse(m, l) * moments(d * n_g + l);
+
+        double error = 0., norm = 0.;
+        for (const unsigned int q : s.cell_values.quadrature_point_indices())
+          {
+            Tensor<1, 2> Gv, Pi_grad;
+            for (unsigned int d = 0; d < 2; ++d)
+              for (unsigned int m = 0; m < n_g; ++m)
+                {
+                  const double P_m = s.cell_values.shape_value(basis[m], q);
+                  Gv[d] += g(d * n_g + m) * P_m;
+                  Pi_grad[d] += projection(d * n_g + m) * P_m;
+                }
+            const Tensor<1, 2> grad = s.cell_values.shape_grad(j, q);
+            error += (Gv - (exact ? grad : Pi_grad)).norm_square() *
+                     s.cell_values.JxW(q);
+            norm += grad.norm_square() * s.cell_values.JxW(q);
+          }
+        if (norm > 0)
+          largest = std::max(largest, std::sqrt(error / norm));
+        else
+          largest = std::max(largest, std::sqrt(error));
+      }
+    return largest;
+  }
+} // namespace
+
+
 TEST(HHOLocalOperators, GradientReconstructionIsExactOnPpOnParallelograms)
 {
+  // G_K(I_K v) = grad v for all v in P_p(K), with G_K in P_p(K)^2 (the
+  // slides) and in P_{p-1}(K)^2.
   for (const Shape &shape : shapes)
-    {
-      if (!shape.parallelogram)
-        continue;
+    if (shape.parallelogram)
       for (unsigned int p = 1; p <= 4; ++p)
-        {
-          LocalSetting       s(shape, p);
-          FullMatrix<double> G, gradient_mass;
-          LO::gradient_reconstruction<2>(s.cell,
-                                         s.cell_values,
-                                         s.trace_values,
-                                         s.face_values,
-                                         G,
-                                         gradient_mass);
-          const unsigned int n_c = s.cell_fe.n_dofs_per_cell();
-          for (unsigned int j = 0; j < n_c; ++j)
-            {
-              const Vector<double> v = s.interpolate(j);
-              Vector<double>       g(G.m());
-              G.vmult(g, v);
-              // || G_K(I_K P_j) - grad P_j ||_K relative to || grad P_j ||_K
-              double error = 0., norm = 0.;
-              s.cell_values.reinit(s.cell);
-              for (const unsigned int q :
-                   s.cell_values.quadrature_point_indices())
-                {
-                  Tensor<1, 2> Gv;
-                  for (unsigned int d = 0; d < 2; ++d)
-                    for (unsigned int l = 0; l < n_c; ++l)
-                      Gv[d] += g(d * n_c + l) * s.cell_values.shape_value(l, q);
-                  const Tensor<1, 2> grad = s.cell_values.shape_grad(j, q);
-                  error += (Gv - grad).norm_square() * s.cell_values.JxW(q);
-                  norm += grad.norm_square() * s.cell_values.JxW(q);
-                }
-              EXPECT_LE(std::sqrt(error), 1e-12 * std::max(1., std::sqrt(norm)))
-                << shape.name << ", p = " << p << ", basis function " << j;
-            }
-        }
+        for (const unsigned int k : {p, p - 1})
+          {
+            LocalSetting s(shape, p);
+            EXPECT_LE(gradient_defect(s, k, /*exact=*/true), 1e-12)
+              << shape.name << ", p = " << p << ", k = " << k;
+          }
+}
+
+
+TEST(HHOLocalOperators, GradientReconstructionOnOtherQuadrilaterals)
+{
+  // On a trapezoid (a bilinear map, FE_DGP is mapped P_p): with k = p - 1,
+  // G_K(I_K v) is still the L2 projection of grad v onto the gradient space
+  // (q.n is in P_{p-1}(F) on straight faces); with k = p the face terms no
+  // longer cancel and G_K(I_K v) differs from that projection.
+  for (unsigned int p = 1; p <= 4; ++p)
+    {
+      LocalSetting s(shapes[3], p);
+      EXPECT_LE(gradient_defect(s, p - 1, /*exact=*/false), 1e-12)
+        << "p = " << p;
+      EXPECT_GT(gradient_defect(s, p, /*exact=*/false), 1e-3) << "p = " << p;
     }
 }
 
@@ -283,8 +343,14 @@ TEST(HHOLocalOperators, GradientReconstructionSeesTheFaceUnknowns)
   // one face, whose integral is |F| n_F (take q = e_d constant).
   LocalSetting       s(shapes[0], 2);
   FullMatrix<double> G, gradient_mass;
-  LO::gradient_reconstruction<2>(
-    s.cell, s.cell_values, s.trace_values, s.face_values, G, gradient_mass);
+  const auto         basis = LO::subspace_basis(s.cell_fe, 2);
+  LO::gradient_reconstruction<2>(s.cell,
+                                 s.cell_values,
+                                 s.trace_values,
+                                 s.face_values,
+                                 basis,
+                                 G,
+                                 gradient_mass);
   const unsigned int n_c = s.cell_fe.n_dofs_per_cell();
   Vector<double>     v(G.n()), g(G.m());
   // Face 1 ({x = 0.25}, outer normal +e_x) of FE_FaceQ(1): its two nodal
@@ -293,9 +359,27 @@ TEST(HHOLocalOperators, GradientReconstructionSeesTheFaceUnknowns)
     v(n_c + s.face_fe.face_to_cell_index(k, 1)) = 1.;
   G.vmult(g, v);
   // The integral of P_0 = 1 times G is the first coefficient times |K|.
+  ASSERT_EQ(basis[0], 0u);
   const double area = 0.25 * 0.25;
   EXPECT_NEAR(g(0) * area, 0.25, 1e-14); // |F| n_x
   EXPECT_NEAR(g(n_c) * area, 0., 1e-14); // |F| n_y
+}
+
+
+TEST(HHOLocalOperators, SubspaceBasisSpansTheLowerDegrees)
+{
+  // FE_DGP(p) restricted to the returned functions is FE_DGP(k).
+  for (unsigned int p = 1; p <= 5; ++p)
+    for (unsigned int k = 0; k <= p; ++k)
+      {
+        const FE_DGP<2> fe(p), sub(k);
+        const auto      basis = LO::subspace_basis(fe, k);
+        ASSERT_EQ(basis.size(), sub.n_dofs_per_cell());
+        for (unsigned int i = 0; i < basis.size(); ++i)
+          EXPECT_NEAR(fe.shape_value(basis[i], Point<2>(0.3, 0.8)),
+                      sub.shape_value(i, Point<2>(0.3, 0.8)),
+                      1e-13);
+      }
 }
 
 
@@ -328,35 +412,42 @@ TEST(HHOLocalOperators, StabilisationVanishesOnPpOnAnyCell)
 
 TEST(HHOLocalOperators, LocalMatrixIsConsistentOnParallelograms)
 {
-  // a_K(I_K v, I_K w) = (grad v, grad w)_K for v, w in P_p(K).
+  // a_K(I_K v, I_K w) = (grad v, grad w)_K for v, w in P_p(K), with G_K
+  // in P_p(K)^2 and in P_{p-1}(K)^2.
   for (const Shape &shape : shapes)
     {
       if (!shape.parallelogram)
         continue;
       for (unsigned int p = 1; p <= 4; ++p)
-        {
-          LocalSetting       s(shape, p);
-          FullMatrix<double> A;
-          LO::local_hho_matrix<2>(
-            s.cell, s.cell_values, s.trace_values, s.face_values, A);
-          const unsigned int n_c = s.cell_fe.n_dofs_per_cell();
-          FullMatrix<double> stiffness(n_c, n_c);
-          s.cell_values.reinit(s.cell);
-          for (const unsigned int q : s.cell_values.quadrature_point_indices())
+        for (const unsigned int k : {p, p - 1})
+          {
+            LocalSetting       s(shape, p);
+            FullMatrix<double> A;
+            LO::local_hho_matrix<2>(s.cell,
+                                    s.cell_values,
+                                    s.trace_values,
+                                    s.face_values,
+                                    LO::subspace_basis(s.cell_fe, k),
+                                    A);
+            const unsigned int n_c = s.cell_fe.n_dofs_per_cell();
+            FullMatrix<double> stiffness(n_c, n_c);
+            s.cell_values.reinit(s.cell);
+            for (const unsigned int q :
+                 s.cell_values.quadrature_point_indices())
+              for (unsigned int i = 0; i < n_c; ++i)
+                for (unsigned int j = 0; j < n_c; ++j)
+                  stiffness(i, j) += s.cell_values.shape_grad(i, q) *
+                                     s.cell_values.shape_grad(j, q) *
+                                     s.cell_values.JxW(q);
             for (unsigned int i = 0; i < n_c; ++i)
               for (unsigned int j = 0; j < n_c; ++j)
-                stiffness(i, j) += s.cell_values.shape_grad(i, q) *
-                                   s.cell_values.shape_grad(j, q) *
-                                   s.cell_values.JxW(q);
-          for (unsigned int i = 0; i < n_c; ++i)
-            for (unsigned int j = 0; j < n_c; ++j)
-              EXPECT_NEAR(A.matrix_scalar_product(s.interpolate(i),
-                                                  s.interpolate(j)),
-                          stiffness(i, j),
-                          1e-12 * std::max(1., stiffness.linfty_norm()))
-                << shape.name << ", p = " << p << ", (" << i << ", " << j
-                << ")";
-        }
+                EXPECT_NEAR(A.matrix_scalar_product(s.interpolate(i),
+                                                    s.interpolate(j)),
+                            stiffness(i, j),
+                            1e-12 * std::max(1., stiffness.linfty_norm()))
+                  << shape.name << ", p = " << p << ", k = " << k << ", (" << i
+                  << ", " << j << ")";
+          }
     }
 }
 
@@ -367,40 +458,46 @@ TEST(HHOLocalOperators, LocalMatrixIsStableWithTheConstantsAsKernel)
   // and all v_F equal to the same constant): this is the stability of HHO,
   // which needs the stabilisation. The zero eigenvalue is round-off (below
   // 1e-12 of the largest); the next one is above 1e-8 of it (the smallest
-  // ratio, about 3e-5, is that of the 4:1 rectangle at p = 4).
+  // ratio, about 3e-5, is that of the 4:1 rectangle at p = 4). Both
+  // gradient spaces, P_p(K)^2 and P_{p-1}(K)^2.
   for (const Shape &shape : shapes)
     for (unsigned int p = 1; p <= 4; ++p)
-      {
-        LocalSetting       s(shape, p);
-        FullMatrix<double> A;
-        LO::local_hho_matrix<2>(
-          s.cell, s.cell_values, s.trace_values, s.face_values, A);
-        for (unsigned int i = 0; i < A.m(); ++i)
-          for (unsigned int j = 0; j < i; ++j)
-            EXPECT_NEAR(A(i, j), A(j, i), 1e-13 * A.linfty_norm());
+      for (const unsigned int k : {p, p - 1})
+        {
+          LocalSetting       s(shape, p);
+          FullMatrix<double> A;
+          LO::local_hho_matrix<2>(s.cell,
+                                  s.cell_values,
+                                  s.trace_values,
+                                  s.face_values,
+                                  LO::subspace_basis(s.cell_fe, k),
+                                  A);
+          for (unsigned int i = 0; i < A.m(); ++i)
+            for (unsigned int j = 0; j < i; ++j)
+              EXPECT_NEAR(A(i, j), A(j, i), 1e-13 * A.linfty_norm());
 
-        LAPACKFullMatrix<double> A_lapack(A.m(), A.n());
-        A_lapack = A;
-        Vector<double>     eigenvalues;
-        FullMatrix<double> eigenvectors;
-        A_lapack.compute_eigenvalues_symmetric(
-          -1e300, 1e300, 0., eigenvalues, eigenvectors);
-        ASSERT_EQ(eigenvalues.size(), A.m());
-        const double largest = eigenvalues(A.m() - 1);
-        EXPECT_LE(std::abs(eigenvalues(0)), 1e-12 * largest)
-          << shape.name << ", p = " << p;
-        EXPECT_GT(eigenvalues(1), 1e-8 * largest)
-          << shape.name << ", p = " << p;
+          LAPACKFullMatrix<double> A_lapack(A.m(), A.n());
+          A_lapack = A;
+          Vector<double>     eigenvalues;
+          FullMatrix<double> eigenvectors;
+          A_lapack.compute_eigenvalues_symmetric(
+            -1e300, 1e300, 0., eigenvalues, eigenvectors);
+          ASSERT_EQ(eigenvalues.size(), A.m());
+          const double largest = eigenvalues(A.m() - 1);
+          EXPECT_LE(std::abs(eigenvalues(0)), 1e-12 * largest)
+            << shape.name << ", p = " << p;
+          EXPECT_GT(eigenvalues(1), 1e-8 * largest)
+            << shape.name << ", p = " << p;
 
-        // The kernel: a constant on the cell and on every face.
-        Vector<double> constant(A.m()), Av(A.m());
-        constant(0) = 1.; // P_0 = 1 of FE_DGP
-        for (unsigned int k = 0; k < s.face_fe.n_dofs_per_cell(); ++k)
-          constant(s.cell_fe.n_dofs_per_cell() + k) = 1.; // FE_FaceQ: nodal
-        A.vmult(Av, constant);
-        EXPECT_LE(Av.linfty_norm(), 1e-12 * largest)
-          << shape.name << ", p = " << p;
-      }
+          // The kernel: a constant on the cell and on every face.
+          Vector<double> constant(A.m()), Av(A.m());
+          constant(0) = 1.; // P_0 = 1 of FE_DGP
+          for (unsigned int k = 0; k < s.face_fe.n_dofs_per_cell(); ++k)
+            constant(s.cell_fe.n_dofs_per_cell() + k) = 1.; // FE_FaceQ: nodal
+          A.vmult(Av, constant);
+          EXPECT_LE(Av.linfty_norm(), 1e-12 * largest)
+            << shape.name << ", p = " << p;
+        }
 }
 
 
@@ -409,8 +506,12 @@ TEST(HHOLocalOperators, NodalBasisChangeKeepsTheBilinearForm)
   // a(v, w) is the same number in the modal and the nodal cell basis.
   LocalSetting       s(shapes[2], 3);
   FullMatrix<double> A;
-  LO::local_hho_matrix<2>(
-    s.cell, s.cell_values, s.trace_values, s.face_values, A);
+  LO::local_hho_matrix<2>(s.cell,
+                          s.cell_values,
+                          s.trace_values,
+                          s.face_values,
+                          LO::subspace_basis(s.cell_fe, 3),
+                          A);
   const FullMatrix<double> V =
     LO::vandermonde_matrix(s.cell_fe,
                            LO::contact_nodes(3, LO::ContactNodes::gauss_padua));

@@ -52,8 +52,12 @@ namespace
                                 QGauss<1>(p + 2),
                                 update_values);
     FullMatrix<double> A;
-    LO::local_hho_matrix<2>(
-      tria.begin_active(), cell_values, trace_values, face_values, A);
+    LO::local_hho_matrix<2>(tria.begin_active(),
+                            cell_values,
+                            trace_values,
+                            face_values,
+                            LO::subspace_basis(cell_fe, p),
+                            A);
     const FullMatrix<double> V = LO::vandermonde_matrix(
       cell_fe, LO::contact_nodes(p, LO::ContactNodes::gauss_padua));
     FullMatrix<double> T(V.m(), V.n());
@@ -271,5 +275,51 @@ TEST(HHOStaticCondensation, CondensedMatrixIsPositiveSemidefinite)
       EXPECT_GT(eigenvalues(kernel_dimension), 1e-6 * largest) << J.name;
       EXPECT_LE(std::abs(eigenvalues(kernel_dimension - 1)), 1e-10 * largest)
         << J.name;
+    }
+}
+
+
+TEST(HHOStaticCondensation, MeanAndDifferenceDecoupleTheMembranes)
+{
+  // With dy1 = ds + (mu2/m) dd, dy2 = ds - (mu1/m) dd (m = mu1 + mu2), i.e.
+  // dy = Y (ds, dd), the condensed matrix becomes Y^T S Y = diag(m Sc,
+  // mu1 mu2 / m Sc + Q): the mean of the membranes does not see the contact.
+  const double             mu1 = 0.7, mu2 = 2.5, m = mu1 + mu2;
+  unsigned int             n_c;
+  const FullMatrix<double> A = nodal_local_matrix(2, n_c);
+  SC::CellOperators        cell;
+  cell.reinit(A, n_c);
+  const unsigned int n_f = cell.n_face;
+  FullMatrix<double> Y(2 * n_f, 2 * n_f);
+  for (unsigned int k = 0; k < n_f; ++k)
+    {
+      Y(k, k)             = 1.;
+      Y(k, n_f + k)       = mu2 / m;
+      Y(n_f + k, k)       = 1.;
+      Y(n_f + k, n_f + k) = -mu1 / m;
+    }
+  for (const Jacobian &J : jacobians(n_c))
+    {
+      SC::CellElimination elimination;
+      elimination.reinit(cell, mu1, mu2, J.Ga, J.Gb);
+      FullMatrix<double> S, SY(2 * n_f, 2 * n_f), YSY(2 * n_f, 2 * n_f), S_mean,
+        S_difference;
+      elimination.condensed_matrix(cell, S);
+      S.mmult(SY, Y);
+      Y.Tmmult(YSY, SY);
+      SC::CellElimination::mean_matrix(cell, mu1, mu2, S_mean);
+      elimination.difference_matrix(cell, S_difference);
+      const double scale = S.linfty_norm();
+      for (unsigned int k = 0; k < n_f; ++k)
+        for (unsigned int l = 0; l < n_f; ++l)
+          {
+            EXPECT_NEAR(YSY(k, l), S_mean(k, l), 1e-13 * scale) << J.name;
+            EXPECT_NEAR(YSY(n_f + k, n_f + l),
+                        S_difference(k, l),
+                        1e-13 * scale)
+              << J.name;
+            EXPECT_NEAR(YSY(k, n_f + l), 0., 1e-13 * scale) << J.name;
+            EXPECT_NEAR(YSY(n_f + k, l), 0., 1e-13 * scale) << J.name;
+          }
     }
 }
