@@ -3,10 +3,13 @@
 #include "local_operators.h"
 
 #include <cmath>
+#include <cstdint>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/utilities.h>
+#include <deal.II/base/work_stream.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_q.h>
 #include <deal.II/grid/filtered_iterator.h>
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/solver_cg.h>
@@ -20,6 +23,7 @@
 #include <fstream>
 #include <iomanip>
 #include <sstream>
+#include <tuple>
 #include <vi/errors.h>
 #include <vi/linear_solvers.h>
 #include <vi/nodal_fields.h>
@@ -256,16 +260,20 @@ namespace StepHHO
       FEFaceValues<dim> face_values;
     };
 
-    /// For the cell loops that only do dense linear algebra.
-    struct NoScratch
+    /// The local vectors of the cell loops that only do dense linear
+    /// algebra: one set per thread, reused from cell to cell.
+    struct CellVectors
     {
+      Vector<double> x, y, b, v, Av, Ga, Gb, r_L, dy;
     };
 
+    /// values(i) = X(indices[i]) (owned or ghost entries of X).
+    template <typename Indices>
     void
-    get_values(const TrilinosWrappers::MPI::Vector        &X,
-               const std::vector<types::global_dof_index> &indices,
-               Vector<double>                             &values,
-               const unsigned int                          offset = 0)
+    get_values(const TrilinosWrappers::MPI::Vector &X,
+               const Indices                       &indices,
+               Vector<double>                      &values,
+               const unsigned int                   offset = 0)
     {
       for (unsigned int i = 0; i < indices.size(); ++i)
         values(offset + i) = X(indices[i]);
@@ -344,51 +352,33 @@ namespace StepHHO
   }
 
 
-  // Positions in X of the cell unknowns (x1, x2, x3; n_c each) and of the
-  // face unknowns (y1, y2; n_f each, in FE_FaceQ's cell-local order) of a
-  // cell: the local order of static_condensation.h.
   template <int dim>
-  void
-  HHOProblem<dim>::get_local_unknowns(
-    const CellIterator                   &cell,
-    std::vector<types::global_dof_index> &cell_unknowns,
-    std::vector<types::global_dof_index> &face_unknowns) const
+  types::global_dof_index
+  HHOProblem<dim>::face_dof(const types::global_dof_index face_unknown) const
   {
-    const unsigned int                   n_c = cell_fe.n_dofs_per_cell();
-    const unsigned int                   n_f = face_fe.n_dofs_per_cell();
-    std::vector<types::global_dof_index> nodes(n_c), face_dofs(n_f);
-    cell->get_dof_indices(nodes);
-    face_cell(cell)->get_dof_indices(face_dofs);
-    cell_unknowns.resize(n_fields * n_c);
-    for (unsigned int alpha = 0; alpha < n_fields; ++alpha)
-      for (unsigned int I = 0; I < n_c; ++I)
-        cell_unknowns[alpha * n_c + I] = index(nodes[I], alpha);
-    face_unknowns.resize(2 * n_f);
-    for (unsigned int alpha = 0; alpha < 2; ++alpha)
-      for (unsigned int k = 0; k < n_f; ++k)
-        face_unknowns[alpha * n_f + k] = face_unknown(face_dofs[k], alpha);
+    return (face_unknown - n_fields * cell_dof_handler.n_dofs()) / 2;
   }
 
 
-  // The Gram matrix of FE_DGP's basis on a cell (diagonal on
-  // parallelograms).
+  // Positions in X of the cell unknowns (x1, x2, x3; n_c each) and of the
+  // face unknowns (y1, y2; n_f each, in FE_FaceQ's cell-local order) of a
+  // locally owned cell: the local order of static_condensation.h.
   template <int dim>
-  void
-  HHOProblem<dim>::cell_mass_matrix(const CellIterator &cell,
-                                    FullMatrix<double> &M) const
+  ArrayView<const types::global_dof_index>
+  HHOProblem<dim>::local_unknowns(const CellIterator &cell) const
   {
-    FEValues<dim> fe_values(*mapping,
-                            cell_fe,
-                            QGauss<dim>(degree + 1),
-                            update_values | update_JxW_values);
-    fe_values.reinit(cell);
-    const unsigned int n_c = cell_fe.n_dofs_per_cell();
-    M.reinit(n_c, n_c);
-    for (const unsigned int q : fe_values.quadrature_point_indices())
-      for (unsigned int i = 0; i < n_c; ++i)
-        for (unsigned int j = 0; j < n_c; ++j)
-          M(i, j) += fe_values.shape_value(i, q) * fe_values.shape_value(j, q) *
-                     fe_values.JxW(q);
+    const unsigned int n =
+      n_fields * cell_fe.n_dofs_per_cell() + 2 * face_fe.n_dofs_per_cell();
+    return ArrayView<const types::global_dof_index>(
+      unknown_indices.data() + cell->active_cell_index() * n, n);
+  }
+
+
+  template <int dim>
+  const typename HHOProblem<dim>::LocalMatrices &
+  HHOProblem<dim>::local_matrices_of(const CellIterator &cell) const
+  {
+    return local_matrices[cell_shape[cell->active_cell_index()]];
   }
 
 
@@ -505,6 +495,30 @@ namespace StepHHO
     };
     owned_system    = unknowns_of(owned_nodes, owned_faces);
     relevant_system = unknowns_of(relevant_nodes, relevant_faces);
+
+    {
+      const unsigned int n_c = cell_fe.n_dofs_per_cell();
+      const unsigned int n_f = face_fe.n_dofs_per_cell();
+      const unsigned int n   = n_fields * n_c + 2 * n_f;
+      unknown_indices.assign(triangulation.n_active_cells() * n,
+                             numbers::invalid_dof_index);
+      std::vector<types::global_dof_index> nodes(n_c), face_dofs(n_f);
+      for (const auto &cell : cell_dof_handler.active_cell_iterators())
+        if (cell->is_locally_owned())
+          {
+            cell->get_dof_indices(nodes);
+            face_cell(cell)->get_dof_indices(face_dofs);
+            types::global_dof_index *unknowns =
+              unknown_indices.data() + cell->active_cell_index() * n;
+            for (unsigned int alpha = 0; alpha < n_fields; ++alpha)
+              for (unsigned int I = 0; I < n_c; ++I)
+                unknowns[alpha * n_c + I] = index(nodes[I], alpha);
+            for (unsigned int alpha = 0; alpha < 2; ++alpha)
+              for (unsigned int k = 0; k < n_f; ++k)
+                unknowns[n_fields * n_c + alpha * n_f + k] =
+                  face_unknown(face_dofs[k], alpha);
+          }
+    }
 
     // Dirichlet data: on each boundary face F, u_alpha,F = Pi_F g_alpha, the
     // L2 projection onto P_{p-1}(F). These face unknowns are fixed: Newton
@@ -624,19 +638,17 @@ namespace StepHHO
                 couples(i, j) = bi < 2 && same_node;
             }
 
-        DynamicSparsityPattern               pattern(relevant_system);
-        std::vector<types::global_dof_index> cell_unknowns, face_unknowns;
+        DynamicSparsityPattern pattern(relevant_system);
         for (const auto &cell : cell_dof_handler.active_cell_iterators())
           if (cell->is_locally_owned())
             {
-              get_local_unknowns(cell, cell_unknowns, face_unknowns);
-              cell_unknowns.insert(cell_unknowns.end(),
-                                   face_unknowns.begin(),
-                                   face_unknowns.end());
-              system_constraints.add_entries_local_to_global(cell_unknowns,
-                                                             pattern,
-                                                             false,
-                                                             couples);
+              const auto unknowns = local_unknowns(cell);
+              system_constraints.add_entries_local_to_global(
+                std::vector<types::global_dof_index>(unknowns.begin(),
+                                                     unknowns.end()),
+                pattern,
+                false,
+                couples);
             }
         SparsityTools::distribute_sparsity_pattern(pattern,
                                                    owned_system,
@@ -661,24 +673,101 @@ namespace StepHHO
                                      ComponentMask(),
                                      constant_modes);
 
-    cell_operators.clear();
-    cell_operators.resize(triangulation.n_active_cells());
     eliminations.clear();
     eliminations.resize(triangulation.n_active_cells());
   }
 
 
-  // Once per mesh: on every cell the local HHO matrix a_K = (G_K, G_K)_K +
-  // s_K of one membrane (local_operators.h), expressed in the nodal basis
-  // and kept with what the static condensation needs from it
-  // (static_condensation.h), and the loads (f_alpha, phi_I)_K. With static
-  // condensation, the face matrix of the mean of the membranes, which no
-  // Newton step changes; without, the whole matrix E of the slides.
+  // The local matrices of every cell shape. With a mapping of degree 1 a
+  // cell is determined by its vertices, and cells that are translates of
+  // each other have the same local matrices (G_K, s_K, h_K and the Gram
+  // matrix do not change under translation): they share one set, computed
+  // on the first of them. On the uniform meshes of the square and the
+  // L-shape that is one set for all cells; on the disk (curved cells, a
+  // mapping of higher degree) every cell has its own.
+  template <int dim>
+  void
+  HHOProblem<dim>::compute_local_matrices()
+  {
+    const auto *mapping_q = dynamic_cast<const MappingQ<dim> *>(mapping.get());
+    const bool  by_vertices =
+      mapping_q != nullptr && mapping_q->get_degree() == 1;
+    // Vertex offsets rounded to 1e-12 of the domain's diameter.
+    const double quantum = 1e-12 * VI::geometry_diameter(geometry);
+    using Key            = std::vector<std::int64_t>;
+    std::map<Key, unsigned int> shapes;
+    std::vector<CellIterator>   first_cells;
+    cell_shape.assign(triangulation.n_active_cells(),
+                      numbers::invalid_unsigned_int);
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          unsigned int shape = first_cells.size();
+          if (by_vertices)
+            {
+              Key key;
+              for (const unsigned int v : cell->vertex_indices())
+                for (unsigned int d = 0; d < dim; ++d)
+                  key.push_back(std::llround(
+                    (cell->vertex(v)[d] - cell->vertex(0)[d]) / quantum));
+              shape = shapes.emplace(key, shape).first->second;
+            }
+          if (shape == first_cells.size())
+            first_cells.push_back(cell);
+          cell_shape[cell->active_cell_index()] = shape;
+        }
+
+    // a_K = (G_K, G_K)_K + s_K of one membrane (local_operators.h) in the
+    // nodal basis, what the static condensation needs from it, and the
+    // Gram matrix of FE_DGP's basis (diagonal on parallelograms).
+    local_matrices.clear();
+    local_matrices.resize(first_cells.size());
+    const unsigned int n_c = cell_fe.n_dofs_per_cell();
+    const auto         worker =
+      [&](const auto &first, LocalValues<dim> &scratch, std::tuple<> &) {
+        const CellIterator &cell = *first;
+        LocalMatrices      &matrices =
+          local_matrices[cell_shape[cell->active_cell_index()]];
+        FullMatrix<double> A;
+        LocalOperators::local_hho_matrix<dim>(cell,
+                                              scratch.cell_values,
+                                              scratch.trace_values,
+                                              scratch.face_values,
+                                              gradient_basis,
+                                              A);
+        LocalOperators::change_cell_basis(T, A);
+        matrices.operators.reinit(A, n_c);
+
+        scratch.cell_values.reinit(cell);
+        matrices.mass.reinit(n_c, n_c);
+        for (const unsigned int q :
+             scratch.cell_values.quadrature_point_indices())
+          for (unsigned int i = 0; i < n_c; ++i)
+            for (unsigned int j = 0; j < n_c; ++j)
+              matrices.mass(i, j) += scratch.cell_values.shape_value(i, q) *
+                                     scratch.cell_values.shape_value(j, q) *
+                                     scratch.cell_values.JxW(q);
+      };
+    WorkStream::run(
+      first_cells.cbegin(),
+      first_cells.cend(),
+      worker,
+      [](const std::tuple<> &) {},
+      LocalValues<dim>(*mapping, cell_fe, face_fe),
+      std::tuple<>());
+  }
+
+
+  // Once per mesh: the local matrices of every cell shape, the loads
+  // (f_alpha, phi_I)_K, and with static condensation the face matrix of the
+  // mean of the membranes, which no Newton step changes; without, the whole
+  // matrix E of the slides.
   template <int dim>
   void
   HHOProblem<dim>::assemble_system()
   {
     TimerOutput::Scope t(timer, "assembly");
+    compute_local_matrices();
 
     load = 0;
     if (parameters.static_condensation)
@@ -695,17 +784,9 @@ namespace StepHHO
     using CopyData = MeshWorker::CopyData<1, 1, 2>;
     const auto cell_worker =
       [&](const CellIterator &cell, LocalValues<dim> &scratch, CopyData &copy) {
-        FullMatrix<double> A;
-        LocalOperators::local_hho_matrix<dim>(cell,
-                                              scratch.cell_values,
-                                              scratch.trace_values,
-                                              scratch.face_values,
-                                              gradient_basis,
-                                              A);
-        LocalOperators::change_cell_basis(T, A);
-        StaticCondensation::CellOperators &operators =
-          cell_operators[cell->active_cell_index()];
-        operators.reinit(A, n_c);
+        const auto unknowns = local_unknowns(cell);
+        const StaticCondensation::CellOperators &operators =
+          local_matrices_of(cell).operators;
 
         // (f_alpha, phi_I)_K = sum_j T_jI (f_alpha, P_j)_K.
         scratch.cell_values.reinit(cell);
@@ -724,11 +805,9 @@ namespace StepHHO
                 modal(n_c + j) += f2 * phi;
               }
           }
-        std::vector<types::global_dof_index> cell_unknowns, face_unknowns;
-        get_local_unknowns(cell, cell_unknowns, face_unknowns);
         copy.vectors[0].reinit(2 * n_c);
-        copy.local_dof_indices[0].assign(cell_unknowns.begin(),
-                                         cell_unknowns.begin() + 2 * n_c);
+        copy.local_dof_indices[0].assign(unknowns.begin(),
+                                         unknowns.begin() + 2 * n_c);
         for (unsigned int alpha = 0; alpha < 2; ++alpha)
           {
             for (unsigned int j = 0; j < n_c; ++j)
@@ -745,7 +824,9 @@ namespace StepHHO
                                                              data.mu2,
                                                              copy.matrices[0]);
             copy.local_dof_indices[1].resize(n_f);
-            face_cell(cell)->get_dof_indices(copy.local_dof_indices[1]);
+            for (unsigned int k = 0; k < n_f; ++k)
+              copy.local_dof_indices[1][k] =
+                face_dof(unknowns[n_fields * n_c + k]);
             return;
           }
         // E on the cell, unknowns (x1, x2, x3, y1, y2): mu_alpha a_K on
@@ -762,16 +843,13 @@ namespace StepHHO
           for (unsigned int i = 0; i < n_c + n_f; ++i)
             for (unsigned int j = 0; j < n_c + n_f; ++j)
               copy.matrices[0](position(alpha, i), position(alpha, j)) =
-                mu[alpha] * A(i, j);
+                mu[alpha] * operators.A(i, j);
         for (unsigned int I = 0; I < n_c; ++I)
           {
             copy.matrices[0](I, 2 * n_c + I)       = -1.;
             copy.matrices[0](n_c + I, 2 * n_c + I) = +1.;
           }
-        copy.local_dof_indices[1] = cell_unknowns;
-        copy.local_dof_indices[1].insert(copy.local_dof_indices[1].end(),
-                                         face_unknowns.begin(),
-                                         face_unknowns.end());
+        copy.local_dof_indices[1].assign(unknowns.begin(), unknowns.end());
       };
 
     const auto copier = [&](const CopyData &copy) {
@@ -851,7 +929,9 @@ namespace StepHHO
             if (!cell->face(f)->at_boundary())
               {
                 trace_values.reinit(cell, f);
-                face_values.reinit(cell, f);
+                // (the face element's values need only the geometry)
+                face_values.reinit(
+                  typename Triangulation<dim>::cell_iterator(cell), f);
                 const unsigned int n_F = face_fe.n_dofs_per_face(f);
                 FullMatrix<double> M_F(n_F, n_F);
                 Vector<double>     moments(n_F), projection(n_F);
@@ -922,7 +1002,6 @@ namespace StepHHO
     const unsigned int                   n_c = cell_fe.n_dofs_per_cell();
     std::vector<types::global_dof_index> nodes(n_c);
     Vector<double>                       c(n_c), x(n_c), Mc(n_c);
-    FullMatrix<double>                   M;
     for (const auto &cell : cell_dof_handler.active_cell_iterators())
       if (cell->is_locally_owned())
         {
@@ -935,8 +1014,7 @@ namespace StepHHO
                 solution(index(nodes[I], alpha)) = x(I);
             }
           get_values(lambda, nodes, c);
-          cell_mass_matrix(cell, M);
-          M.vmult(Mc, c);
+          local_matrices_of(cell).mass.vmult(Mc, c);
           T.Tvmult(x, Mc);
           for (unsigned int I = 0; I < n_c; ++I)
             solution(index(nodes[I], multiplier)) = x(I);
@@ -966,25 +1044,32 @@ namespace StepHHO
 
     using CopyData = MeshWorker::CopyData<0, 1, 1>;
     const auto cell_worker =
-      [&](const CellIterator &cell, NoScratch &, CopyData &copy) {
+      [&](const CellIterator &cell, CellVectors &scratch, CopyData &copy) {
         const StaticCondensation::CellOperators &operators =
-          cell_operators[cell->active_cell_index()];
-        std::vector<types::global_dof_index> cell_unknowns, face_unknowns;
-        get_local_unknowns(cell, cell_unknowns, face_unknowns);
-        Vector<double> x(n_fields * n_c), y(2 * n_f), b(2 * n_c);
-        get_values(ghosted_iterate, cell_unknowns, x);
-        get_values(ghosted_iterate, face_unknowns, y);
+          local_matrices_of(cell).operators;
+        const auto      unknowns      = local_unknowns(cell);
+        const auto      face_unknowns = unknowns.begin() + n_fields * n_c;
+        Vector<double> &x = scratch.x, &y = scratch.y, &b = scratch.b;
+        x.reinit(n_fields * n_c, true);
+        y.reinit(2 * n_f, true);
+        b.reinit(2 * n_c, true);
+        for (unsigned int i = 0; i < n_fields * n_c; ++i)
+          x(i) = ghosted_iterate(unknowns[i]);
+        for (unsigned int k = 0; k < 2 * n_f; ++k)
+          y(k) = ghosted_iterate(face_unknowns[k]);
         for (unsigned int i = 0; i < 2 * n_c; ++i)
-          b(i) = load(cell_unknowns[i]);
+          b(i) = load(unknowns[i]);
 
         // Rows: cells of u1, u2 (2 n_c), faces of y1, y2 (2 n_f).
         copy.vectors[0].reinit(2 * n_c + 2 * n_f);
-        copy.local_dof_indices[0].assign(cell_unknowns.begin(),
-                                         cell_unknowns.begin() + 2 * n_c);
+        copy.local_dof_indices[0].assign(unknowns.begin(),
+                                         unknowns.begin() + 2 * n_c);
         copy.local_dof_indices[0].insert(copy.local_dof_indices[0].end(),
-                                         face_unknowns.begin(),
-                                         face_unknowns.end());
-        Vector<double> v(n_c + n_f), Av(n_c + n_f);
+                                         face_unknowns,
+                                         unknowns.end());
+        Vector<double> &v = scratch.v, &Av = scratch.Av;
+        v.reinit(n_c + n_f, true);
+        Av.reinit(n_c + n_f, true);
         for (unsigned int alpha = 0; alpha < 2; ++alpha)
           {
             for (unsigned int I = 0; I < n_c; ++I)
@@ -1011,7 +1096,7 @@ namespace StepHHO
                             IteratorFilters::LocallyOwnedCell(),
                           cell_worker,
                           copier,
-                          NoScratch(),
+                          CellVectors(),
                           CopyData(0),
                           MeshWorker::assemble_own_cells);
     R.compress(VectorOperation::add);
@@ -1067,31 +1152,33 @@ namespace StepHHO
     const unsigned int n_c = cell_fe.n_dofs_per_cell();
     const unsigned int n_f = face_fe.n_dofs_per_cell();
 
-    using CopyData         = MeshWorker::CopyData<1, 0, 1>;
-    const auto cell_worker = [&](const CellIterator &cell,
-                                 NoScratch &,
-                                 CopyData &copy) {
-      // The generalised Jacobian (dC/da, dC/db) at the cell's nodes,
-      // a = X1_I - X2_I, b = X3_I (all owned by this process).
-      std::vector<types::global_dof_index> nodes(n_c);
-      cell->get_dof_indices(nodes);
-      Vector<double> Ga(n_c), Gb(n_c);
-      for (unsigned int I = 0; I < n_c; ++I)
-        {
-          const auto g = C.generalized_gradient(X(index(nodes[I], 0)) -
-                                                  X(index(nodes[I], 1)),
-                                                X(index(nodes[I], multiplier)));
-          Ga(I)        = g[0];
-          Gb(I)        = g[1];
-        }
-      const unsigned int cell_index = cell->active_cell_index();
-      eliminations[cell_index].reinit(
-        cell_operators[cell_index], data.mu1, data.mu2, Ga, Gb);
-      eliminations[cell_index].difference_matrix(cell_operators[cell_index],
-                                                 copy.matrices[0]);
-      copy.local_dof_indices[0].resize(n_f);
-      face_cell(cell)->get_dof_indices(copy.local_dof_indices[0]);
-    };
+    using CopyData = MeshWorker::CopyData<1, 0, 1>;
+    const auto cell_worker =
+      [&](const CellIterator &cell, CellVectors &scratch, CopyData &copy) {
+        // The generalised Jacobian (dC/da, dC/db) at the cell's nodes,
+        // a = X1_I - X2_I, b = X3_I (all owned by this process).
+        const auto      unknowns = local_unknowns(cell);
+        Vector<double> &Ga = scratch.Ga, &Gb = scratch.Gb;
+        Ga.reinit(n_c, true);
+        Gb.reinit(n_c, true);
+        for (unsigned int I = 0; I < n_c; ++I)
+          {
+            const auto g =
+              C.generalized_gradient(X(unknowns[I]) - X(unknowns[n_c + I]),
+                                     X(unknowns[2 * n_c + I]));
+            Ga(I) = g[0];
+            Gb(I) = g[1];
+          }
+        const StaticCondensation::CellOperators &operators =
+          local_matrices_of(cell).operators;
+        StaticCondensation::CellElimination &elimination =
+          eliminations[cell->active_cell_index()];
+        elimination.reinit(operators, data.mu1, data.mu2, Ga, Gb);
+        elimination.difference_matrix(operators, copy.matrices[0]);
+        copy.local_dof_indices[0].resize(n_f);
+        for (unsigned int k = 0; k < n_f; ++k)
+          copy.local_dof_indices[0][k] = face_dof(unknowns[n_fields * n_c + k]);
+      };
     const auto copier = [&](const CopyData &copy) {
       face_constraints.distribute_local_to_global(copy.matrices[0],
                                                   copy.local_dof_indices[0],
@@ -1101,7 +1188,7 @@ namespace StepHHO
                             IteratorFilters::LocallyOwnedCell(),
                           cell_worker,
                           copier,
-                          NoScratch(),
+                          CellVectors(),
                           CopyData(0),
                           MeshWorker::assemble_own_cells);
     difference_matrix.compress(VectorOperation::add);
@@ -1143,15 +1230,16 @@ namespace StepHHO
 
     using CopyData = MeshWorker::CopyData<0, 1, 1>;
     const auto cell_worker =
-      [&](const CellIterator &cell, NoScratch &, CopyData &copy) {
-        std::vector<types::global_dof_index> cell_unknowns;
-        get_local_unknowns(cell, cell_unknowns, copy.local_dof_indices[0]);
-        Vector<double> r_L(n_fields * n_c);
-        get_values(rhs, cell_unknowns, r_L);
-        const unsigned int cell_index = cell->active_cell_index();
-        eliminations[cell_index].condensed_rhs(cell_operators[cell_index],
-                                               r_L,
-                                               copy.vectors[0]);
+      [&](const CellIterator &cell, CellVectors &scratch, CopyData &copy) {
+        const auto      unknowns = local_unknowns(cell);
+        Vector<double> &r_L      = scratch.r_L;
+        r_L.reinit(n_fields * n_c, true);
+        for (unsigned int i = 0; i < n_fields * n_c; ++i)
+          r_L(i) = rhs(unknowns[i]);
+        eliminations[cell->active_cell_index()].condensed_rhs(
+          local_matrices_of(cell).operators, r_L, copy.vectors[0]);
+        copy.local_dof_indices[0].assign(unknowns.begin() + n_fields * n_c,
+                                         unknowns.end());
         for (unsigned int k = 0; k < 2 * n_f; ++k)
           if (system_constraints.is_constrained(copy.local_dof_indices[0][k]))
             copy.vectors[0](k) = 0;
@@ -1163,7 +1251,7 @@ namespace StepHHO
                             IteratorFilters::LocallyOwnedCell(),
                           cell_worker,
                           copier,
-                          NoScratch(),
+                          CellVectors(),
                           CopyData(0),
                           MeshWorker::assemble_own_cells);
     condensed.compress(VectorOperation::add);
@@ -1224,24 +1312,26 @@ namespace StepHHO
 
     using CopyData = MeshWorker::CopyData<0, 1, 1>;
     const auto cell_worker =
-      [&](const CellIterator &cell, NoScratch &, CopyData &copy) {
-        std::vector<types::global_dof_index> face_unknowns, face_dofs(n_f);
-        get_local_unknowns(cell, copy.local_dof_indices[0], face_unknowns);
-        face_cell(cell)->get_dof_indices(face_dofs);
-        Vector<double> r_L(n_fields * n_c), dy(2 * n_f);
-        get_values(rhs, copy.local_dof_indices[0], r_L);
+      [&](const CellIterator &cell, CellVectors &scratch, CopyData &copy) {
+        const auto unknowns = local_unknowns(cell);
+        copy.local_dof_indices[0].assign(unknowns.begin(),
+                                         unknowns.begin() + n_fields * n_c);
+        Vector<double> &r_L = scratch.r_L, &dy = scratch.dy;
+        r_L.reinit(n_fields * n_c, true);
+        dy.reinit(2 * n_f, true);
+        for (unsigned int i = 0; i < n_fields * n_c; ++i)
+          r_L(i) = rhs(unknowns[i]);
         for (unsigned int k = 0; k < n_f; ++k)
           {
-            const double ds = ghosted_mean_update(face_dofs[k]);
-            const double dd = ghosted_difference_update(face_dofs[k]);
+            const types::global_dof_index j =
+              face_dof(unknowns[n_fields * n_c + k]);
+            const double ds = ghosted_mean_update(j);
+            const double dd = ghosted_difference_update(j);
             dy(k)           = ds + w1 * dd;
             dy(n_f + k)     = ds + w2 * dd;
           }
-        const unsigned int cell_index = cell->active_cell_index();
-        eliminations[cell_index].recover(cell_operators[cell_index],
-                                         r_L,
-                                         dy,
-                                         copy.vectors[0]);
+        eliminations[cell->active_cell_index()].recover(
+          local_matrices_of(cell).operators, r_L, dy, copy.vectors[0]);
       };
     const auto copier = [&](const CopyData &copy) {
       dX.set(copy.local_dof_indices[0], copy.vectors[0]);
@@ -1250,7 +1340,7 @@ namespace StepHHO
                             IteratorFilters::LocallyOwnedCell(),
                           cell_worker,
                           copier,
-                          NoScratch(),
+                          CellVectors(),
                           CopyData(0),
                           MeshWorker::assemble_own_cells);
     dX.compress(VectorOperation::insert);
@@ -1335,7 +1425,7 @@ namespace StepHHO
 
     std::vector<types::global_dof_index> nodes(n_c);
     Vector<double>                       x(n_c), c(n_c), Vx(n_c);
-    FullMatrix<double>                   M;
+    FullMatrix<double>                   M_inverse;
     for (const auto &cell : cell_dof_handler.active_cell_iterators())
       if (cell->is_locally_owned())
         {
@@ -1351,9 +1441,9 @@ namespace StepHHO
           for (unsigned int I = 0; I < n_c; ++I)
             x(I) = solution(index(nodes[I], multiplier));
           V.Tvmult(Vx, x);
-          cell_mass_matrix(cell, M);
-          M.gauss_jordan();
-          M.vmult(c, Vx);
+          M_inverse = local_matrices_of(cell).mass;
+          M_inverse.gauss_jordan();
+          M_inverse.vmult(c, Vx);
           for (unsigned int j = 0; j < n_c; ++j)
             {
               u1(nodes[j])     = c_alpha[0](j);

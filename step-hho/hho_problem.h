@@ -2,6 +2,7 @@
 
 #include "static_condensation.h"
 
+#include <deal.II/base/array_view.h>
 #include <deal.II/base/conditional_ostream.h>
 #include <deal.II/base/convergence_table.h>
 #include <deal.II/base/index_set.h>
@@ -150,6 +151,9 @@ namespace StepHHO
     recover_cell_unknowns(const TrilinosWrappers::MPI::Vector &rhs,
                           TrilinosWrappers::MPI::Vector       &dX);
 
+    void
+    compute_local_matrices();
+
     // Index bookkeeping between the cells, the faces and the unknowns X.
     using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
     CellIterator
@@ -157,15 +161,22 @@ namespace StepHHO
     types::global_dof_index
     face_unknown(const types::global_dof_index face_dof,
                  const unsigned int            alpha) const;
-    void
-    get_local_unknowns(
-      const CellIterator                   &cell,
-      std::vector<types::global_dof_index> &cell_unknowns,
-      std::vector<types::global_dof_index> &face_unknowns) const;
+    types::global_dof_index
+    face_dof(const types::global_dof_index face_unknown) const;
+    ArrayView<const types::global_dof_index>
+    local_unknowns(const CellIterator &cell) const;
 
-    // Conversions between the unknowns X and finite element functions.
-    void
-    cell_mass_matrix(const CellIterator &cell, FullMatrix<double> &M) const;
+    /// What the shape of a cell determines: the local HHO matrices
+    /// (static_condensation.h) and the Gram matrix of FE_DGP's basis.
+    struct LocalMatrices
+    {
+      StaticCondensation::CellOperators operators;
+      FullMatrix<double>                mass;
+    };
+    const LocalMatrices &
+    local_matrices_of(const CellIterator &cell) const;
+
+    /// The face unknowns of X from the traces of the cell polynomials.
     void
     set_face_unknowns_from_traces(TrilinosWrappers::MPI::Vector &X) const;
 
@@ -210,9 +221,14 @@ namespace StepHHO
     types::global_dof_index       n_boundary_face_dofs = 0;
     VI::ContactRows               contact_rows;
 
-    // Per locally owned cell (by active_cell_index): the local HHO matrices
-    // (fixed on a mesh) and the elimination of the current Newton step.
-    std::vector<StaticCondensation::CellOperators>   cell_operators;
+    // Per locally owned cell (by active_cell_index): the positions in X of
+    // its unknowns (x1, x2, x3, y1, y2: 3 n_c + 2 n_f of them, the local
+    // order of static_condensation.h), the shape it has, and the elimination
+    // of its cell unknowns in the current Newton step. Per shape (the cells
+    // that are translates of each other): the local matrices.
+    std::vector<types::global_dof_index>             unknown_indices;
+    std::vector<unsigned int>                        cell_shape;
+    std::vector<LocalMatrices>                       local_matrices;
     std::vector<StaticCondensation::CellElimination> eliminations;
 
     TrilinosWrappers::MPI::Vector         load; ///< (f_alpha, phi_I)_K

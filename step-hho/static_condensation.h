@@ -153,33 +153,36 @@ namespace StepHHO
       {
         this->mu1         = mu1;
         this->mu2         = mu2;
-        this->Ga          = Ga;
         const unsigned n  = cell.n_cell;
         const double   c  = 1. / mu1 + 1. / mu2;
         has_contact_terms = Ga.linfty_norm() > 0.;
-
-        M3_inverse.reinit(n, n);
-        W.reinit(n, cell.n_face);
+        this->Ga.reinit(has_contact_terms ? n : 0);
         if (!has_contact_terms)
           {
             // No node sees the membranes' difference: dx3 = s3 / Gb.
+            M3_inverse.reinit(n, 1);
             for (unsigned int I = 0; I < n; ++I)
-              M3_inverse(I, I) = 1. / Gb(I);
+              M3_inverse(I, 0) = 1. / Gb(I);
+            W.reinit(0, 0);
             return;
           }
-        FullMatrix<double> M3(n, n);
+        this->Ga     = Ga;
+        Workspace &w = workspace();
+        w.M3.reinit(n, n);
         for (unsigned int I = 0; I < n; ++I)
           {
             for (unsigned int J = 0; J < n; ++J)
-              M3(I, J) = c * Ga(I) * cell.K_inverse(I, J);
-            M3(I, I) += Gb(I);
+              w.M3(I, J) = c * Ga(I) * cell.K_inverse(I, J);
+            w.M3(I, I) += Gb(I);
           }
-        M3_inverse.invert(M3);
-        FullMatrix<double> GaP(cell.P);
+        M3_inverse.reinit(n, n);
+        M3_inverse.invert(w.M3);
+        w.GaP = cell.P;
         for (unsigned int I = 0; I < n; ++I)
           for (unsigned int k = 0; k < cell.n_face; ++k)
-            GaP(I, k) *= Ga(I);
-        M3_inverse.mmult(W, GaP);
+            w.GaP(I, k) *= Ga(I);
+        W.reinit(n, cell.n_face);
+        M3_inverse.mmult(W, w.GaP);
       }
 
 
@@ -188,8 +191,8 @@ namespace StepHHO
       void
       condensed_matrix(const CellOperators &cell, FullMatrix<double> &S) const
       {
-        const unsigned int n_f = cell.n_face;
-        FullMatrix<double> Q;
+        const unsigned int  n_f = cell.n_face;
+        FullMatrix<double> &Q   = workspace().Q;
         contact_coupling(cell, Q);
         S.reinit(2 * n_f, 2 * n_f);
         for (unsigned int k = 0; k < n_f; ++k)
@@ -253,19 +256,23 @@ namespace StepHHO
                     Vector<double>       &rhs_F) const
       {
         const unsigned int n_c = cell.n_cell, n_f = cell.n_face;
-        Vector<double>     s1(n_c), s2(n_c), d3(n_c);
-        split(r_L, n_c, s1, s2);
-        compute_d3(cell, r_L, d3);
-        s1 += d3;
-        s2 -= d3;
-        Vector<double> t(n_f);
-        rhs_F.reinit(2 * n_f);
-        cell.P.Tvmult(t, s1);
+        Workspace         &w = workspace();
+        compute_d3(cell, r_L, w.d3);
+        w.s1.reinit(n_c, true);
+        w.s2.reinit(n_c, true);
+        for (unsigned int I = 0; I < n_c; ++I)
+          {
+            w.s1(I) = r_L(I) + w.d3(I);
+            w.s2(I) = r_L(n_c + I) - w.d3(I);
+          }
+        w.t_f.reinit(n_f, true);
+        rhs_F.reinit(2 * n_f, true);
+        cell.P.Tvmult(w.t_f, w.s1);
         for (unsigned int k = 0; k < n_f; ++k)
-          rhs_F(k) = -t(k);
-        cell.P.Tvmult(t, s2);
+          rhs_F(k) = -w.t_f(k);
+        cell.P.Tvmult(w.t_f, w.s2);
         for (unsigned int k = 0; k < n_f; ++k)
-          rhs_F(n_f + k) = -t(k);
+          rhs_F(n_f + k) = -w.t_f(k);
       }
 
 
@@ -277,49 +284,65 @@ namespace StepHHO
               Vector<double>       &dx_L) const
       {
         const unsigned int n_c = cell.n_cell, n_f = cell.n_face;
-        Vector<double>     s1(n_c), s2(n_c), dx3(n_c), t(n_c);
-        split(r_L, n_c, s1, s2);
+        Workspace         &w   = workspace();
+        Vector<double>    &dx3 = w.d3;
         compute_d3(cell, r_L, dx3);
-
-        Vector<double> dy1(n_f), dy2(n_f), jump(n_f);
+        w.dy1.reinit(n_f, true);
+        w.dy2.reinit(n_f, true);
         for (unsigned int k = 0; k < n_f; ++k)
           {
-            dy1(k)  = dy(k);
-            dy2(k)  = dy(n_f + k);
-            jump(k) = dy1(k) - dy2(k);
+            w.dy1(k) = dy(k);
+            w.dy2(k) = dy(n_f + k);
           }
         if (has_contact_terms)
-          W.vmult_add(dx3, jump);
+          {
+            w.t_f.reinit(n_f, true);
+            for (unsigned int k = 0; k < n_f; ++k)
+              w.t_f(k) = w.dy1(k) - w.dy2(k);
+            W.vmult_add(dx3, w.t_f);
+          }
 
-        dx_L.reinit(3 * n_c);
-        s1 += dx3;
-        s2 -= dx3;
-        Vector<double> x1(n_c), x2(n_c);
-        cell.K_inverse.vmult(x1, s1);
-        cell.K_inverse.vmult(x2, s2);
-        cell.P.vmult(t, dy1);
-        for (unsigned int I = 0; I < n_c; ++I)
-          dx_L(I) = x1(I) / mu1 - t(I);
-        cell.P.vmult(t, dy2);
+        w.s1.reinit(n_c, true);
+        w.s2.reinit(n_c, true);
         for (unsigned int I = 0; I < n_c; ++I)
           {
-            dx_L(n_c + I)     = x2(I) / mu2 - t(I);
+            w.s1(I) = r_L(I) + dx3(I);
+            w.s2(I) = r_L(n_c + I) - dx3(I);
+          }
+        w.x1.reinit(n_c, true);
+        w.x2.reinit(n_c, true);
+        cell.K_inverse.vmult(w.x1, w.s1);
+        cell.K_inverse.vmult(w.x2, w.s2);
+        dx_L.reinit(3 * n_c, true);
+        w.t_c.reinit(n_c, true);
+        cell.P.vmult(w.t_c, w.dy1);
+        for (unsigned int I = 0; I < n_c; ++I)
+          dx_L(I) = w.x1(I) / mu1 - w.t_c(I);
+        cell.P.vmult(w.t_c, w.dy2);
+        for (unsigned int I = 0; I < n_c; ++I)
+          {
+            dx_L(n_c + I)     = w.x2(I) / mu2 - w.t_c(I);
             dx_L(2 * n_c + I) = dx3(I);
           }
       }
 
     private:
-      static void
-      split(const Vector<double> &r_L,
-            const unsigned int    n_c,
-            Vector<double>       &s1,
-            Vector<double>       &s2)
+      /**
+       * Temporaries of the calls above. The cell loops run on several
+       * threads, each with its own workspace; it is reused from cell to cell
+       * instead of allocating vectors and matrices for every cell.
+       */
+      struct Workspace
       {
-        for (unsigned int I = 0; I < n_c; ++I)
-          {
-            s1(I) = r_L(I);
-            s2(I) = r_L(n_c + I);
-          }
+        FullMatrix<double> M3, GaP, Q;
+        Vector<double>     s1, s2, s12, z, d3, t_c, t_f, dy1, dy2, x1, x2;
+      };
+
+      static Workspace &
+      workspace()
+      {
+        static thread_local Workspace w;
+        return w;
       }
 
       /// d3 = M3^{-1} (s3 - Ga K_CC^{-1} (s1/mu1 - s2/mu2)).
@@ -329,26 +352,35 @@ namespace StepHHO
                  Vector<double>       &d3) const
       {
         const unsigned int n_c = cell.n_cell;
-        Vector<double>     z(n_c), s12(n_c), t(n_c);
+        Workspace         &w   = workspace();
+        d3.reinit(n_c, true);
+        if (!has_contact_terms)
+          {
+            for (unsigned int I = 0; I < n_c; ++I)
+              d3(I) = M3_inverse(I, 0) * r_L(2 * n_c + I);
+            return;
+          }
+        w.s12.reinit(n_c, true);
+        w.z.reinit(n_c, true);
+        w.t_c.reinit(n_c, true);
         for (unsigned int I = 0; I < n_c; ++I)
           {
-            s12(I) = r_L(I) / mu1 - r_L(n_c + I) / mu2;
-            z(I)   = r_L(2 * n_c + I);
+            w.s12(I) = r_L(I) / mu1 - r_L(n_c + I) / mu2;
+            w.z(I)   = r_L(2 * n_c + I);
           }
-        if (has_contact_terms)
-          {
-            cell.K_inverse.vmult(t, s12);
-            for (unsigned int I = 0; I < n_c; ++I)
-              z(I) -= Ga(I) * t(I);
-          }
-        M3_inverse.vmult(d3, z);
+        cell.K_inverse.vmult(w.t_c, w.s12);
+        for (unsigned int I = 0; I < n_c; ++I)
+          w.z(I) -= Ga(I) * w.t_c(I);
+        M3_inverse.vmult(d3, w.z);
       }
 
-      double             mu1 = 1., mu2 = 1.;
-      bool               has_contact_terms = false;
-      Vector<double>     Ga;
-      FullMatrix<double> M3_inverse; ///< (c Ga K_CC^{-1} + Gb)^{-1}
-      FullMatrix<double> W;          ///< M3^{-1} Ga P
+      double         mu1 = 1., mu2 = 1.;
+      bool           has_contact_terms = false;
+      Vector<double> Ga; ///< (empty without contact terms)
+      /// (c Ga K_CC^{-1} + Gb)^{-1}; its diagonal 1 / Gb (one column)
+      /// without contact terms.
+      FullMatrix<double> M3_inverse;
+      FullMatrix<double> W; ///< M3^{-1} Ga P (empty without contact terms)
     };
   } // namespace StaticCondensation
 } // namespace StepHHO
