@@ -96,8 +96,9 @@ namespace StepHHO
       prm.declare_entry("Preconditioner",
                         "amg",
                         Patterns::Selection("ilu|amg"),
-                        "Preconditioner of CG: amg (Trilinos ML, one "
-                        "constant mode per membrane) or ilu (Trilinos "
+                        "Preconditioner of CG on each of the two face "
+                        "systems (the mean and the difference of the "
+                        "membranes): amg (Trilinos ML) or ilu (Trilinos "
                         "Ifpack).");
     }
     prm.leave_subsection();
@@ -129,18 +130,19 @@ namespace StepHHO
 
 
   /**
-   * The solver of one linear system of a Newton step: sparse LU (VI::
+   * The solver of one linear system of a Newton step (the whole Jacobian, or
+   * one of the two face systems of the static condensation): sparse LU (VI::
    * LinearSolver: symbolic factorisation once per matrix, numeric one per
    * initialize()), or CG preconditioned with AMG or ILU for the face systems
    * of the static condensation, which are symmetric positive definite (the
    * energy of the cell problems with their constraints eliminated).
    */
-  class LinearSolvers
+  class JacobianSolver
   {
   public:
-    LinearSolvers(const VI::LinearSolverParameters     &parameters,
-                  const std::vector<std::vector<bool>> &constant_modes,
-                  const bool                            higher_order)
+    JacobianSolver(const VI::LinearSolverParameters     &parameters,
+                   const std::vector<std::vector<bool>> &constant_modes,
+                   const bool                            higher_order)
         : parameters(parameters)
         , direct(parameters)
         , constant_modes(constant_modes)
@@ -1368,16 +1370,16 @@ namespace StepHHO
     settings.line_search    = C.has_smooth_merit_function();
     settings.name           = "semismooth Newton-" + C.name();
 
-    jacobian_solver = std::make_unique<LinearSolvers>(parameters.linear_solver,
-                                                      constant_modes,
-                                                      degree > 1);
+    jacobian_solver = std::make_unique<JacobianSolver>(parameters.linear_solver,
+                                                       constant_modes,
+                                                       degree > 1);
     if (parameters.static_condensation)
       {
         // The mean's face matrix is the same in every Newton step.
         TimerOutput::Scope t(timer, "solve: setup");
-        mean_solver = std::make_unique<LinearSolvers>(parameters.linear_solver,
-                                                      constant_modes,
-                                                      degree > 1);
+        mean_solver = std::make_unique<JacobianSolver>(parameters.linear_solver,
+                                                       constant_modes,
+                                                       degree > 1);
         mean_solver->initialize(mean_matrix);
       }
 

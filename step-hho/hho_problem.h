@@ -34,7 +34,7 @@ namespace StepHHO
 {
   using namespace dealii;
 
-  class LinearSolvers;
+  class JacobianSolver;
 
   /**
    * The .prm interface of step-hho: the sections of step-membranes
@@ -249,7 +249,7 @@ namespace StepHHO
     std::vector<std::vector<bool>> constant_modes;
 
     // Linear solvers of the current mesh (created in solve()).
-    std::unique_ptr<LinearSolvers> mean_solver, jacobian_solver;
+    std::unique_ptr<JacobianSolver> mean_solver, jacobian_solver;
 
     // The discrete solution as FE_DGP functions (with ghosts).
     TrilinosWrappers::MPI::Vector u1_h, u2_h, gap_h, lambda_h;
