@@ -1,0 +1,273 @@
+#pragma once
+
+#include "static_condensation.h"
+
+#include <deal.II/base/array_view.h>
+#include <deal.II/base/conditional_ostream.h>
+#include <deal.II/base/convergence_table.h>
+#include <deal.II/base/index_set.h>
+#include <deal.II/base/parameter_handler.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/distributed/solution_transfer.h>
+#include <deal.II/distributed/tria.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/fe_dgp.h>
+#include <deal.II/fe/fe_face.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/trilinos_sparse_matrix.h>
+#include <deal.II/lac/trilinos_vector.h>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+#include <vi/complementarity.h>
+#include <vi/contact_rows.h>
+#include <vi/geometry.h>
+#include <vi/parameters.h>
+#include <vi/semismooth_newton.h>
+#include <vi/summary.h>
+#include <vi/test_cases.h>
+
+namespace StepHHO
+{
+  using namespace dealii;
+
+  class JacobianSolver;
+
+  /**
+   * The .prm interface of step-hho: the sections of step-membranes
+   * (DESIGN.md), with Method = hho, the switch "Discretization/Static
+   * condensation", and conjugate gradients for the condensed system in
+   * "Linear solver".
+   */
+  struct Parameters
+  {
+    VI::ProblemParameters         problem;
+    VI::MeshParameters            mesh;
+    VI::DiscretizationParameters  discretization;
+    bool                          static_condensation = true;
+    std::string                   contact_nodes       = "gauss-padua";
+    std::string                   gradient_degree     = "p";
+    VI::NonlinearSolverParameters nonlinear_solver;
+    VI::LinearSolverParameters    linear_solver;
+    VI::OutputParameters          output;
+
+    static void
+    declare(ParameterHandler &prm);
+    void
+    parse(ParameterHandler &prm);
+  };
+
+
+  /**
+   * Contact between two membranes with the Hybrid High-Order method of the
+   * seed (slides "The Hybrid High-Order method", [DD21]). Unknowns of each
+   * membrane alpha: a polynomial u_alpha,K in P_p(K) on every cell and
+   * u_alpha,F in P_{p-1}(F) on every face (the L2 projection of g_alpha on
+   * boundary faces); the multiplier lambda_h in P_p(K) on every cell. With
+   * the local bilinear form a_K = (G_K ., G_K .)_K + s_K
+   * (local_operators.h), find them with
+   *
+   *   mu1 sum_K a_K(u1, v1) - sum_K (lambda_h, v1,K)_K = sum_K (f1, v1,K)_K,
+   *   mu2 sum_K a_K(u2, v2) + sum_K (lambda_h, v2,K)_K = sum_K (f2, v2,K)_K,
+   *
+   * and the complementarity at the nodes x_I of every cell (Padua points):
+   *
+   *   (u1,K - u2,K)(x_I) >= 0,  X3_I >= 0,  (u1,K - u2,K)(x_I) X3_I = 0.
+   *
+   * The cell unknowns are the nodal values X1, X2 at x_I (nodal basis phi_I
+   * of P_p(K)) and the coefficients X3 of lambda_h in the basis dual to
+   * phi_I in L2(K), X3_I = (lambda_h, phi_I)_K, so that the coupling block
+   * is the identity I_d of the slides and the constraints are nodewise.
+   *
+   * Each semismooth Newton step solves the linearised system either whole
+   * (sparse LU), or by static condensation: the cell unknowns of both
+   * membranes and the multiplier are eliminated cell by cell, the system on
+   * the faces is solved (CG + AMG, or LU), and the cell unknowns are
+   * recovered (static_condensation.h). Written for the weighted mean and
+   * the difference of the membranes, the face system is block diagonal:
+   * the mean's block does not change from one Newton step to the next. Both
+   * ways give the same Newton iterates.
+   */
+  template <int dim>
+  class HHOProblem
+  {
+  public:
+    HHOProblem(const Parameters &parameters,
+               ParameterHandler &prm,
+               const MPI_Comm    comm);
+    ~HHOProblem();
+
+    void
+    run();
+
+  private:
+    void
+    check_data() const;
+    void
+    make_grid();
+    void
+    setup_system();
+    void
+    assemble_system();
+    void
+    initialize_iterate();
+    void
+    solve();
+    void
+    postprocess();
+    void
+    compute_errors();
+    void
+    output_results(const unsigned int cycle) const;
+    void
+    refine_mesh();
+    void
+    record_cycle(const unsigned int cycle);
+    void
+    write_tables() const;
+
+    // The three callbacks of semismooth Newton and their parts.
+    VI::ResidualNorms
+    residual(const TrilinosWrappers::MPI::Vector &X,
+             TrilinosWrappers::MPI::Vector       &R) const;
+    void
+    equation_residual(const TrilinosWrappers::MPI::Vector &X,
+                      TrilinosWrappers::MPI::Vector       &R) const;
+    void
+    setup_jacobian(const TrilinosWrappers::MPI::Vector &X);
+    unsigned int
+    solve_with_jacobian(const TrilinosWrappers::MPI::Vector &rhs,
+                        TrilinosWrappers::MPI::Vector       &dX);
+    void
+    assemble_difference_matrix(const TrilinosWrappers::MPI::Vector &X);
+    void
+    condense_rhs(const TrilinosWrappers::MPI::Vector &rhs);
+    unsigned int
+    solve_condensed_system();
+    void
+    recover_cell_unknowns(const TrilinosWrappers::MPI::Vector &rhs,
+                          TrilinosWrappers::MPI::Vector       &dX);
+
+    void
+    compute_local_matrices();
+
+    // Index bookkeeping between the cells, the faces and the unknowns X.
+    using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
+    CellIterator
+    face_cell(const CellIterator &cell) const;
+    types::global_dof_index
+    face_unknown(const types::global_dof_index face_dof,
+                 const unsigned int            alpha) const;
+    types::global_dof_index
+    face_dof(const types::global_dof_index face_unknown) const;
+    ArrayView<const types::global_dof_index>
+    local_unknowns(const CellIterator &cell) const;
+
+    /// What the shape of a cell determines: the local HHO matrices
+    /// (static_condensation.h) and the Gram matrix of FE_DGP's basis.
+    struct LocalMatrices
+    {
+      StaticCondensation::CellOperators operators;
+      FullMatrix<double>                mass;
+    };
+    const LocalMatrices &
+    local_matrices_of(const CellIterator &cell) const;
+
+    /// The face unknowns of X from the traces of the cell polynomials.
+    void
+    set_face_unknowns_from_traces(TrilinosWrappers::MPI::Vector &X) const;
+
+    const Parameters            parameters;
+    ParameterHandler           &prm;
+    const MPI_Comm              comm;
+    ConditionalOStream          pcout;
+    mutable TimerOutput         timer;
+    const VI::Geometry          geometry;
+    VI::MembraneData<dim>       data;
+    VI::ComplementarityFunction C;
+
+    parallel::distributed::Triangulation<dim> triangulation;
+    std::unique_ptr<Mapping<dim>>             mapping;
+    const unsigned int                        degree;
+
+    // Cell space P_p (FE_DGP: numbers the cell nodes, and is the basis of
+    // the finite element functions for output and errors) and face space
+    // P_{p-1} (FE_FaceQ), each scalar: every node and every face DoF carries
+    // the unknowns of both membranes.
+    FE_DGP<dim>     cell_fe;
+    FE_FaceQ<dim>   face_fe;
+    DoFHandler<dim> cell_dof_handler;
+    DoFHandler<dim> face_dof_handler;
+
+    // Nodal basis at the contact nodes: nodal values = V (FE_DGP
+    // coefficients), T = V^{-1}.
+    FullMatrix<double> V, T;
+    // The basis functions of FE_DGP(p) that span the space of G_K.
+    std::vector<unsigned int> gradient_basis;
+
+    // The unknowns X: cells [3 i + alpha] (node i; alpha = u1, u2,
+    // multiplier), then faces [3 N_nodes + 2 j + alpha] (face DoF j; alpha =
+    // u1, u2). Each process owns the unknowns of its nodes and face DoFs.
+    IndexSet owned_nodes, relevant_nodes;
+    IndexSet owned_faces, relevant_faces;
+    IndexSet owned_system, relevant_system;
+
+    AffineConstraints<double>     face_constraints;   ///< boundary face DoFs
+    AffineConstraints<double>     system_constraints; ///< their unknowns in X
+    TrilinosWrappers::MPI::Vector boundary_values;    ///< X with Pi_F g only
+    types::global_dof_index       n_boundary_face_dofs = 0;
+    VI::ContactRows               contact_rows;
+
+    // Per locally owned cell (by active_cell_index): the positions in X of
+    // its unknowns (x1, x2, x3, y1, y2: 3 n_c + 2 n_f of them, the local
+    // order of static_condensation.h), the shape it has, and the elimination
+    // of its cell unknowns in the current Newton step. Per shape (the cells
+    // that are translates of each other): the local matrices.
+    std::vector<types::global_dof_index>             unknown_indices;
+    std::vector<unsigned int>                        cell_shape;
+    std::vector<LocalMatrices>                       local_matrices;
+    std::vector<StaticCondensation::CellElimination> eliminations;
+
+    TrilinosWrappers::MPI::Vector         load; ///< (f_alpha, phi_I)_K
+    TrilinosWrappers::MPI::Vector         solution;
+    mutable TrilinosWrappers::MPI::Vector ghosted_iterate;
+    double                                load_norm        = 0;
+    double                                multiplier_scale = 0;
+
+    // Without static condensation: the Jacobian A = [E ; J_C].
+    TrilinosWrappers::SparseMatrix system_matrix;
+    // With it: the face systems of the mean (fixed on a mesh) and of the
+    // difference of the membranes (static_condensation.h).
+    TrilinosWrappers::SparseMatrix mean_matrix, difference_matrix;
+    TrilinosWrappers::MPI::Vector  mean_rhs, difference_rhs;
+    TrilinosWrappers::MPI::Vector  mean_update, difference_update;
+    TrilinosWrappers::MPI::Vector  ghosted_mean_update,
+      ghosted_difference_update;
+    std::vector<std::vector<bool>> constant_modes;
+
+    // Linear solvers of the current mesh (created in solve()).
+    std::unique_ptr<JacobianSolver> mean_solver, jacobian_solver;
+
+    // The discrete solution as FE_DGP functions (with ghosts).
+    TrilinosWrappers::MPI::Vector u1_h, u2_h, gap_h, lambda_h;
+    Vector<float>                 contact_fraction;
+
+    std::unique_ptr<parallel::distributed::
+                      SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>
+      solution_transfer;
+
+    // What each cycle measured.
+    VI::NewtonReport              newton_report;
+    types::global_dof_index       n_contact_nodes  = 0;
+    double                        error_energy     = 0;
+    double                        error_multiplier = 0;
+    Timer                         cycle_timer;
+    std::map<std::string, double> timing_before_cycle;
+
+    ConvergenceTable table;
+    VI::Json         summary;
+  };
+} // namespace StepHHO
