@@ -24,6 +24,7 @@ namespace VI
 
     // Ingredients.
     double eta_1       = 0; ///< {sum (eta_F + eta_R)^2}^(1/2) + remainder
+    double eta_1_disc  = 0; ///< {sum (eta_F,disc + eta_R)^2}^(1/2)
     double flux_disc   = 0; ///< {sum eta_F,disc^2}^(1/2)
     double residual    = 0; ///< {sum eta_R^2}^(1/2)
     double flux_alg    = 0; ///< |mu^(-1/2) sigma_alg|
@@ -100,6 +101,15 @@ namespace VI
     const Vector *lambda_ahead = nullptr;
     const Vector *r1_ahead = nullptr, *r2_ahead = nullptr;
     const Vector *sigma1_ahead = nullptr, *sigma2_ahead = nullptr;
+
+    /// Parabolic problems (null for steady ones): the discrete time
+    /// derivatives d_t u_alpha,h = (u_alpha,h^n - u_alpha,h^(n-1)) / dt_n of
+    /// the iterate and of the look-ahead, whose fluxes then equilibrate
+    /// f - d_t u_ahead -/+ lambda_ahead - r_ahead. The residual estimator
+    /// subtracts d_t u_ahead, and what the look-ahead changes,
+    /// d_t u_ahead - d_t u, goes into the remainder.
+    const Vector *dt_u1 = nullptr, *dt_u2 = nullptr;
+    const Vector *dt_u1_ahead = nullptr, *dt_u2_ahead = nullptr;
   };
 
 
