@@ -16,7 +16,7 @@ T = 0.3 (parameters/parabolic-ring.prm). Writes into doc/data/:
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/parabolic_ring.py [--quick]
 --quick runs coarser meshes to T = 0.1 (a smoke test of the script, not the
-published setting). The full study takes about two hours on a shared
+published setting). The full study takes about an hour on a shared
 2-core machine. STEP_PARABOLIC names another binary (e.g. a copy, so that
 the build tree can be rebuilt while the study runs).
 """
@@ -78,7 +78,7 @@ def gnuplot(script):
 
 def main():
     os.makedirs(DATA, exist_ok=True)
-    rows, onsets, step_rows, summaries = [], [], [], {}
+    rows, onsets, step_rows = [], [], []
     for degree, refinements in ((1, 5), (2, 4)):
         if QUICK:
             refinements -= 2
@@ -93,7 +93,6 @@ def main():
                 if strategy == "adaptive":
                     settings["Output/Compare with"] = runs["exact"][0]
                 runs[strategy] = run(name, settings)
-                summaries[name] = runs[strategy][1]
             exact, adaptive = runs["exact"][1], runs["adaptive"][1]
             published = PUBLISHED.get((degree, c_function), PUBLISHED.get((degree, None)))
             row = {
