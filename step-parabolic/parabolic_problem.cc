@@ -1765,6 +1765,16 @@ namespace StepParabolic
           << std::endl;
 
     summary = VI::make_summary("step-parabolic", comm, prm);
+    if (!parameters.compare_with.empty())
+      {
+        const std::string file  = parameters.compare_with + "/checkpoint.txt";
+        bool              found = false;
+        if (Utilities::MPI::this_mpi_process(comm) == 0)
+          found = static_cast<bool>(std::ifstream(file));
+        if (!Utilities::MPI::broadcast(comm, found, 0))
+          throw VI::InputError("Output/Compare with: there is no checkpoint <" +
+                               file + ">");
+      }
 
     if (ts.resume)
       {
