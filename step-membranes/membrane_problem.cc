@@ -1020,33 +1020,12 @@ namespace StepMembranes
     subdomain = triangulation.locally_owned_subdomain();
     data_out.add_data_vector(subdomain, "partition");
 
-    // Per-cell estimators (square roots of the squared indicators).
-    std::vector<dealii::Vector<float>> indicators;
+    // Per-cell estimators.
+    std::vector<std::pair<std::string, dealii::Vector<float>>> indicators;
     if (final_estimate)
-      {
-        const std::pair<const char *, const dealii::Vector<double> *>
-          cell_data[] = {{"eta", &final_estimate->cell_total},
-                         {"eta_flux", &final_estimate->cell_flux},
-                         {"eta_residual", &final_estimate->cell_residual},
-                         {"eta_algebraic", &final_estimate->cell_algebraic},
-                         {"eta_nonconformity",
-                          &final_estimate->cell_nonconformity}};
-        indicators.reserve(std::size(cell_data) + 1);
-        for (const auto &[name, squares] : cell_data)
-          {
-            indicators.emplace_back(squares->size());
-            for (unsigned int c = 0; c < squares->size(); ++c)
-              indicators.back()(c) = std::sqrt(std::abs((*squares)(c)));
-            data_out.add_data_vector(indicators.back(),
-                                     name,
-                                     DataOut<dim>::type_cell_data);
-          }
-        indicators.emplace_back(final_estimate->cell_contact.begin(),
-                                final_estimate->cell_contact.end());
-        data_out.add_data_vector(indicators.back(),
-                                 "eta_contact",
-                                 DataOut<dim>::type_cell_data);
-      }
+      indicators = VI::cell_indicators(*final_estimate);
+    for (const auto &[name, values] : indicators)
+      data_out.add_data_vector(values, name, DataOut<dim>::type_cell_data);
 
     data_out.build_patches(*mapping,
                            fe.degree,

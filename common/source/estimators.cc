@@ -22,8 +22,10 @@ namespace VI
       flux_disc_squared,
       residual_squared,
       algebraic_squared,
-      remainder_1, // |r1_ahead - (lambda_ahead - lambda)|^2
-      remainder_2, // |r2_ahead + (lambda_ahead - lambda)|^2
+      remainder_1, // |r1_ahead - (lambda_ahead - lambda) + dt_u1_ahead -
+                   // dt_u1|^2
+      remainder_2, // |r2_ahead + (lambda_ahead - lambda) + dt_u2_ahead -
+                   // dt_u2|^2
       nonc_total,
       nonc_disc,
       nonc_lin,
@@ -75,8 +77,9 @@ namespace VI
     // Values at the quadrature points.
     std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
       sigma_ahead[2];
-    std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], f(n_q),
-      lambda(n_q), lambda_nonnegative(n_q), lambda_ahead(n_q);
+    std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], dt_u[2],
+      dt_u_ahead[2], f(n_q), lambda(n_q), lambda_nonnegative(n_q),
+      lambda_ahead(n_q);
     for (unsigned int a = 0; a < 2; ++a)
       {
         for (auto *v :
@@ -84,6 +87,9 @@ namespace VI
           v->resize(n_q);
         for (auto *v : {&u[a], &s[a], &r_ahead[a], &div_ahead[a]})
           v->resize(n_q);
+        // Zero for steady problems.
+        dt_u[a].assign(n_q, 0.);
+        dt_u_ahead[a].assign(n_q, 0.);
       }
     const TrilinosWrappers::MPI::Vector *u_vectors[2]     = {in.u1, in.u2},
                                         *s_vectors[2]     = {in.s1, in.s2},
@@ -93,7 +99,13 @@ namespace VI
                                                              in.sigma2_disc},
                                         *ahead_vectors[2] = {in.sigma1_ahead,
                                                              in.sigma2_ahead};
-    const Function<dim> *forces[2]                        = {in.f1, in.f2};
+    const Function<dim>                 *forces[2]        = {in.f1, in.f2};
+    const TrilinosWrappers::MPI::Vector *dt_vectors[2] = {in.dt_u1, in.dt_u2},
+                                        *dt_ahead_vectors[2] = {in.dt_u1_ahead,
+                                                                in.dt_u2_ahead};
+    Assert((in.dt_u1 && in.dt_u2 && in.dt_u1_ahead && in.dt_u2_ahead) ||
+             !(in.dt_u1 || in.dt_u2 || in.dt_u1_ahead || in.dt_u2_ahead),
+           ExcMessage("Give all four time derivatives, or none."));
 
     // The lifting G of g - I_h g on the cells at the boundary (see the
     // function comment below): the values of u_h, g and the mapping on the
@@ -158,6 +170,12 @@ namespace VI
                                                    sigma_ahead[a]);
             flux_values[sigma].get_function_divergences(*ahead_vectors[a],
                                                         div_ahead[a]);
+            if (dt_vectors[a])
+              {
+                potential_values.get_function_values(*dt_vectors[a], dt_u[a]);
+                potential_values.get_function_values(*dt_ahead_vectors[a],
+                                                     dt_u_ahead[a]);
+              }
           }
         potential_values.get_function_values(*in.lambda, lambda);
         potential_values.get_function_values(*in.lambda_nonnegative,
@@ -253,12 +271,15 @@ namespace VI
                 algebraic +=
                   (sigma_ahead[a][q] - sigma_disc[a][q]).norm_square() / mu[a] *
                   dx;
-                residual[a] += std::pow(f[q] - sign * lambda_ahead[q] -
-                                          r_ahead[a][q] - div_ahead[a][q],
-                                        2) *
-                               dx;
+                residual[a] +=
+                  std::pow(f[q] - dt_u_ahead[a][q] - sign * lambda_ahead[q] -
+                             r_ahead[a][q] - div_ahead[a][q],
+                           2) *
+                  dx;
                 cell[remainder_1 + a] +=
-                  std::pow(r_ahead[a][q] + sign * (lambda_ahead[q] - lambda[q]),
+                  std::pow(r_ahead[a][q] +
+                             sign * (lambda_ahead[q] - lambda[q]) +
+                             dt_u_ahead[a][q] - dt_u[a][q],
                            2) *
                   dx;
               }
@@ -371,7 +392,8 @@ namespace VI
     e.eta = 0.5 * a + std::sqrt(std::max(0.25 * a * a + b, 0.)) + e.dirichlet;
 
     const double eta_1_disc = std::sqrt(total[flux_residual_disc]);
-    const auto   cross      = [&](const double nonc_1_part) {
+    e.eta_1_disc            = eta_1_disc;
+    const auto cross        = [&](const double nonc_1_part) {
       return std::sqrt((e.eta_1 + e.nonc_2) * nonc_1_part);
     };
     e.eta_disc = e.dirichlet + eta_1_disc + e.nonc_1_disc + e.nonc_2_disc +
@@ -402,6 +424,29 @@ namespace VI
           y1[k] = x1[k];
           y2[k] = x2[k];
         }
+  }
+
+
+  std::vector<std::pair<std::string, dealii::Vector<float>>>
+  cell_indicators(const ContactEstimate &e)
+  {
+    std::vector<std::pair<std::string, dealii::Vector<float>>> fields;
+    for (const auto &[name, squares] :
+         {std::make_pair("eta", &e.cell_total),
+          std::make_pair("eta_flux", &e.cell_flux),
+          std::make_pair("eta_residual", &e.cell_residual),
+          std::make_pair("eta_algebraic", &e.cell_algebraic),
+          std::make_pair("eta_nonconformity", &e.cell_nonconformity)})
+      {
+        dealii::Vector<float> root(squares->size());
+        for (unsigned int c = 0; c < squares->size(); ++c)
+          root(c) = std::sqrt(std::abs((*squares)(c)));
+        fields.emplace_back(name, std::move(root));
+      }
+    fields.emplace_back("eta_contact",
+                        dealii::Vector<float>(e.cell_contact.begin(),
+                                              e.cell_contact.end()));
+    return fields;
   }
 
 

@@ -30,7 +30,8 @@ namespace VI
   void
   ProblemParameters::declare(ParameterHandler  &prm,
                              const std::string &test_cases,
-                             const std::string &default_test_case)
+                             const std::string &default_test_case,
+                             const std::string &variable_names)
   {
     prm.enter_subsection("Problem");
     {
@@ -51,7 +52,8 @@ namespace VI
       prm.enter_subsection("Expression");
       {
         const std::string variables =
-          " Variables x, y; pi and the constants of 'Constants'; muparser "
+          " Variables " + variable_names +
+          "; pi and the constants of 'Constants'; muparser "
           "syntax (with atan2 and 'c ? a : b').";
         prm.declare_entry("f1",
                           "0",

@@ -188,15 +188,19 @@ namespace VI
      * accurate to about 1e-12 relative for smooth functions.
      */
     template <int dim>
-    std::shared_ptr<const Function<dim>>
+    std::shared_ptr<Function<dim>>
     parse_expression(const std::string                   &parameter,
                      const std::string                   &formula,
                      const std::map<std::string, double> &constants,
-                     const Point<dim>                    &probe)
+                     const Point<dim>                    &probe,
+                     const bool time_dependent = false)
     {
       auto function = std::make_shared<FunctionParser<dim>>(1, 0., /*h=*/1e-4);
       function->set_formula(AutoDerivativeFunction<dim>::FourthOrder);
-      const std::string variables = dim == 1 ? "x" : dim == 2 ? "x,y" : "x,y,z";
+      const std::string variables = std::string(dim == 1 ? "x" :
+                                                dim == 2 ? "x,y" :
+                                                           "x,y,z") +
+                                    (time_dependent ? ",t" : "");
       // deal.II prints muparser's diagnosis to std::cerr before it throws;
       // keep it out of the output: the exception carries the same message.
       std::ostringstream    parser_diagnosis;
@@ -205,7 +209,7 @@ namespace VI
       const auto restore_cerr = [&]() { std::cerr.rdbuf(cerr_buffer); };
       try
         {
-          function->initialize(variables, formula, constants);
+          function->initialize(variables, formula, constants, time_dependent);
           function->value(probe);
           restore_cerr();
         }
@@ -292,6 +296,25 @@ namespace VI
   }
 
 
+  template <int dim>
+  std::shared_ptr<Function<dim>>
+  parse_expression_function(const std::string &parameter,
+                            const std::string &formula,
+                            const std::string &constants,
+                            const Point<dim>  &probe,
+                            const bool         time_dependent)
+  {
+    return parse_expression<dim>(
+      parameter, formula, parse_constants(constants), probe, time_dependent);
+  }
+
+
   template MembraneData<2>
   make_membrane_data(const ProblemParameters &, const Point<2> &);
+  template std::shared_ptr<Function<2>>
+  parse_expression_function(const std::string &,
+                            const std::string &,
+                            const std::string &,
+                            const Point<2> &,
+                            const bool);
 } // namespace VI

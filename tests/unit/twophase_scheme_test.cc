@@ -2,15 +2,17 @@
 // constitutive laws and the analytic Jacobian against finite differences,
 // discrete conservation, and the properties of the a posteriori estimators
 // that the adaptive stopping criteria rely on.
+#include <deal.II/lac/sparse_direct.h>
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/vector.h>
+
+#include <gtest/gtest.h>
+
 #include "../../step-twophase/finite_volume_scheme.h"
 #include "../../step-twophase/twophase_estimators.h"
 
 #include <algorithm>
 #include <cmath>
-#include <deal.II/lac/sparse_direct.h>
-#include <deal.II/lac/sparse_matrix.h>
-#include <deal.II/lac/vector.h>
-#include <gtest/gtest.h>
 #include <vector>
 
 using namespace StepTwoPhase;

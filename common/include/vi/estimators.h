@@ -7,6 +7,10 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
 
+#include <string>
+#include <utility>
+#include <vector>
+
 namespace VI
 {
   /**
@@ -24,6 +28,7 @@ namespace VI
 
     // Ingredients.
     double eta_1       = 0; ///< {sum (eta_F + eta_R)^2}^(1/2) + remainder
+    double eta_1_disc  = 0; ///< {sum (eta_F,disc + eta_R)^2}^(1/2)
     double flux_disc   = 0; ///< {sum eta_F,disc^2}^(1/2)
     double residual    = 0; ///< {sum eta_R^2}^(1/2)
     double flux_alg    = 0; ///< |mu^(-1/2) sigma_alg|
@@ -57,6 +62,17 @@ namespace VI
     ///           indicator.
     dealii::Vector<double> cell_total;
   };
+
+
+  /**
+   * The cellwise indicators of an estimate as fields for DataOut
+   * (DataOut::type_cell_data): eta, eta_flux, eta_residual, eta_algebraic,
+   * eta_nonconformity (square roots of the squared indicators) and
+   * eta_contact (the signed contact term). The returned fields must outlive
+   * DataOut::build_patches().
+   */
+  std::vector<std::pair<std::string, dealii::Vector<float>>>
+  cell_indicators(const ContactEstimate &estimate);
 
 
   /**
@@ -101,6 +117,15 @@ namespace VI
     const Vector *lambda_ahead = nullptr;
     const Vector *r1_ahead = nullptr, *r2_ahead = nullptr;
     const Vector *sigma1_ahead = nullptr, *sigma2_ahead = nullptr;
+
+    /// Parabolic problems (null for steady ones): the discrete time
+    /// derivatives d_t u_alpha,h = (u_alpha,h^n - u_alpha,h^(n-1)) / dt_n of
+    /// the iterate and of the look-ahead, whose fluxes then equilibrate
+    /// f - d_t u_ahead -/+ lambda_ahead - r_ahead. The residual estimator
+    /// subtracts d_t u_ahead, and what the look-ahead changes,
+    /// d_t u_ahead - d_t u, goes into the remainder.
+    const Vector *dt_u1 = nullptr, *dt_u2 = nullptr;
+    const Vector *dt_u1_ahead = nullptr, *dt_u2_ahead = nullptr;
   };
 
 

@@ -31,10 +31,13 @@ namespace VI
     double               mu2       = 1.;
     ExpressionParameters expression;
 
+    /// `variables`: how the documentation names the variables of the
+    /// expressions ("x, y"; "x, y, t" for time-dependent problems).
     static void
     declare(dealii::ParameterHandler &prm,
             const std::string        &test_cases,
-            const std::string        &default_test_case);
+            const std::string        &default_test_case,
+            const std::string        &variables = "x, y");
     void
     parse(dealii::ParameterHandler &prm);
   };

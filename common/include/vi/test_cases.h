@@ -60,4 +60,21 @@ namespace VI
   MembraneData<dim>
   make_membrane_data(const ProblemParameters  &problem,
                      const dealii::Point<dim> &center);
+
+
+  /**
+   * The muparser function of one formula of Problem/Expression (named
+   * `parameter` in messages), in the variables x, y and, if
+   * `time_dependent`, t (set with Function::set_time()), with pi and the
+   * `constants` ("name=value, ..."). Evaluated once at `probe` (at t = 0):
+   * a malformed formula or an undefined name throws InputError. Gradients
+   * by fourth-order differences, as in make_membrane_data().
+   */
+  template <int dim>
+  std::shared_ptr<dealii::Function<dim>>
+  parse_expression_function(const std::string        &parameter,
+                            const std::string        &formula,
+                            const std::string        &constants,
+                            const dealii::Point<dim> &probe,
+                            const bool                time_dependent = false);
 } // namespace VI
