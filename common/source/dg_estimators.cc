@@ -103,20 +103,21 @@ namespace VI
     // The global sums of the estimate, reduced over processes in one call.
     enum Sum : unsigned int
     {
-      flux_residual,     // sum (eta_F + eta_R)^2
-      flux_squared,      // sum eta_F^2
-      residual_squared,  // sum eta_R^2
-      remainder_1,       // |r1|^2
-      remainder_2,       // |r2|^2
-      nonc_total,        // |||s~ - u_h|||_h^2
-      nonc_cone,         // |||s~ - (s + G)|||^2
-      oswald_squared,    // |||s - u_h|||_h^2
-      negative,          // |lambda^neg|^2
-      negative_disc,     // |lambda~^neg|^2
-      negative_lin,      // |lambda^neg - lambda~^neg|^2
+      flux_residual,         // sum (eta_F + eta_R)^2
+      flux_squared,          // sum eta_F^2
+      residual_squared,      // sum eta_R^2
+      remainder_1,           // |r1|^2
+      remainder_2,           // |r2|^2
+      nonc_total,            // |||s~ - u_h|||_h^2
+      nonc_cone,             // |||s~ - (s + G)|||^2
+      oswald_squared,        // |||s - u_h|||_h^2
+      multiplier_local,      // sum (h_K / pi)^2 |delta - m_K|^2 (lambda)
+      multiplier_mean,       // sum m_K^2 |K| (lambda)
+      multiplier_local_disc, // the same for lambda~
+      multiplier_mean_disc,
       positive,          // |lambda^pos|^2
       contact_total,     // 2 (lambda^pos, u1h - u2h)
-      contact_cone,      // 2 (lambda^pos, s~1 - s~2)
+      contact_cone,      // 2 (c_K lambda^pos, s~1 - s~2)
       contact_discrete,  // 2 (lambda, u1h - u2h)
       dirichlet_squared, // |||G|||^2
       n_sums
@@ -215,8 +216,8 @@ namespace VI
       }
 
     std::array<double, n_sums> sums{};
-    const double               C =
-      in.friedrichs_constant * std::sqrt(1. / in.mu1 + 1. / in.mu2);
+    const double               c_mu = std::sqrt(1. / in.mu1 + 1. / in.mu2);
+    const double               C    = in.friedrichs_constant * c_mu;
 
     for (const auto &broken_cell : in.broken->active_cell_iterators())
       {
@@ -317,6 +318,19 @@ namespace VI
             cell[residual_squared] += std::pow(residual[a], 2);
           }
 
+        // The multiplier: lambda_h = c_K lambda_h^pos + delta (and the same
+        // for the multiplier lambda~ of the nonnegative coefficients).
+        const std::vector<double> &JxW   = broken_values.get_JxW_values();
+        const MultiplierSplit      split = split_multiplier(lambda, JxW),
+                              split_disc =
+                                split_multiplier(lambda_nonnegative, JxW);
+        const double poincare_squared = std::pow(h_K / numbers::PI, 2);
+        cell[multiplier_local] = poincare_squared * split.oscillation_squared;
+        cell[multiplier_mean]  = split.mean_squared;
+        cell[multiplier_local_disc] =
+          poincare_squared * split_disc.oscillation_squared;
+        cell[multiplier_mean_disc] = split_disc.mean_squared;
+
         // The cone reconstruction s~ = (s + G) + (theta w, -(1 - theta) w),
         // w = ((s2 + G2) - (s1 + G1))^+: s~1 - s~2 = ((s1 + G1) - (s2 +
         // G2))^+ >= 0 and s~ = g on the boundary, i.e. s~ is in K_g.
@@ -341,19 +355,12 @@ namespace VI
                mu[1] * (grad_s[1][q] - grad_u[1][q]).norm_square()) *
               dx;
 
-            const double negative_part = std::min(lambda[q], 0.);
-            const double negative_part_disc =
-              std::min(lambda_nonnegative[q], 0.);
             const double positive_part = std::max(lambda[q], 0.);
             const double gap           = u[0][q] - u[1][q];
-            cell[negative] += negative_part * negative_part * dx;
-            cell[negative_disc] += negative_part_disc * negative_part_disc * dx;
-            cell[negative_lin] +=
-              std::pow(negative_part - negative_part_disc, 2) * dx;
             cell[positive] += positive_part * positive_part * dx;
             cell[contact_total] += 2. * positive_part * gap * dx;
-            cell[contact_cone] +=
-              2. * positive_part * std::max(S1 - S2, 0.) * dx;
+            cell[contact_cone] += 2. * split.cone_factor * positive_part *
+                                  std::max(S1 - S2, 0.) * dx;
             cell[contact_discrete] += 2. * lambda[q] * gap * dx;
             cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
                                         mu[1] * grad_G[1][q].norm_square()) *
@@ -369,7 +376,8 @@ namespace VI
         estimate.cell_nonconformity(index) = cell[nonc_total];
         estimate.cell_contact(index)       = cell[contact_cone];
         estimate.cell_total(index) = cell[flux_residual] + cell[nonc_total] +
-                                     C * C * cell[negative] +
+                                     c_mu * c_mu * cell[multiplier_local] +
+                                     C * C * cell[multiplier_mean] +
                                      cell[contact_cone];
       }
 
@@ -408,12 +416,15 @@ namespace VI
     e.nonc_1_disc         = e.nonc_1;
     e.nonc_1_lin          = 0;
     e.oswald              = std::sqrt(total[oswald_squared]);
-    e.nonc_2              = C * std::sqrt(total[negative]);
-    e.nonc_2_disc         = C * std::sqrt(total[negative_disc]);
-    e.nonc_2_lin          = C * std::sqrt(total[negative_lin]);
-    e.nonc_3              = 2. * C * std::sqrt(total[positive]) * e.nonc_1;
-    e.contact_pos         = total[contact_total];
-    e.contact_cone        = total[contact_cone];
+    // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w||| (w in H^1_0).
+    e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
+               C * std::sqrt(total[multiplier_mean]);
+    e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
+                    C * std::sqrt(total[multiplier_mean_disc]);
+    e.nonc_2_lin   = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
+    e.nonc_3       = 2. * C * std::sqrt(total[positive]) * e.nonc_1;
+    e.contact_pos  = total[contact_total];
+    e.contact_cone = total[contact_cone];
     // 2 (lambda_h, u1h - u2h) = 2 sum_i X3_i (X1_i - X2_i) vanishes with the
     // discrete complementarity (the dual basis); the rest is discretisation.
     e.contact_lin  = in.mass_lumped ? 0. : total[contact_discrete];

@@ -29,12 +29,13 @@ namespace VI
       nonc_total,
       nonc_disc,
       nonc_lin,
-      negative,           // |lambda^neg|^2
-      negative_disc,      // |lambda~^neg|^2
-      negative_lin,       // |lambda^neg - lambda~^neg|^2
+      multiplier_local,      // sum (h_K / pi)^2 |delta - m_K|^2 (lambda)
+      multiplier_mean,       // sum m_K^2 |K| (lambda)
+      multiplier_local_disc, // the same for lambda~
+      multiplier_mean_disc,
       positive,           // |lambda^pos|^2
       contact_total,      // 2 (lambda^pos, u1 - u2)
-      contact_cone,       // 2 (lambda^pos, (s1 - s2)^+)
+      contact_cone,       // 2 (c_K lambda^pos, (s1 - s2)^+)
       contact_linearised, // 2 (lambda, u1 - u2)
       dirichlet_squared,  // |||G|||^2
       n_sums
@@ -146,8 +147,8 @@ namespace VI
       }
 
     std::array<double, n_sums> sums{};
-    const double               C =
-      in.friedrichs_constant * std::sqrt(1. / in.mu1 + 1. / in.mu2);
+    const double               c_mu = std::sqrt(1. / in.mu1 + 1. / in.mu2);
+    const double               C    = in.friedrichs_constant * c_mu;
 
     for (const auto &potential_cell : in.potential->active_cell_iterators())
       {
@@ -295,6 +296,19 @@ namespace VI
           }
         cell[algebraic_squared] = algebraic;
 
+        // The multiplier: lambda_h = c_K lambda_h^pos + delta (and the same
+        // for the multiplier lambda~ of the nonnegative coefficients).
+        const std::vector<double> &JxW   = potential_values.get_JxW_values();
+        const MultiplierSplit      split = split_multiplier(lambda, JxW),
+                              split_disc =
+                                split_multiplier(lambda_nonnegative, JxW);
+        const double poincare_squared = std::pow(h_K / numbers::PI, 2);
+        cell[multiplier_local] = poincare_squared * split.oscillation_squared;
+        cell[multiplier_mean]  = split.mean_squared;
+        cell[multiplier_local_disc] =
+          poincare_squared * split_disc.oscillation_squared;
+        cell[multiplier_mean_disc] = split_disc.mean_squared;
+
         // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
         // is in the cone; s - u_h vanishes once Newton has converged.
         for (unsigned int q = 0; q < n_q; ++q)
@@ -315,19 +329,12 @@ namespace VI
               (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
               grad_w.norm_square() * dx;
 
-            const double negative_part = std::min(lambda[q], 0.);
-            const double negative_part_disc =
-              std::min(lambda_nonnegative[q], 0.);
             const double positive_part = std::max(lambda[q], 0.);
             const double gap           = u[0][q] - u[1][q];
-            cell[negative] += negative_part * negative_part * dx;
-            cell[negative_disc] += negative_part_disc * negative_part_disc * dx;
-            cell[negative_lin] +=
-              std::pow(negative_part - negative_part_disc, 2) * dx;
             cell[positive] += positive_part * positive_part * dx;
             cell[contact_total] += 2. * positive_part * gap * dx;
-            cell[contact_cone] +=
-              2. * positive_part * std::max(s[0][q] - s[1][q], 0.) * dx;
+            cell[contact_cone] += 2. * split.cone_factor * positive_part *
+                                  std::max(s[0][q] - s[1][q], 0.) * dx;
             cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
                                         mu[1] * grad_G[1][q].norm_square()) *
                                        dx;
@@ -344,7 +351,8 @@ namespace VI
         estimate.cell_contact(index)       = cell[contact_cone];
         estimate.cell_total(index) =
           cell[flux_residual_total] + cell[nonc_total] +
-          C * C * cell[negative] + cell[contact_cone] + cell[dirichlet_squared];
+          c_mu * c_mu * cell[multiplier_local] + C * C * cell[multiplier_mean] +
+          cell[contact_cone] + cell[dirichlet_squared];
       }
 
     const MPI_Comm             comm = in.potential->get_communicator();
@@ -364,9 +372,13 @@ namespace VI
     e.nonc_1      = std::sqrt(total[nonc_total]);
     e.nonc_1_disc = std::sqrt(total[nonc_disc]);
     e.nonc_1_lin  = std::sqrt(total[nonc_lin]);
-    e.nonc_2      = C * std::sqrt(total[negative]);
-    e.nonc_2_disc = C * std::sqrt(total[negative_disc]);
-    e.nonc_2_lin  = C * std::sqrt(total[negative_lin]);
+    // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w|||.
+    e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
+               C * std::sqrt(total[multiplier_mean]);
+    e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
+                    C * std::sqrt(total[multiplier_mean_disc]);
+    // lambda_h = lambda~ once Newton has converged.
+    e.nonc_2_lin                 = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
     const double lambda_positive = std::sqrt(total[positive]);
     e.nonc_3                     = 2. * C * lambda_positive * e.nonc_1;
     e.contact_pos                = total[contact_total];
@@ -403,6 +415,32 @@ namespace VI
                 std::sqrt(std::max(e.contact_lin, 0.) / 2.);
     e.eta_alg = e.flux_alg + e.remainder;
     return estimate;
+  }
+
+
+  MultiplierSplit
+  split_multiplier(const std::vector<double> &lambda,
+                   const std::vector<double> &JxW)
+  {
+    AssertDimension(lambda.size(), JxW.size());
+    double measure = 0, integral = 0, positive_integral = 0;
+    for (unsigned int q = 0; q < lambda.size(); ++q)
+      {
+        measure += JxW[q];
+        integral += lambda[q] * JxW[q];
+        positive_integral += std::max(lambda[q], 0.) * JxW[q];
+      }
+    MultiplierSplit split;
+    split.cone_factor  = integral > 0 ? integral / positive_integral : 0.;
+    const double mean  = std::min(integral, 0.) / measure;
+    split.mean_squared = mean * mean * measure;
+    for (unsigned int q = 0; q < lambda.size(); ++q)
+      {
+        const double delta =
+          lambda[q] - split.cone_factor * std::max(lambda[q], 0.);
+        split.oscillation_squared += std::pow(delta - mean, 2) * JxW[q];
+      }
+    return split;
   }
 
 

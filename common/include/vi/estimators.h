@@ -129,6 +129,31 @@ namespace VI
   };
 
 
+  /**
+   * The multiplier on one cell K, split as lambda_h = lambda^ + delta with
+   * lambda^ = c_K lambda_h^pos >= 0 and
+   *   c_K = max(mean_K lambda_h, 0) / mean_K lambda_h^pos  in [0, 1],
+   * so that delta has mean m_K = 0 where mean_K lambda_h >= 0, and delta =
+   * lambda_h, m_K = mean_K lambda_h < 0 elsewhere. For w in H^1_0 and
+   * Poincare's inequality on convex K,
+   *   -(delta, w1 - w2)_K <= h_K / pi |delta - m_K|_K |grad(w1 - w2)|_K
+   *                          - (m_K, w1 - w2)_K,
+   * so the undershoots of lambda_h cost a term of order h |lambda_h^neg|
+   * where the cell mean is nonnegative, instead of C_F |lambda_h^neg|
+   * (doc/estimators.md). Integrals by the quadrature given as JxW.
+   */
+  struct MultiplierSplit
+  {
+    double cone_factor         = 0; ///< c_K
+    double oscillation_squared = 0; ///< |delta - m_K|_K^2
+    double mean_squared        = 0; ///< m_K^2 |K|
+  };
+
+  MultiplierSplit
+  split_multiplier(const std::vector<double> &lambda,
+                   const std::vector<double> &JxW);
+
+
   /// Evaluate the estimate (collective over the processes of the mesh).
   template <int dim>
   ContactEstimate
