@@ -1,9 +1,5 @@
 #include "hho_problem.h"
 
-#include "local_operators.h"
-
-#include <cmath>
-#include <cstdint>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/utilities.h>
 #include <deal.II/base/work_stream.h>
@@ -20,14 +16,20 @@
 #include <deal.II/meshworker/mesh_loop.h>
 #include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
-#include <fstream>
-#include <iomanip>
-#include <sstream>
-#include <tuple>
+
 #include <vi/errors.h>
 #include <vi/linear_solvers.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
+
+#include "local_operators.h"
+
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <tuple>
 
 namespace StepHHO
 {

@@ -1,7 +1,5 @@
 #pragma once
 
-#include "static_condensation.h"
-
 #include <deal.II/base/array_view.h>
 #include <deal.II/base/conditional_ostream.h>
 #include <deal.II/base/convergence_table.h>
@@ -18,10 +16,7 @@
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
-#include <map>
-#include <memory>
-#include <string>
-#include <vector>
+
 #include <vi/complementarity.h>
 #include <vi/contact_rows.h>
 #include <vi/geometry.h>
@@ -29,6 +24,13 @@
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
+
+#include "static_condensation.h"
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
 
 namespace StepHHO
 {

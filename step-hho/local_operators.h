@@ -14,8 +14,6 @@
 //                          cell-local order.
 // The local vector is (v_K, v_dK), of length n_c + n_f.
 
-#include <algorithm>
-#include <cmath>
 #include <deal.II/base/point.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_dgp.h>
@@ -23,6 +21,9 @@
 #include <deal.II/grid/tria.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/vector.h>
+
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace StepHHO

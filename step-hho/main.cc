@@ -2,9 +2,9 @@
 // method and static condensation, solved by semismooth Newton on a sequence
 // of meshes. See doc/step-hho.md.
 
-#include "hho_problem.h"
-
 #include <vi/program.h>
+
+#include "hho_problem.h"
 
 int
 main(int argc, char **argv)

@@ -116,6 +116,9 @@ namespace StepMembranes
       throw VI::InputError("Mesh/Refinement = " + parameters.mesh.refinement +
                            method +
                            "; use global with Method = " + penalty.name());
+    if (parameters.reference_poisson_solve)
+      throw VI::InputError("Benchmark/Reference Poisson solve" + method +
+                           "; set it to false with Method = " + penalty.name());
     if (parameters.nonlinear_solver.strategy == "adaptive")
       throw VI::InputError(
         "Nonlinear solver/Strategy = adaptive" + method +

@@ -19,6 +19,8 @@
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
 
+#include "reference_poisson.h"
+
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -42,6 +44,15 @@ namespace StepMembranes
     VI::LinearSolverParameters::declare(prm, "direct|gmres", "direct");
     VI::EstimatorParameters::declare(prm);
     VI::OutputParameters::declare(prm);
+    prm.enter_subsection("Benchmark");
+    prm.declare_entry("Reference Poisson solve",
+                      "false",
+                      Patterns::Bool(),
+                      "After each cycle, solve -mu Lap u = f, u = g for each "
+                      "membrane on the same mesh with CG + AMG and record its "
+                      "wall time in summary.json (reference_poisson): the "
+                      "cost unit of bench/membranes_cost.py.");
+    prm.leave_subsection();
   }
 
 
@@ -55,6 +66,9 @@ namespace StepMembranes
     linear_solver.parse(prm);
     estimators.parse(prm);
     output.parse(prm);
+    prm.enter_subsection("Benchmark");
+    reference_poisson_solve = prm.get_bool("Reference Poisson solve");
+    prm.leave_subsection();
 
     const std::string &strategy = nonlinear_solver.strategy;
     if (strategy != "exact" && linear_solver.solver != "gmres")
@@ -267,8 +281,11 @@ namespace StepMembranes
         mass_matrix.reinit(owned_nodes, owned_nodes, mass_pattern, comm);
       }
 
+    t.stop();
     if (parameters.estimators.enabled)
       {
+        // The patch matrices: a cost of the estimators.
+        TimerOutput::Scope t(timer, "estimators: patch matrices");
         flux_reconstruction =
           std::make_unique<VI::FluxReconstruction<dim>>(*mapping, fe.degree);
         flux_reconstruction->reinit(dof_handler);
@@ -1159,7 +1176,38 @@ namespace StepMembranes
           record["effectivity"] = final_estimate->eta / error_energy;
         record["estimate"] = to_json(*final_estimate);
       }
-    record["wall_seconds"] = wall;
+    record["wall_seconds"]  = wall;
+    record["solve_seconds"] = solve_timer.wall_time();
+    // This cycle's share of every TimerOutput section.
+    record["timing"] = VI::Json::object();
+    for (const auto &[section, seconds] :
+         timer.get_summary_data(TimerOutput::total_wall_time))
+      {
+        const auto before = timing_at_cycle_start.find(section);
+        record["timing"][section] =
+          seconds -
+          (before == timing_at_cycle_start.end() ? 0. : before->second);
+      }
+    if (parameters.reference_poisson_solve)
+      {
+        VI::Json reference = VI::Json::array();
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            const PoissonCost cost =
+              reference_poisson_solve(*mapping,
+                                      dof_handler,
+                                      quadrature,
+                                      a == 0 ? data.mu1 : data.mu2,
+                                      a == 0 ? *data.f1 : *data.f2,
+                                      a == 0 ? *data.g1 : *data.g2,
+                                      comm);
+            VI::Json membrane      = VI::Json::object();
+            membrane["seconds"]    = cost.seconds;
+            membrane["iterations"] = cost.iterations;
+            reference.push_back(membrane);
+          }
+        record["reference_poisson"] = reference;
+      }
 
     // Newton steps, and every estimate (inner checks and accepted iterates).
     VI::Json steps = VI::Json::array();
@@ -1257,8 +1305,11 @@ namespace StepMembranes
     for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
       {
         cycle_timer.restart();
+        timing_at_cycle_start =
+          timer.get_summary_data(TimerOutput::total_wall_time);
         if (cycle > 0)
           refine_mesh();
+        solve_timer.restart();
         setup_system();
         assemble_system();
         initialize_iterate();
@@ -1279,6 +1330,7 @@ namespace StepMembranes
             VI::write_summary(summary, parameters.output.directory, comm);
             throw;
           }
+        solve_timer.stop();
         postprocess();
         compute_errors();
         output_results(cycle);

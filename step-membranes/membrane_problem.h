@@ -29,8 +29,10 @@
 #include <vi/summary.h>
 #include <vi/test_cases.h>
 
+#include <map>
 #include <memory>
 #include <optional>
+#include <string>
 
 namespace StepMembranes
 {
@@ -46,6 +48,9 @@ namespace StepMembranes
     VI::LinearSolverParameters    linear_solver;
     VI::EstimatorParameters       estimators;
     VI::OutputParameters          output;
+    /// Benchmark/Reference Poisson solve: time one Poisson solve per
+    /// membrane on every mesh, the cost unit of bench/membranes_cost.py.
+    bool reference_poisson_solve = false;
 
     static void
     declare(ParameterHandler &prm);
@@ -231,6 +236,10 @@ namespace StepMembranes
     double                             error_energy     = 0;
     double                             error_multiplier = 0;
     Timer                              cycle_timer;
+    /// Set-up, assembly and semismooth Newton (estimators included) of the
+    /// cycle: what the contact problem costs on a given mesh.
+    Timer                         solve_timer;
+    std::map<std::string, double> timing_at_cycle_start;
 
     ConvergenceTable table;
     VI::Json         summary;

@@ -6,17 +6,19 @@
 // with their derivatives, and assembles the generalised Jacobian into a
 // deal.II SparseMatrix. Header-only: the unit tests use it directly.
 
-#include "twophase_model.h"
-
-#include <array>
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/sparse_matrix.h>
 #include <deal.II/lac/sparsity_pattern.h>
 #include <deal.II/lac/vector.h>
-#include <limits>
-#include <vector>
+
 #include <vi/complementarity.h>
 #include <vi/semismooth_newton.h>
+
+#include "twophase_model.h"
+
+#include <array>
+#include <limits>
+#include <vector>
 
 namespace StepTwoPhase
 {

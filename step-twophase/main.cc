@@ -3,13 +3,15 @@
 // complementarity constraints solved by semismooth Newton with a posteriori
 // error control. See doc/step-twophase.md.
 
-#include "twophase_problem.h"
-
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/multithread_info.h>
-#include <string>
+
 #include <vi/errors.h>
 #include <vi/program.h>
+
+#include "twophase_problem.h"
+
+#include <string>
 
 int
 main(int argc, char **argv)

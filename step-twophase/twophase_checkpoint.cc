@@ -4,6 +4,8 @@
 // step number, output bookkeeping, the state of every cell, and the history
 // of the steps (so that the tables of a resumed run are complete).
 
+#include <vi/errors.h>
+
 #include "twophase_problem.h"
 
 #include <algorithm>
@@ -12,7 +14,6 @@
 #include <iomanip>
 #include <limits>
 #include <sstream>
-#include <vi/errors.h>
 
 namespace StepTwoPhase
 {

@@ -5,12 +5,13 @@
 // and algebraic errors, and the phase-transition estimator. Header-only:
 // the unit tests use it directly. See doc/step-twophase.md for the formulas.
 
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/fe/fe_q.h>
+
 #include "finite_volume_scheme.h"
 
 #include <array>
 #include <cmath>
-#include <deal.II/base/quadrature_lib.h>
-#include <deal.II/fe/fe_q.h>
 #include <vector>
 
 namespace StepTwoPhase

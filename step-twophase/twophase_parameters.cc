@@ -1,9 +1,11 @@
 #include "twophase_parameters.h"
 
-#include <algorithm>
 #include <deal.II/base/utilities.h>
-#include <sstream>
+
 #include <vi/errors.h>
+
+#include <algorithm>
+#include <sstream>
 
 namespace StepTwoPhase
 {

@@ -1,11 +1,13 @@
 #pragma once
 
+#include <deal.II/base/parameter_handler.h>
+
+#include <vi/parameters.h>
+
 #include "twophase_model.h"
 
-#include <deal.II/base/parameter_handler.h>
 #include <string>
 #include <vector>
-#include <vi/parameters.h>
 
 namespace StepTwoPhase
 {

@@ -1,21 +1,23 @@
 #include "twophase_problem.h"
 
-#include <algorithm>
-#include <cmath>
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/table_handler.h>
 #include <deal.II/base/utilities.h>
 #include <deal.II/grid/grid_generator.h>
 #include <deal.II/numerics/data_out.h>
 #include <deal.II/sundials/kinsol.h>
+
+#include <vi/errors.h>
+#include <vi/linear_solvers.h>
+#include <vi/program.h>
+
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
-#include <vi/errors.h>
-#include <vi/linear_solvers.h>
-#include <vi/program.h>
 
 namespace StepTwoPhase
 {

@@ -1,9 +1,5 @@
 #pragma once
 
-#include "finite_volume_scheme.h"
-#include "twophase_estimators.h"
-#include "twophase_parameters.h"
-
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
 #include <deal.II/base/timer.h>
@@ -15,12 +11,18 @@
 #include <deal.II/lac/sparse_matrix.h>
 #include <deal.II/lac/sparsity_pattern.h>
 #include <deal.II/lac/vector.h>
-#include <memory>
-#include <string>
-#include <vector>
+
 #include <vi/complementarity.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
+
+#include "finite_volume_scheme.h"
+#include "twophase_estimators.h"
+#include "twophase_parameters.h"
+
+#include <memory>
+#include <string>
+#include <vector>
 
 namespace StepTwoPhase
 {

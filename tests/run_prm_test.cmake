@@ -1,6 +1,8 @@
 # Run one .prm test (called by ctest, see CMakeLists.txt).
-#   KIND = run:   the program must succeed; output/convergence.txt is compared
-#                 with REFERENCE by numdiff (relative 1e-6, absolute 1e-12).
+#   KIND = run:   the program must succeed, with no failure and no non-finite
+#                 number in output/summary.json; output/convergence.txt is
+#                 compared with REFERENCE by numdiff (relative 1e-6,
+#                 absolute 1e-12).
 #   KIND = input: the program must fail with exit status 1, print exactly the
 #                 line in REFERENCE on stderr, and write no result.
 include(${CMAKE_CURRENT_LIST_DIR}/test_helpers.cmake)
@@ -20,6 +22,12 @@ file(READ ${WORKDIR}/error-output errors)
 if(KIND STREQUAL "run")
   if(NOT status EQUAL 0)
     message(FATAL_ERROR "exit status ${status}:\n${errors}")
+  endif()
+  # A run that succeeds has said so in its summary, with finite numbers
+  # only (the writer turns NaN and infinities into null).
+  file(READ ${WORKDIR}/output/summary.json summary)
+  if(summary MATCHES "\"status\": \"failed\"" OR summary MATCHES "null")
+    message(FATAL_ERROR "summary.json reports a failure or a non-finite number")
   endif()
   compare_table(${REFERENCE} ${WORKDIR}/output/convergence.txt
     "output/convergence.txt")

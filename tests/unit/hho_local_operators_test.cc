@@ -16,9 +16,6 @@
 //  - s_K(I_K v, w) = 0 for every v in P_p(K) and every w, on any cell;
 //  - hence a_K(I_K v, I_K w) = (grad v, grad w)_K on parallelograms;
 //  - a_K is positive semidefinite with the constants as its only kernel.
-#include "../../step-hho/local_operators.h"
-
-#include <algorithm>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_dgp.h>
 #include <deal.II/fe/fe_face.h>
@@ -27,7 +24,12 @@
 #include <deal.II/grid/grid_generator.h>
 #include <deal.II/grid/tria.h>
 #include <deal.II/lac/lapack_full_matrix.h>
+
 #include <gtest/gtest.h>
+
+#include "../../step-hho/local_operators.h"
+
+#include <algorithm>
 #include <numeric>
 #include <string>
 #include <vector>

@@ -4,10 +4,6 @@
 // Newton step, and recover the cell unknowns that solve its cell rows, for
 // every generalised Jacobian of the C-functions (Newton-min with any active
 // set, Fischer-Burmeister).
-#include "../../step-hho/local_operators.h"
-#include "../../step-hho/static_condensation.h"
-
-#include <cmath>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_dgp.h>
 #include <deal.II/fe/fe_face.h>
@@ -16,7 +12,13 @@
 #include <deal.II/grid/grid_generator.h>
 #include <deal.II/grid/tria.h>
 #include <deal.II/lac/lapack_full_matrix.h>
+
 #include <gtest/gtest.h>
+
+#include "../../step-hho/local_operators.h"
+#include "../../step-hho/static_condensation.h"
+
+#include <cmath>
 #include <string>
 #include <vector>
 

@@ -1,0 +1,143 @@
+#!/usr/bin/env python3
+"""What a contact solve costs against a Poisson solve (doc/performance.md).
+
+In one run of step-membranes per process count, on globally refined meshes
+of the unit disk from about 1e4 to 2e5 unknowns per field (Q1; 3 fields,
+6e5 unknowns on the finest mesh; one more refinement needs more than the
+24 GB of the test machine, see doc/performance.md):
+the contact problem solved by adaptive inexact semismooth Newton-min with
+GMRES + AMG and nested iteration (set-up, assembly, Newton, linear solves
+and the estimators that stop them), against one CG + AMG Poisson solve of
+each membrane on the same mesh (Benchmark/Reference Poisson solve). Both
+are timed in the same process, so the ratio is meaningful on a noisy
+machine; the absolute times are not.
+
+Writes doc/data/cost.{csv,md} and doc/data/cost.png.
+Usage, from the repository root after ./demo.sh or ./test.sh:
+  bench/membranes_cost.py [--quick]
+--quick stops at about 5e4 unknowns per field (a smoke test of the script).
+STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
+can be rebuilt while the study runs).
+"""
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PROGRAM = os.environ.get("STEP_MEMBRANES",
+                         os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
+DATA = os.path.join(ROOT, "doc", "data")
+OUT = os.path.join(ROOT, "output", "bench-cost")
+QUICK = "--quick" in sys.argv
+CYCLES = 2 if QUICK else 3  # 12288 cells and two refinements
+
+
+def run(np):
+    directory = os.path.join(OUT, f"np{np}")
+    settings = {"Mesh/Initial refinements": 5, "Mesh/Cycles": CYCLES,
+                "Nonlinear solver/Strategy": "adaptive",
+                "Nonlinear solver/Nested iteration": "true",
+                "Linear solver/Preconditioner": "amg",
+                "Estimators/At every check": "false",
+                "Benchmark/Reference Poisson solve": "true",
+                "Output/Write VTU": "false", "Output/Directory": directory}
+    command = [PROGRAM, os.path.join(ROOT, "parameters", "estimators-disk-p1.prm")]
+    for key, value in settings.items():
+        command += ["--set", f"{key}={value}"]
+    if np > 1:
+        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(np)] + command
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    with open(os.path.join(directory, "summary.json")) as f:
+        summary = json.load(f)
+    print(f"  np = {np}: done", flush=True)
+    return summary["cycles"]
+
+
+def estimator_seconds(cycle):
+    return sum(seconds for section, seconds in cycle["timing"].items()
+               if section.startswith("estimators"))
+
+
+def main():
+    os.makedirs(DATA, exist_ok=True)
+    rows = []
+    for np in (1, 2):
+        previous = None
+        for c in run(np):
+            poisson = sum(m["seconds"] for m in c["reference_poisson"])
+            estimators = estimator_seconds(c)
+            row = {"np": np, "cycle": c["cycle"], "cells": c["cells"],
+                   "dofs_per_field": c["dofs_per_field"], "unknowns": c["dofs"],
+                   "newton": c["newton_iterations"], "gmres": c["linear_iterations"],
+                   "poisson_cg": "/".join(str(m["iterations"]) for m in c["reference_poisson"]),
+                   "error_energy": c["error_energy"], "effectivity": c["effectivity"],
+                   "solve_seconds": c["solve_seconds"], "estimator_seconds": estimators,
+                   "poisson_seconds": poisson,
+                   "ratio": c["solve_seconds"] / poisson,
+                   "ratio_without_estimators": (c["solve_seconds"] - estimators) / poisson,
+                   "estimator_fraction": estimators / (c["solve_seconds"] - estimators),
+                   "growth": (math.log(c["solve_seconds"] / previous["solve_seconds"])
+                              / math.log(c["dofs_per_field"] / previous["dofs_per_field"])
+                              if previous else float("nan"))}
+            rows.append(row)
+            previous = c
+    for row in rows:
+        serial = next(r for r in rows if r["np"] == 1 and r["cycle"] == row["cycle"])
+        row["speedup"] = serial["solve_seconds"] / row["solve_seconds"]
+
+    with open(os.path.join(DATA, "cost.csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+    header = ["np", "DoFs per field", "unknowns", "Newton", "GMRES", "Poisson CG",
+              "contact solve (s)", "estimators (s)", "2 Poisson (s)", "ratio",
+              "ratio without estimators", "estimators / rest", "growth exponent",
+              "speed-up"]
+    formats = [("np", "{}"), ("dofs_per_field", "{}"), ("unknowns", "{}"),
+               ("newton", "{}"), ("gmres", "{}"), ("poisson_cg", "{}"),
+               ("solve_seconds", "{:.2f}"), ("estimator_seconds", "{:.2f}"),
+               ("poisson_seconds", "{:.2f}"), ("ratio", "{:.1f}"),
+               ("ratio_without_estimators", "{:.1f}"), ("estimator_fraction", "{:.2f}"),
+               ("growth", "{:.2f}"), ("speedup", "{:.2f}")]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in rows:
+        lines.append("| " + " | ".join(fmt.format(row[key]).replace("nan", "-")
+                                       for key, fmt in formats) + " |")
+    with open(os.path.join(DATA, "cost.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+    dat = os.path.join(OUT, "cost.dat")
+    with open(dat, "w") as f:
+        for np in (1, 2):
+            f.write(f"# np = {np}: DoFs per field, contact solve, estimators, 2 Poisson\n")
+            for row in rows:
+                if row["np"] == np:
+                    f.write(f"{row['dofs_per_field']} {row['solve_seconds']} "
+                            f"{row['estimator_seconds']} {row['poisson_seconds']}\n")
+            f.write("\n\n")
+    first = rows[0]
+    script = f"""
+set terminal pngcairo size 900,600 font ',11'
+set output '{os.path.join(DATA, 'cost.png')}'
+set logscale xy
+set grid
+set key left top
+set xlabel 'unknowns per field'
+set ylabel 'wall time (s)'
+set title 'Contact solve (adaptive inexact Newton, GMRES + AMG) against two Poisson solves (CG + AMG)'
+plot '{dat}' index 0 using 1:2 with linespoints lw 2 pt 7 lc 1 title 'contact solve, np = 1', \\
+     '{dat}' index 0 using 1:3 with linespoints lw 1 pt 6 lc 1 dt 2 title 'of which estimators, np = 1', \\
+     '{dat}' index 0 using 1:4 with linespoints lw 2 pt 5 lc 2 title '2 Poisson solves, np = 1', \\
+     '{dat}' index 1 using 1:2 with linespoints lw 2 pt 7 lc 3 title 'contact solve, np = 2', \\
+     '{dat}' index 1 using 1:4 with linespoints lw 2 pt 5 lc 4 title '2 Poisson solves, np = 2', \\
+     {first['solve_seconds']}*x/{first['dofs_per_field']} with lines lc rgb 'gray' dt 3 title 'linear growth'
+"""
+    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    print(f"wrote {os.path.join(DATA, 'cost')}.{{csv,md,png}}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,41 @@
+#pragma once
+
+#include <deal.II/base/function.h>
+#include <deal.II/base/quadrature.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/mapping.h>
+
+#include <mpi.h>
+
+namespace StepMembranes
+{
+  /// What one reference Poisson solve cost.
+  struct PoissonCost
+  {
+    double       seconds    = 0; ///< wall time, set-up to solution
+    unsigned int iterations = 0; ///< CG iterations
+  };
+
+  /**
+   * The cost unit of the cost benchmark (bench/membranes_cost.py,
+   * doc/performance.md): one membrane without contact,
+   *
+   *   -mu Lap u = f in Omega,  u = g on the boundary,
+   *
+   * on the mesh and the DoFHandler of the contact problem, solved as a user
+   * of deal.II and Trilinos would: constraints (hanging nodes and Dirichlet
+   * data), sparsity pattern, assembly through the constraints, AMG (Trilinos
+   * ML, the settings of the contact preconditioner) and CG to a residual
+   * 1e-8 times that of the zero vector. All of it is timed; the DoFs are
+   * already distributed. Collective over the processes of the mesh.
+   */
+  template <int dim>
+  PoissonCost
+  reference_poisson_solve(const dealii::Mapping<dim>    &mapping,
+                          const dealii::DoFHandler<dim> &dof_handler,
+                          const dealii::Quadrature<dim> &quadrature,
+                          const double                   mu,
+                          const dealii::Function<dim>   &f,
+                          const dealii::Function<dim>   &g,
+                          const MPI_Comm                 comm);
+} // namespace StepMembranes
