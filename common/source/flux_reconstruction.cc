@@ -2,6 +2,7 @@
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/grid_tools.h>
+#include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/la_parallel_vector.h>
 #include <deal.II/lac/lapack_full_matrix.h>
 #include <deal.II/lac/vector.h>
@@ -19,12 +20,14 @@ namespace VI
 {
   using namespace dealii;
 
-  // The inverse of a patch matrix: the patch problems of every field and
-  // every iterate are then one matrix product (BLAS) each.
+  // The LU factors of a patch matrix (LAPACK getrf, once per mesh: a third
+  // of the work of an inverse); the patch problems of every field and every
+  // iterate are then two triangular solves each (getrs), which cost what a
+  // product with the inverse would.
   template <int dim>
   struct FluxReconstruction<dim>::LocalSolver
   {
-    LAPACKFullMatrix<double> inverse;
+    LAPACKFullMatrix<double> lu;
   };
 
 
@@ -177,6 +180,10 @@ namespace VI
                                  "cells); use fewer processes."));
         }
 
+    // Each cell's share of the patch matrices, computed when a first patch
+    // needs it and dropped with the last.
+    std::vector<std::unique_ptr<CellMatrices>> cell_matrix_cache(
+      tria.n_active_cells());
     // Patch matrices shared between patches of the same normalised shape.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
       solvers;
@@ -316,7 +323,7 @@ namespace VI
         auto &solver = solvers[key];
         if (!solver)
           {
-            solver = make_local_solver(patch);
+            solver = make_local_solver(patch, cell_matrix_cache);
             ++n_local_solvers;
           }
         patch.solver = solver;
@@ -331,19 +338,35 @@ namespace VI
   }
 
 
-  // The matrix of the mixed patch problem, for the unknowns (sigma, gamma,
-  // rho): [A B^T 0; B 0 m; 0 m^T 0], A the RT mass matrix, B_{q, tau} =
-  // (div tau, q), and for interior patches the multiplier rho of the
-  // mean-value condition (gamma, 1) = 0 with m_q = (1, q).
+  // What a cell contributes to the matrices of the patches it belongs to:
+  // the RT mass matrix (tau_j, tau_i)_K, the divergence coupling (div
+  // tau_i, q_k)_K and the means (1, q_k)_K, computed once per cell (a cell
+  // is in up to 2^dim patches, and FEValues of the RT element on curved
+  // cells is the expensive part of a patch matrix).
   template <int dim>
-  std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
-  FluxReconstruction<dim>::make_local_solver(const Patch &patch) const
+  struct FluxReconstruction<dim>::CellMatrices
   {
-    const unsigned int n_sigma = patch.sigma_dofs.size();
-    const unsigned int n       = n_sigma + patch.n_q + (patch.interior ? 1 : 0);
-    auto               solver  = std::make_shared<LocalSolver>();
-    LAPACKFullMatrix<double> &matrix = solver->inverse;
-    matrix.reinit(n, n);
+    FullMatrix<double> mass;
+    FullMatrix<double> divergence; ///< [k][i]
+    Vector<double>     mean;
+  };
+
+
+  template <int dim>
+  const typename FluxReconstruction<dim>::CellMatrices &
+  FluxReconstruction<dim>::cell_matrices(
+    const CellIterator                         &cell,
+    std::vector<std::unique_ptr<CellMatrices>> &cache) const
+  {
+    auto &entry = cache[cell->active_cell_index()];
+    if (entry)
+      return *entry;
+    entry                    = std::make_unique<CellMatrices>();
+    const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
+                       n_q   = fe_divergence.n_dofs_per_cell();
+    entry->mass.reinit(n_tau, n_tau);
+    entry->divergence.reinit(n_q, n_tau);
+    entry->mean.reinit(n_q);
 
     FEValues<dim> flux_values(mapping,
                               fe_flux,
@@ -352,44 +375,78 @@ namespace VI
                                 update_JxW_values);
     FEValues<dim> q_values(mapping, fe_divergence, quadrature, update_values);
     const FEValuesExtractors::Vector flux(0);
-
-    for (const auto &patch_cell : patch.cells)
+    flux_values.reinit(cell);
+    q_values.reinit(cell);
+    std::vector<Tensor<1, dim>> tau(n_tau);
+    std::vector<double>         div_tau(n_tau);
+    for (const unsigned int q : flux_values.quadrature_point_indices())
       {
-        flux_values.reinit(patch_cell.cell);
-        q_values.reinit(patch_cell.cell);
-        for (const unsigned int q : flux_values.quadrature_point_indices())
+        const double dx = flux_values.JxW(q);
+        for (unsigned int i = 0; i < n_tau; ++i)
           {
-            const double dx = flux_values.JxW(q);
-            for (const unsigned int i : flux_values.dof_indices())
-              for (const auto &[I, w_i] : patch_cell.sigma_index[i])
-                {
-                  const auto   tau_i = w_i * flux_values[flux].value(i, q);
-                  const double div_i = w_i * flux_values[flux].divergence(i, q);
-                  for (const unsigned int j : flux_values.dof_indices())
-                    for (const auto &[J, w_j] : patch_cell.sigma_index[j])
-                      matrix(I, J) +=
-                        tau_i * (w_j * dx) * flux_values[flux].value(j, q);
-                  for (unsigned int k = 0; k < fe_divergence.n_dofs_per_cell();
-                       ++k)
-                    {
-                      const double b = div_i * q_values.shape_value(k, q) * dx;
-                      const unsigned int K = n_sigma + patch_cell.q_offset + k;
-                      matrix(K, I) += b;
-                      matrix(I, K) += b;
-                    }
-                }
-            if (patch.interior)
-              for (unsigned int k = 0; k < fe_divergence.n_dofs_per_cell(); ++k)
-                {
-                  const double       m = q_values.shape_value(k, q) * dx;
-                  const unsigned int K = n_sigma + patch_cell.q_offset + k;
-                  matrix(K, n - 1) += m;
-                  matrix(n - 1, K) += m;
-                }
+            tau[i]     = flux_values[flux].value(i, q);
+            div_tau[i] = flux_values[flux].divergence(i, q);
+          }
+        for (unsigned int i = 0; i < n_tau; ++i)
+          for (unsigned int j = 0; j < n_tau; ++j)
+            entry->mass(i, j) += tau[i] * tau[j] * dx;
+        for (unsigned int k = 0; k < n_q; ++k)
+          {
+            const double q_k = q_values.shape_value(k, q) * dx;
+            entry->mean(k) += q_k;
+            for (unsigned int i = 0; i < n_tau; ++i)
+              entry->divergence(k, i) += div_tau[i] * q_k;
           }
       }
+    return *entry;
+  }
 
-    matrix.invert();
+
+  // The matrix of the mixed patch problem, for the unknowns (sigma, gamma,
+  // rho): [A B^T 0; B 0 m; 0 m^T 0], A the RT mass matrix, B_{q, tau} =
+  // (div tau, q), and for interior patches the multiplier rho of the
+  // mean-value condition (gamma, 1) = 0 with m_q = (1, q).
+  template <int dim>
+  std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
+  FluxReconstruction<dim>::make_local_solver(
+    const Patch                                &patch,
+    std::vector<std::unique_ptr<CellMatrices>> &cache) const
+  {
+    const unsigned int n_sigma = patch.sigma_dofs.size();
+    const unsigned int n       = n_sigma + patch.n_q + (patch.interior ? 1 : 0);
+    auto               solver  = std::make_shared<LocalSolver>();
+    LAPACKFullMatrix<double> &matrix = solver->lu;
+    matrix.reinit(n, n);
+
+    const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
+                       n_q   = fe_divergence.n_dofs_per_cell();
+    for (const auto &patch_cell : patch.cells)
+      {
+        const CellMatrices &local = cell_matrices(patch_cell.cell, cache);
+        for (unsigned int i = 0; i < n_tau; ++i)
+          for (const auto &[I, w_i] : patch_cell.sigma_index[i])
+            {
+              for (unsigned int j = 0; j < n_tau; ++j)
+                for (const auto &[J, w_j] : patch_cell.sigma_index[j])
+                  matrix(I, J) += w_i * w_j * local.mass(i, j);
+              for (unsigned int k = 0; k < n_q; ++k)
+                {
+                  const double       b = w_i * local.divergence(k, i);
+                  const unsigned int K = n_sigma + patch_cell.q_offset + k;
+                  matrix(K, I) += b;
+                  matrix(I, K) += b;
+                }
+            }
+        if (patch.interior)
+          for (unsigned int k = 0; k < n_q; ++k)
+            {
+              const unsigned int K = n_sigma + patch_cell.q_offset + k;
+              matrix(K, n - 1) += local.mean(k);
+              matrix(n - 1, K) += local.mean(k);
+            }
+      }
+
+    matrix.compute_lu_factorization();
     return solver;
   }
 
@@ -407,7 +464,7 @@ namespace VI
     // Right-hand sides of all patches, one column per field.
     std::vector<LAPACKFullMatrix<double>> rhs(patches.size());
     for (unsigned int p = 0; p < patches.size(); ++p)
-      rhs[p].reinit(patches[p].solver->inverse.m(), n_fields);
+      rhs[p].reinit(patches[p].solver->lu.m(), n_fields);
 
     FEValues<dim> flux_values(mapping,
                               fe_flux,
@@ -484,13 +541,12 @@ namespace VI
     std::vector<TrilinosWrappers::MPI::Vector> accumulated(n_fields);
     for (auto &v : accumulated)
       v.reinit(owned_dofs, relevant_dofs, comm, /*vector_writable=*/true);
-    LAPACKFullMatrix<double> solution;
-    std::vector<double>      values;
+    std::vector<double> values;
     for (unsigned int p = 0; p < patches.size(); ++p)
       {
-        const auto &inverse = patches[p].solver->inverse;
-        solution.reinit(inverse.m(), n_fields);
-        inverse.mmult(solution, rhs[p]);
+        // The patch solution overwrites its right-hand sides.
+        LAPACKFullMatrix<double> &solution = rhs[p];
+        patches[p].solver->lu.solve(solution);
         const unsigned int n_sigma = patches[p].sigma_dofs.size();
         values.resize(n_sigma);
         for (unsigned int f = 0; f < n_fields; ++f)

@@ -161,8 +161,15 @@ namespace VI
       std::shared_ptr<const LocalSolver>           solver;
     };
 
+    struct CellMatrices;
+
+    const CellMatrices &
+    cell_matrices(const CellIterator                         &cell,
+                  std::vector<std::unique_ptr<CellMatrices>> &cache) const;
+
     std::shared_ptr<const LocalSolver>
-    make_local_solver(const Patch &patch) const;
+    make_local_solver(const Patch                                &patch,
+                      std::vector<std::unique_ptr<CellMatrices>> &cache) const;
 
     const dealii::Mapping<dim>       &mapping;
     const unsigned int                degree;
