@@ -398,63 +398,25 @@ namespace StepHHO
   void
   HHOProblem<dim>::check_data() const
   {
-    std::string violation;
-    const auto  report = [&](const std::string &message) {
-      if (violation.empty())
-        violation = message;
-    };
-
-    FEValues<dim>     fe_values(*mapping,
-                            cell_fe,
-                            QGauss<dim>(degree + 2),
-                            update_quadrature_points);
-    FEFaceValues<dim> fe_face_values(*mapping,
-                                     cell_fe,
-                                     QGauss<dim - 1>(degree + 2),
-                                     update_quadrature_points);
-    for (const auto &cell : triangulation.active_cell_iterators())
-      if (cell->is_locally_owned() && violation.empty())
+    // The Gauss points of every face of the unit cell.
+    const QGauss<dim - 1>   face_quadrature(degree + 2);
+    std::vector<Point<dim>> boundary_points;
+    for (const unsigned int f : GeometryInfo<dim>::face_indices())
+      for (const auto &x : face_quadrature.get_points())
         {
-          fe_values.reinit(cell);
-          for (const Point<dim> &p : fe_values.get_quadrature_points())
-            for (const auto &[name, f] :
-                 {std::pair<const char *, const Function<dim> *>{"f1",
-                                                                 data.f1.get()},
-                  {"f2", data.f2.get()}})
-              if (!std::isfinite(f->value(p)))
-                {
-                  std::ostringstream message;
-                  message << name << " is not finite at (" << p
-                          << "): " << f->value(p);
-                  report(message.str());
-                }
-          for (const unsigned int f : cell->face_indices())
-            if (cell->face(f)->at_boundary())
-              {
-                fe_face_values.reinit(cell, f);
-                for (const Point<dim> &p :
-                     fe_face_values.get_quadrature_points())
-                  {
-                    const double g1 = data.g1->value(p), g2 = data.g2->value(p);
-                    std::ostringstream message;
-                    if (!std::isfinite(g1) || !std::isfinite(g2))
-                      message << "the boundary data are not finite at (" << p
-                              << "): g1 = " << g1 << ", g2 = " << g2;
-                    else if (g1 - g2 <
-                             -1e-12 *
-                               std::max({1., std::abs(g1), std::abs(g2)}))
-                      message << "g1 < g2 on the boundary at (" << p
-                              << "): g1 = " << g1 << ", g2 = " << g2
-                              << "; the constraint u1 >= u2 cannot hold there";
-                    if (!message.str().empty())
-                      report(message.str());
-                  }
-              }
+          Point<dim> p;
+          p[f / 2] = double(f % 2);
+          for (unsigned int d = 0, k = 0; d < dim; ++d)
+            if (d != f / 2)
+              p[d] = x[k++];
+          boundary_points.push_back(p);
         }
-    for (const std::string &message :
-         Utilities::MPI::all_gather(comm, violation))
-      if (!message.empty())
-        throw VI::InputError("Problem: " + message);
+    VI::check_membrane_data(data,
+                            triangulation,
+                            *mapping,
+                            QGauss<dim>(degree + 2).get_points(),
+                            boundary_points,
+                            comm);
   }
 
 

@@ -125,59 +125,12 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::check_data() const
   {
-    std::string violation;
-    const auto  report = [&](const std::string &message) {
-      if (violation.empty())
-        violation = message;
-    };
-
-    const auto &unit_points = fe.get_unit_support_points();
-    for (const auto &cell : triangulation.active_cell_iterators())
-      if (cell->is_locally_owned() && violation.empty())
-        {
-          for (const auto &unit_point : quadrature.get_points())
-            {
-              const Point<dim> p =
-                mapping->transform_unit_to_real_cell(cell, unit_point);
-              for (const auto &[name, f] :
-                   {std::pair<const char *, const Function<dim> *>{
-                      "f1", data.f1.get()},
-                    {"f2", data.f2.get()}})
-                if (!std::isfinite(f->value(p)))
-                  {
-                    std::ostringstream message;
-                    message << name << " is not finite at (" << p
-                            << "): " << f->value(p);
-                    report(message.str());
-                  }
-            }
-          for (const unsigned int f : cell->face_indices())
-            if (cell->face(f)->at_boundary())
-              for (const auto &unit_point : unit_points)
-                {
-                  // Face 2d + s of the unit cell is {x_d = s}.
-                  if (std::abs(unit_point[f / 2] - double(f % 2)) > 1e-12)
-                    continue;
-                  const Point<dim> p =
-                    mapping->transform_unit_to_real_cell(cell, unit_point);
-                  const double g1 = data.g1->value(p), g2 = data.g2->value(p);
-                  std::ostringstream message;
-                  if (!std::isfinite(g1) || !std::isfinite(g2))
-                    message << "the boundary data are not finite at (" << p
-                            << "): g1 = " << g1 << ", g2 = " << g2;
-                  else if (g1 - g2 <
-                           -1e-12 * std::max({1., std::abs(g1), std::abs(g2)}))
-                    message << "g1 < g2 on the boundary at (" << p
-                            << "): g1 = " << g1 << ", g2 = " << g2
-                            << "; the constraint u1 >= u2 cannot hold there";
-                  if (!message.str().empty())
-                    report(message.str());
-                }
-        }
-    for (const std::string &message :
-         Utilities::MPI::all_gather(comm, violation))
-      if (!message.empty())
-        throw VI::InputError("Problem: " + message);
+    VI::check_membrane_data(data,
+                            triangulation,
+                            *mapping,
+                            quadrature.get_points(),
+                            fe.get_unit_support_points(),
+                            comm);
   }
 
 

@@ -1,5 +1,8 @@
 #include <deal.II/base/function_parser.h>
+#include <deal.II/base/mpi.h>
 #include <deal.II/base/utilities.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/grid/tria.h>
 
 #include <vi/errors.h>
 #include <vi/test_cases.h>
@@ -309,6 +312,77 @@ namespace VI
   }
 
 
+  template <int dim>
+  void
+  check_membrane_data(const MembraneData<dim>       &data,
+                      const Triangulation<dim, dim> &triangulation,
+                      const Mapping<dim, dim>       &mapping,
+                      const std::vector<Point<dim>> &interior_points,
+                      const std::vector<Point<dim>> &boundary_points,
+                      const MPI_Comm                 comm)
+  {
+    std::string violation;
+    const auto  report = [&](const std::string &message) {
+      if (violation.empty())
+        violation = message;
+    };
+
+    for (const auto &cell : triangulation.active_cell_iterators())
+      if (cell->is_locally_owned() && violation.empty())
+        {
+          for (const auto &unit_point : interior_points)
+            {
+              const Point<dim> p =
+                mapping.transform_unit_to_real_cell(cell, unit_point);
+              for (const auto &[name, f] :
+                   {std::pair<const char *, const Function<dim> *>{
+                      "f1", data.f1.get()},
+                    {"f2", data.f2.get()}})
+                if (!std::isfinite(f->value(p)))
+                  {
+                    std::ostringstream message;
+                    message << name << " is not finite at (" << p
+                            << "): " << f->value(p);
+                    report(message.str());
+                  }
+            }
+          for (const unsigned int f : cell->face_indices())
+            if (cell->face(f)->at_boundary())
+              for (const auto &unit_point : boundary_points)
+                {
+                  // Face 2d + s of the unit cell is {x_d = s}.
+                  if (std::abs(unit_point[f / 2] - double(f % 2)) > 1e-12)
+                    continue;
+                  const Point<dim> p =
+                    mapping.transform_unit_to_real_cell(cell, unit_point);
+                  const double g1 = data.g1->value(p), g2 = data.g2->value(p);
+                  std::ostringstream message;
+                  if (!std::isfinite(g1) || !std::isfinite(g2))
+                    message << "the boundary data are not finite at (" << p
+                            << "): g1 = " << g1 << ", g2 = " << g2;
+                  else if (g1 - g2 <
+                           -1e-12 * std::max({1., std::abs(g1), std::abs(g2)}))
+                    message << "g1 < g2 on the boundary at (" << p
+                            << "): g1 = " << g1 << ", g2 = " << g2
+                            << "; the constraint u1 >= u2 cannot hold there";
+                  if (!message.str().empty())
+                    report(message.str());
+                }
+        }
+    for (const std::string &message :
+         Utilities::MPI::all_gather(comm, violation))
+      if (!message.empty())
+        throw InputError("Problem: " + message);
+  }
+
+
+  template void
+  check_membrane_data(const MembraneData<2> &,
+                      const Triangulation<2, 2> &,
+                      const Mapping<2, 2> &,
+                      const std::vector<Point<2>> &,
+                      const std::vector<Point<2>> &,
+                      const MPI_Comm);
   template MembraneData<2>
   make_membrane_data(const ProblemParameters &, const Point<2> &);
   template std::shared_ptr<Function<2>>

@@ -6,7 +6,17 @@
 #include <vi/parameters.h>
 
 #include <memory>
+#include <mpi.h>
 #include <string>
+#include <vector>
+
+namespace dealii
+{
+  template <int dim, int spacedim>
+  class Triangulation;
+  template <int dim, int spacedim>
+  class Mapping;
+} // namespace dealii
 
 namespace VI
 {
@@ -60,6 +70,25 @@ namespace VI
   MembraneData<dim>
   make_membrane_data(const ProblemParameters  &problem,
                      const dealii::Point<dim> &center);
+
+
+  /**
+   * Check on a mesh that the data are finite and admit a solution, before
+   * anything is computed: f1 and f2 finite at `interior_points`, g1 and g2
+   * finite with g1 >= g2 (otherwise the constraint u1 >= u2 contradicts
+   * the boundary condition) at those of `boundary_points` that lie on a
+   * boundary face; both lists are points of the unit cell, mapped into
+   * every locally owned cell. Throws InputError naming the first violation
+   * on any process (collective over `comm`).
+   */
+  template <int dim>
+  void
+  check_membrane_data(const MembraneData<dim>               &data,
+                      const dealii::Triangulation<dim, dim> &triangulation,
+                      const dealii::Mapping<dim, dim>       &mapping,
+                      const std::vector<dealii::Point<dim>> &interior_points,
+                      const std::vector<dealii::Point<dim>> &boundary_points,
+                      const MPI_Comm                         comm);
 
 
   /**
