@@ -181,9 +181,8 @@ namespace VI
         }
 
     // Each cell's share of the patch matrices, computed when a first patch
-    // needs it and dropped with the last.
-    std::vector<std::unique_ptr<CellMatrices>> cell_matrix_cache(
-      tria.n_active_cells());
+    // needs it and kept until all patches are built.
+    CellMatrixCache cell_matrix_cache(*this, tria.n_active_cells());
     // Patch matrices shared between patches of the same normalised shape.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
       solvers;
@@ -352,13 +351,36 @@ namespace VI
   };
 
 
+  // The cell matrices computed so far (by active cell index), and the
+  // FEValues that compute them, set up once per mesh.
+  template <int dim>
+  struct FluxReconstruction<dim>::CellMatrixCache
+  {
+    CellMatrixCache(const FluxReconstruction<dim> &reconstruction,
+                    const unsigned int             n_active_cells)
+        : flux_values(reconstruction.mapping,
+                      reconstruction.fe_flux,
+                      reconstruction.quadrature,
+                      update_values | update_gradients | update_JxW_values)
+        , q_values(reconstruction.mapping,
+                   reconstruction.fe_divergence,
+                   reconstruction.quadrature,
+                   update_values)
+        , entries(n_active_cells)
+    {
+    }
+
+    FEValues<dim>                              flux_values, q_values;
+    std::vector<std::unique_ptr<CellMatrices>> entries;
+  };
+
+
   template <int dim>
   const typename FluxReconstruction<dim>::CellMatrices &
-  FluxReconstruction<dim>::cell_matrices(
-    const CellIterator                         &cell,
-    std::vector<std::unique_ptr<CellMatrices>> &cache) const
+  FluxReconstruction<dim>::cell_matrices(const CellIterator &cell,
+                                         CellMatrixCache    &cache) const
   {
-    auto &entry = cache[cell->active_cell_index()];
+    auto &entry = cache.entries[cell->active_cell_index()];
     if (entry)
       return *entry;
     entry                    = std::make_unique<CellMatrices>();
@@ -368,12 +390,8 @@ namespace VI
     entry->divergence.reinit(n_q, n_tau);
     entry->mean.reinit(n_q);
 
-    FEValues<dim> flux_values(mapping,
-                              fe_flux,
-                              quadrature,
-                              update_values | update_gradients |
-                                update_JxW_values);
-    FEValues<dim> q_values(mapping, fe_divergence, quadrature, update_values);
+    FEValues<dim>                   &flux_values = cache.flux_values;
+    FEValues<dim>                   &q_values    = cache.q_values;
     const FEValuesExtractors::Vector flux(0);
     flux_values.reinit(cell);
     q_values.reinit(cell);
@@ -408,9 +426,8 @@ namespace VI
   // mean-value condition (gamma, 1) = 0 with m_q = (1, q).
   template <int dim>
   std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
-  FluxReconstruction<dim>::make_local_solver(
-    const Patch                                &patch,
-    std::vector<std::unique_ptr<CellMatrices>> &cache) const
+  FluxReconstruction<dim>::make_local_solver(const Patch     &patch,
+                                             CellMatrixCache &cache) const
   {
     const unsigned int n_sigma = patch.sigma_dofs.size();
     const unsigned int n       = n_sigma + patch.n_q + (patch.interior ? 1 : 0);

@@ -162,14 +162,13 @@ namespace VI
     };
 
     struct CellMatrices;
+    struct CellMatrixCache;
 
     const CellMatrices &
-    cell_matrices(const CellIterator                         &cell,
-                  std::vector<std::unique_ptr<CellMatrices>> &cache) const;
+    cell_matrices(const CellIterator &cell, CellMatrixCache &cache) const;
 
     std::shared_ptr<const LocalSolver>
-    make_local_solver(const Patch                                &patch,
-                      std::vector<std::unique_ptr<CellMatrices>> &cache) const;
+    make_local_solver(const Patch &patch, CellMatrixCache &cache) const;
 
     const dealii::Mapping<dim>       &mapping;
     const unsigned int                degree;
