@@ -119,6 +119,13 @@ namespace StepMembranes
     if (parameters.reference_poisson_solve)
       throw VI::InputError("Benchmark/Reference Poisson solve" + method +
                            "; set it to false with Method = " + penalty.name());
+    if (parameters.nonlinear_method != "semismooth-newton")
+      throw VI::InputError(
+        "Nonlinear solver/Solver = " + parameters.nonlinear_method + method +
+        "; use semismooth-newton with Method = " + penalty.name());
+    if (parameters.compare_with_petsc_vi)
+      throw VI::InputError("Benchmark/Compare with PETSc VI" + method +
+                           "; set it to false with Method = " + penalty.name());
     if (parameters.nonlinear_solver.strategy == "adaptive")
       throw VI::InputError(
         "Nonlinear solver/Strategy = adaptive" + method +

@@ -17,6 +17,7 @@
 
 #include <vi/errors.h>
 #include <vi/nodal_fields.h>
+#include <vi/petsc_vi.h>
 #include <vi/program.h>
 
 #include "reference_poisson.h"
@@ -44,6 +45,23 @@ namespace StepMembranes
     VI::LinearSolverParameters::declare(prm, "direct|gmres", "direct");
     VI::EstimatorParameters::declare(prm);
     VI::OutputParameters::declare(prm);
+    prm.enter_subsection("Nonlinear solver");
+    prm.declare_entry(
+      "Solver",
+      "semismooth-newton",
+      Patterns::Selection("semismooth-newton|petsc-vi"),
+      "semismooth-newton: ours (C-function, Strategy). petsc-vi: the peer, "
+      "PETSc's SNES VI on the same discrete problem (Method = fem; Strategy "
+      "exact or inexact sets the KSP tolerance to Linear solver/Tolerance or "
+      "the forcing term; Linear solver: direct = MUMPS, gmres with "
+      "Preconditioner amg = BoomerAMG or ilu). PETSC_OPTIONS overrides.");
+    prm.declare_entry("PETSc VI type",
+                      "rsls",
+                      Patterns::Selection("rsls|ssls"),
+                      "SNESVINEWTONRSLS (reduced-space active set) or "
+                      "SNESVINEWTONSSLS (semismooth Fischer-Burmeister with "
+                      "line search).");
+    prm.leave_subsection();
     prm.enter_subsection("Benchmark");
     prm.declare_entry("Reference Poisson solve",
                       "false",
@@ -52,6 +70,16 @@ namespace StepMembranes
                       "membrane on the same mesh with CG + AMG and record its "
                       "wall time in summary.json (reference_poisson): the "
                       "cost unit of bench/membranes_cost.py.");
+    prm.declare_entry("Compare with PETSc VI",
+                      "false",
+                      Patterns::Bool(),
+                      "With Solver = semismooth-newton: solve every mesh a "
+                      "second time with PETSc's SNES VI (PETSc VI type, the "
+                      "Linear solver section with Linear solver/Tolerance) "
+                      "from the same initial iterate, and record its "
+                      "iterations, wall time, error and distance to our "
+                      "solution in summary.json (petsc_vi). The run goes on "
+                      "with our solution.");
     prm.leave_subsection();
   }
 
@@ -68,7 +96,25 @@ namespace StepMembranes
     output.parse(prm);
     prm.enter_subsection("Benchmark");
     reference_poisson_solve = prm.get_bool("Reference Poisson solve");
+    compare_with_petsc_vi   = prm.get_bool("Compare with PETSc VI");
     prm.leave_subsection();
+    prm.enter_subsection("Nonlinear solver");
+    nonlinear_method = prm.get("Solver");
+    petsc_vi_type    = prm.get("PETSc VI type");
+    prm.leave_subsection();
+
+    if (nonlinear_method == "petsc-vi")
+      {
+        if (nonlinear_solver.strategy == "adaptive")
+          throw VI::InputError(
+            "Nonlinear solver/Strategy = adaptive stops our semismooth "
+            "Newton by the estimators, which PETSc's SNES VI cannot do: use "
+            "exact or inexact with Solver = petsc-vi");
+        if (compare_with_petsc_vi)
+          throw VI::InputError(
+            "Benchmark/Compare with PETSc VI compares our semismooth Newton "
+            "with PETSc's: set Nonlinear solver/Solver = semismooth-newton");
+      }
 
     const std::string &strategy = nonlinear_solver.strategy;
     if (strategy != "exact" && linear_solver.solver != "gmres")
@@ -522,6 +568,16 @@ namespace StepMembranes
     estimate_records.clear();
     final_estimate.reset();
     newton_step = 0;
+    if (parameters.nonlinear_method == "petsc-vi")
+      {
+        std::string reason;
+        newton_report = solve_with_petsc_vi(solution, reason);
+        if (parameters.output.verbose)
+          pcout << "      SNES VI: " << reason << std::endl;
+        if (parameters.estimators.enabled)
+          final_estimate = estimate(solution);
+        return;
+      }
     if (parameters.linear_solver.solver == "direct")
       direct_solver =
         std::make_unique<VI::LinearSolver>(parameters.linear_solver);
@@ -709,6 +765,215 @@ namespace StepMembranes
     if (accepted)
       dX = accepted_update;
     return report.iterations;
+  }
+
+
+  // The peer solver. PETSc's SNES VI bounds variables, not combinations of
+  // them, so the problem is handed over in the variables y = (v, w) =
+  // (u2, u1 - u2) of each node, X = T y with T (v, w) = (v + w, v), where
+  // the constraint is w >= 0. Eliminating the multiplier gives the
+  // equivalent mixed complementarity problem
+  //
+  //   K y - b = T^T (E X - F),   K = T^T E T = [S1 + S2, S1 ; S1, S1],
+  //   b = T^T F = (F1 + F2, F1),
+  //
+  // whose w row at a contact node is (E X - F)_{u1} = D X3 >= 0, complementary
+  // to w >= 0: the discrete solution is the same (u1h, u2h) and the
+  // multiplier is recovered as X3 = (E X - F)_{u1} / D. K is symmetric
+  // positive definite with the constrained (boundary, hanging) rows of E,
+  // and so is every reduced system of the active-set method: MUMPS, GMRES +
+  // BoomerAMG and ILU all apply.
+  template <int dim>
+  VI::NewtonReport
+  MembraneProblem<dim>::solve_with_petsc_vi(Vector      &X,
+                                            std::string &reason) const
+  {
+    TimerOutput::Scope t(timer, "petsc-vi");
+    using VI::NodalFields::u1;
+    using VI::NodalFields::u2;
+    const auto pair = [](const types::global_dof_index i,
+                         const unsigned int            c) {
+      return 2 * i + c; // c = 0: v, 1: w
+    };
+    IndexSet owned_pairs(2 * dof_handler.n_dofs());
+    for (auto range = owned_nodes.begin_intervals();
+         range != owned_nodes.end_intervals();
+         ++range)
+      owned_pairs.add_range(pair(*range->begin(), 0),
+                            pair(range->last() + 1, 0));
+
+    // Rows u1 and u2 of E without the multiplier column: S1, S2 per node.
+    const auto for_each_entry = [&](const auto &action) {
+      for (const types::global_dof_index i : owned_nodes)
+        for (const unsigned int field : {u1, u2})
+          for (auto entry = system_matrix.begin(index(i, field));
+               entry != system_matrix.end(index(i, field));
+               ++entry)
+            if (entry->column() % n_fields == field)
+              action(i, field, entry->column() / n_fields, entry->value());
+    };
+    DynamicSparsityPattern pattern(owned_pairs.size(),
+                                   owned_pairs.size(),
+                                   owned_pairs);
+    for_each_entry([&](const auto i, const unsigned int, const auto j, double) {
+      for (const unsigned int a : {0, 1})
+        for (const unsigned int b : {0, 1})
+          pattern.add(pair(i, a), pair(j, b));
+    });
+    PETScWrappers::MPI::SparseMatrix K;
+    K.reinit(owned_pairs, owned_pairs, pattern, comm);
+    for_each_entry([&](const auto     i,
+                       const unsigned field,
+                       const auto     j,
+                       const double   value) {
+      K.add(pair(i, 0), pair(j, 0), value);
+      if (field == u1)
+        {
+          K.add(pair(i, 0), pair(j, 1), value);
+          K.add(pair(i, 1), pair(j, 0), value);
+          K.add(pair(i, 1), pair(j, 1), value);
+        }
+    });
+    K.compress(VectorOperation::add);
+
+    // RSLS holds a variable within 1e-8 of its bound as active, an absolute
+    // tolerance hard-wired in PETSc (SNESVIGetActiveSetIS): y is handed
+    // over in units of the size U of the initial iterate, so that this
+    // means 1e-8 relative (K (y / U) = b / U).
+    double U = 0;
+    for (const types::global_dof_index i : owned_nodes)
+      U = std::max({U, std::abs(X(index(i, u1))), std::abs(X(index(i, u2)))});
+    U = Utilities::MPI::max(U, comm);
+    if (!(U > 0) || !std::isfinite(U))
+      U = 1.;
+    std::vector<types::global_dof_index> indices;
+    std::vector<double>                  b_values, y_values;
+    for (const types::global_dof_index i : owned_nodes)
+      {
+        const double F1 = system_rhs(index(i, u1)) / U,
+                     F2 = system_rhs(index(i, u2)) / U;
+        const double X1 = X(index(i, u1)) / U, X2 = X(index(i, u2)) / U;
+        indices.insert(indices.end(), {pair(i, 0), pair(i, 1)});
+        b_values.insert(b_values.end(), {F1 + F2, F1});
+        y_values.insert(y_values.end(), {X2, X1 - X2});
+      }
+    PETScWrappers::MPI::Vector b(owned_pairs, comm), y(owned_pairs, comm);
+    b.set(indices, b_values);
+    y.set(indices, y_values);
+    b.compress(VectorOperation::insert);
+    y.compress(VectorOperation::insert);
+    IndexSet bounded(owned_pairs.size());
+    for (const types::global_dof_index i : contact_rows.nodes())
+      bounded.add_index(pair(i, 1));
+
+    const auto                 &linear    = parameters.linear_solver;
+    const auto                 &nonlinear = parameters.nonlinear_solver;
+    VI::PetscVI::AdditionalData settings;
+    settings.type                  = parameters.petsc_vi_type;
+    settings.linear_solver         = linear.solver;
+    settings.preconditioner        = linear.preconditioner;
+    settings.ilu_fill              = linear.ilu_fill;
+    settings.linear_tolerance      = nonlinear.strategy == "inexact" ?
+                                       nonlinear.forcing_term :
+                                       linear.tolerance;
+    settings.max_linear_iterations = linear.max_iterations;
+    settings.krylov_dimension      = linear.krylov_dimension;
+    settings.tolerance             = nonlinear.tolerance;
+    settings.max_iterations        = nonlinear.max_iterations;
+    const VI::PetscVI    peer(settings);
+    VI::PetscVI::Monitor monitor;
+    if (parameters.output.verbose)
+      monitor = [&](const unsigned int step,
+                    const double       norm,
+                    const unsigned int linear_iterations) {
+        pcout << "      k = " << std::setw(2) << step << ": SNES VI residual "
+              << std::scientific << std::setprecision(2) << norm
+              << std::defaultfloat << ", " << linear_iterations
+              << " linear iterations in all" << std::endl;
+      };
+    const VI::PetscVIReport report = peer.solve(K, b, bounded, y, monitor);
+    reason                         = report.reason;
+
+    // Back to X = (v + w, v, X3): conforming at hanging nodes, and the
+    // multiplier from the balance rows of u1 (E's multiplier column is -D).
+    y.extract_subvector_to(indices, y_values);
+    for (std::size_t k = 0; k < indices.size() / 2; ++k)
+      {
+        const types::global_dof_index i = indices[2 * k] / 2;
+        X(index(i, u1))         = U * (y_values[2 * k] + y_values[2 * k + 1]);
+        X(index(i, u2))         = U * y_values[2 * k];
+        X(index(i, multiplier)) = 0.;
+      }
+    X.compress(VectorOperation::insert);
+    system_hanging_constraints.distribute(X);
+    Vector R(owned_system, comm);
+    system_matrix.vmult(R, X);
+    R -= system_rhs;
+    for (const types::global_dof_index i : contact_rows.nodes())
+      X(index(i, multiplier)) = R(index(i, u1)) / coupling(i);
+    X.compress(VectorOperation::insert);
+
+    VI::NewtonReport newton;
+    newton.iterations        = report.iterations;
+    newton.linear_iterations = report.linear_iterations;
+    newton.final_residual    = residual(X, R);
+    return newton;
+  }
+
+
+  // The peer from the same initial iterate, measured beside our solution;
+  // the run then goes on with ours (its fields are restored).
+  template <int dim>
+  void
+  MembraneProblem<dim>::compare_with_petsc_vi(const Vector &initial)
+  {
+    const Vector ours        = solution;
+    const double ours_error  = error_energy;
+    const double ours_lambda = error_multiplier;
+
+    Timer       wall;
+    std::string reason;
+    solution                      = initial;
+    const VI::NewtonReport report = solve_with_petsc_vi(solution, reason);
+    wall.stop();
+
+    // max_i |u_peer - u_ours| over both membranes, relative to max |u_ours|.
+    double local[2] = {0., 0.};
+    for (const types::global_dof_index i : owned_nodes)
+      for (const unsigned int field :
+           {VI::NodalFields::u1, VI::NodalFields::u2})
+        {
+          const auto k = index(i, field);
+          local[0]     = std::max(local[0], std::abs(solution(k) - ours(k)));
+          local[1]     = std::max(local[1], std::abs(ours(k)));
+        }
+    const double distance = Utilities::MPI::max(local[0], comm) /
+                            std::max(Utilities::MPI::max(local[1], comm),
+                                     std::numeric_limits<double>::min());
+
+    PeerRun run{report, reason, wall.wall_time(), 0., distance};
+    if (data.has_exact_solution())
+      {
+        postprocess();
+        compute_errors();
+        run.error_energy = error_energy;
+      }
+    pcout << "   PETSc SNES VI (vinewton" << parameters.petsc_vi_type
+          << "): " << report.iterations << " iterations, "
+          << report.linear_iterations << " linear, " << std::setprecision(3)
+          << run.seconds
+          << " s, max |u - u_ours| / max |u_ours| = " << std::scientific
+          << std::setprecision(2) << distance << std::defaultfloat;
+    if (data.has_exact_solution())
+      pcout << ", energy error " << std::scientific << std::setprecision(3)
+            << run.error_energy << std::defaultfloat;
+    pcout << std::endl;
+    petsc_vi_run = run;
+
+    solution         = ours;
+    error_energy     = ours_error;
+    error_multiplier = ours_lambda;
+    postprocess();
   }
 
 
@@ -1189,6 +1454,35 @@ namespace StepMembranes
         iterations.push_back(it);
       }
     record["iterations"] = iterations;
+    if (petsc_vi_run)
+      {
+        const PeerRun &peer     = *petsc_vi_run;
+        VI::Json       p        = VI::Json::object();
+        p["solver"]             = "vinewton" + parameters.petsc_vi_type;
+        p["newton_iterations"]  = peer.report.iterations;
+        p["linear_iterations"]  = peer.report.linear_iterations;
+        p["reason"]             = peer.reason;
+        p["seconds"]            = peer.seconds;
+        p["residual_equations"] = peer.report.final_residual.equations;
+        p["residual_complementarity"] =
+          peer.report.final_residual.complementarity;
+        p["relative_distance_to_ours"] = peer.distance;
+        if (data.has_exact_solution())
+          p["error_energy"] = peer.error_energy;
+        record["petsc_vi"] = p;
+
+        table.add_value("petsc_newton", peer.report.iterations);
+        table.add_value("petsc_linear", peer.report.linear_iterations);
+        table.add_value("petsc_distance", peer.distance);
+        table.set_scientific("petsc_distance", true);
+        table.set_precision("petsc_distance", 1);
+        if (data.has_exact_solution())
+          {
+            table.add_value("petsc_error", peer.error_energy);
+            table.set_scientific("petsc_error", true);
+            table.set_precision("petsc_error", 4);
+          }
+      }
     summary["cycles"].push_back(record);
   }
 
@@ -1223,6 +1517,13 @@ namespace StepMembranes
         columns.insert(columns.end(), errors.begin(), errors.end());
         if (parameters.estimators.enabled && data.has_exact_solution())
           columns.push_back("effectivity");
+        if (parameters.compare_with_petsc_vi)
+          {
+            columns.insert(columns.end(),
+                           {"petsc_newton", "petsc_linear", "petsc_distance"});
+            if (data.has_exact_solution())
+              columns.push_back("petsc_error");
+          }
         ConvergenceTable file_table = with_rates;
         file_table.set_column_order(columns);
         file_table.write_text(file, TableHandler::org_mode_table);
@@ -1234,11 +1535,15 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::run()
   {
-    const auto &nonlinear = parameters.nonlinear_solver;
-    const auto &linear    = parameters.linear_solver;
+    const auto       &nonlinear = parameters.nonlinear_solver;
+    const auto       &linear    = parameters.linear_solver;
+    const std::string solver_name =
+      parameters.nonlinear_method == "petsc-vi" ?
+        "PETSc SNES VI (vinewton" + parameters.petsc_vi_type + ")" :
+        "Newton-" + C.name();
     pcout << VI::run_header("step-membranes", comm) << std::endl;
     pcout << "Test case " << data.name << " on the " << parameters.mesh.geometry
-          << ", Q" << fe.degree << " elements, Newton-" << C.name() << " ("
+          << ", Q" << fe.degree << " elements, " << solver_name << " ("
           << nonlinear.strategy << ")"
           << (nonlinear.nested_iteration ? " with" : " without")
           << " nested iteration, "
@@ -1271,6 +1576,10 @@ namespace StepMembranes
               << triangulation.n_global_active_cells() << " cells, "
               << n_fields * dof_handler.n_dofs() << " unknowns ("
               << dof_handler.n_dofs() << " per field)" << std::endl;
+        petsc_vi_run.reset();
+        std::optional<Vector> initial_iterate;
+        if (parameters.compare_with_petsc_vi)
+          initial_iterate = solution;
         try
           {
             solve();
@@ -1289,7 +1598,7 @@ namespace StepMembranes
         output_results(cycle);
         cycle_timer.stop();
 
-        pcout << "   Newton-" << C.name() << ": " << newton_report.iterations
+        pcout << "   " << solver_name << ": " << newton_report.iterations
               << " iterations";
         if (linear.solver == "gmres")
           pcout << ", " << newton_report.linear_iterations << " GMRES";
@@ -1307,6 +1616,8 @@ namespace StepMembranes
           }
         pcout << ", " << std::setprecision(3) << cycle_timer.wall_time() << " s"
               << std::endl;
+        if (initial_iterate)
+          compare_with_petsc_vi(*initial_iterate);
         record_cycle(cycle);
       }
 

@@ -51,6 +51,13 @@ namespace StepMembranes
     /// Benchmark/Reference Poisson solve: time one Poisson solve per
     /// membrane on every mesh, the cost unit of bench/membranes_cost.py.
     bool reference_poisson_solve = false;
+    /// Nonlinear solver/Solver: our semismooth Newton or PETSc's SNES VI.
+    std::string nonlinear_method = "semismooth-newton";
+    /// Nonlinear solver/PETSc VI type: rsls or ssls.
+    std::string petsc_vi_type = "rsls";
+    /// Benchmark/Compare with PETSc VI: solve every mesh a second time with
+    /// SNES VI from the same initial iterate and record both in the summary.
+    bool compare_with_petsc_vi = false;
 
     static void
     declare(ParameterHandler &prm);
@@ -133,6 +140,14 @@ namespace StepMembranes
     solve();
     unsigned int
     solve_linearized(const Vector &rhs, Vector &dX);
+    /// The same discrete problem solved by PETSc's SNES VI from the iterate
+    /// X, which becomes its solution (see the .cc file for the variables).
+    VI::NewtonReport
+    solve_with_petsc_vi(Vector &X, std::string &reason) const;
+    /// Solve again with the peer from `initial` and record what it did
+    /// beside this cycle's solution (Benchmark/Compare with PETSc VI).
+    void
+    compare_with_petsc_vi(const Vector &initial);
     void
     describe_iterate(const Vector &X, Iterate &iterate) const;
     VI::ContactEstimate
@@ -240,6 +255,19 @@ namespace StepMembranes
     /// cycle: what the contact problem costs on a given mesh.
     Timer                         solve_timer;
     std::map<std::string, double> timing_at_cycle_start;
+
+    /// What the peer did on this cycle's mesh (Benchmark/Compare with
+    /// PETSc VI).
+    struct PeerRun
+    {
+      VI::NewtonReport report;
+      std::string      reason;
+      double           seconds      = 0;
+      double           error_energy = 0;
+      /// max |u_peer - u_ours| / max |u_ours| over both membranes.
+      double distance = 0;
+    };
+    std::optional<PeerRun> petsc_vi_run;
 
     ConvergenceTable table;
     VI::Json         summary;
