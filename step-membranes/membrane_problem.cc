@@ -953,10 +953,28 @@ namespace StepMembranes
     const double ours_error  = error_energy;
     const double ours_lambda = error_multiplier;
 
-    Timer       wall;
-    std::string reason;
-    solution                      = initial;
-    const VI::NewtonReport report = solve_with_petsc_vi(solution, reason);
+    Timer            wall;
+    std::string      reason;
+    VI::NewtonReport report;
+    solution = initial;
+    try
+      {
+        report = solve_with_petsc_vi(solution, reason);
+      }
+    catch (const VI::SolverFailure &failure)
+      {
+        // The peer's failure is a result of the comparison, not of the run.
+        wall.stop();
+        pcout << "   " << failure.what() << std::endl;
+        PeerRun run;
+        run.converged = false;
+        run.reason    = failure.what();
+        run.seconds   = wall.wall_time();
+        petsc_vi_run  = run;
+        solution      = ours;
+        postprocess();
+        return;
+      }
     wall.stop();
 
     // max_i |u_peer - u_ours| over both membranes, relative to max |u_ours|.
@@ -973,7 +991,11 @@ namespace StepMembranes
                             std::max(Utilities::MPI::max(local[1], comm),
                                      std::numeric_limits<double>::min());
 
-    PeerRun run{report, reason, wall.wall_time(), 0., distance};
+    PeerRun run;
+    run.report   = report;
+    run.reason   = reason;
+    run.seconds  = wall.wall_time();
+    run.distance = distance;
     if (data.has_exact_solution())
       {
         postprocess();
@@ -1478,33 +1500,45 @@ namespace StepMembranes
     record["iterations"] = iterations;
     if (petsc_vi_run)
       {
-        const PeerRun &peer     = *petsc_vi_run;
-        VI::Json       p        = VI::Json::object();
-        p["solver"]             = "vinewton" + parameters.petsc_vi_type;
-        p["newton_iterations"]  = peer.report.iterations;
-        p["linear_iterations"]  = peer.report.linear_iterations;
-        p["reason"]             = peer.reason;
-        p["seconds"]            = peer.seconds;
-        p["residual_equations"] = peer.report.final_residual.equations;
-        p["residual_complementarity"] =
-          peer.report.final_residual.complementarity;
-        p["relative_distance_to_ours"] = peer.distance;
-        if (data.has_exact_solution())
-          p["error_energy"] = peer.error_energy;
+        const PeerRun &peer = *petsc_vi_run;
+        VI::Json       p    = VI::Json::object();
+        p["solver"]         = "vinewton" + parameters.petsc_vi_type;
+        p["converged"]      = peer.converged;
+        p["reason"]         = peer.reason;
+        p["seconds"]        = peer.seconds;
+        if (peer.converged)
+          {
+            p["newton_iterations"]  = peer.report.iterations;
+            p["linear_iterations"]  = peer.report.linear_iterations;
+            p["residual_equations"] = peer.report.final_residual.equations;
+            p["residual_complementarity"] =
+              peer.report.final_residual.complementarity;
+            p["relative_distance_to_ours"] = peer.distance;
+            if (data.has_exact_solution())
+              p["error_energy"] = peer.error_energy;
+          }
         record["petsc_vi"] = p;
 
-        table.add_value("petsc_newton", peer.report.iterations);
-        table.add_value("petsc_linear", peer.report.linear_iterations);
-        table.add_value("petsc_distance", peer.distance);
+        // A failed peer shows as "failed" in its columns.
+        const auto add = [&](const std::string &column, const auto value) {
+          if (peer.converged)
+            table.add_value(column, value);
+          else
+            table.add_value(column, std::string("failed"));
+        };
+        add("petsc_newton", peer.report.iterations);
+        add("petsc_linear", peer.report.linear_iterations);
+        add("petsc_distance", peer.distance);
         table.set_scientific("petsc_distance", true);
         table.set_precision("petsc_distance", 1);
         if (data.has_exact_solution())
           {
-            table.add_value("petsc_error", peer.error_energy);
+            add("petsc_error", peer.error_energy);
             table.set_scientific("petsc_error", true);
             table.set_precision("petsc_error", 4);
           }
       }
+
     summary["cycles"].push_back(record);
   }
 

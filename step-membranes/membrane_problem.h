@@ -260,10 +260,12 @@ namespace StepMembranes
     /// PETSc VI).
     struct PeerRun
     {
+      bool             converged = true;
       VI::NewtonReport report;
-      std::string      reason;
-      double           seconds      = 0;
-      double           error_energy = 0;
+      /// SNES's converged reason, or why it failed.
+      std::string reason;
+      double      seconds      = 0;
+      double      error_energy = 0;
       /// max |u_peer - u_ours| / max |u_ours| over both membranes.
       double distance = 0;
     };

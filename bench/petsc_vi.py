@@ -1,0 +1,168 @@
+#!/usr/bin/env python3
+"""Our semismooth Newton against PETSc's SNES VI, side by side (doc/performance.md).
+
+The [DMV20] disk case (Q1, parameters/estimators-disk-p1.prm) on globally
+refined meshes from 3072 to 196608 cells (1e4 to 6e5 unknowns; the next
+mesh needs more memory than the 24 GB of the test machine for our
+estimators), with nested iteration from the boundary data. Each run of
+step-membranes uses Benchmark/Compare with PETSc VI: on every mesh our
+solver runs, then PETSc's SNES VI solves the same discrete problem from the
+same initial iterate, in the same process, so the time ratio is meaningful
+on a noisy machine. Three pairings:
+
+  adaptive-vs-rsls  our adaptive inexact Newton-min, GMRES + contact AMG,
+                    against SNESVINEWTONRSLS with GMRES + BoomerAMG (KSP
+                    relative tolerance 1e-8);
+  adaptive-vs-ssls  the same against SNESVINEWTONSSLS;
+  exact-vs-rsls     exact Newton-min against RSLS, both with MUMPS: the
+                    nonlinear iterations alone.
+
+Times: ours = set-up, assembly, Newton and the estimators that stop it
+and certify the error (solve_seconds; also shown without the estimators,
+which the peer does not compute); the peer's = the same set-up and
+assembly plus its own solve (the copy to PETSc included). In exact-vs-rsls
+the estimators are off. Errors are energy errors against the
+exact solution; the speed-up counts only where both errors agree within 10 %.
+
+Writes doc/data/petsc_vi.{csv,md,png}.
+Usage, from the repository root after ./demo.sh or ./test.sh:
+  bench/petsc_vi.py [--quick]
+--quick stops at 12288 cells (a smoke test of the script).
+STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
+can be rebuilt while the study runs).
+"""
+import csv
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PROGRAM = os.environ.get("STEP_MEMBRANES",
+                         os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
+DATA = os.path.join(ROOT, "doc", "data")
+OUT = os.path.join(ROOT, "output", "bench-petsc-vi")
+QUICK = "--quick" in sys.argv
+CYCLES = 2 if QUICK else 4  # 3072 cells and up to three refinements
+
+PAIRINGS = {
+    "adaptive-vs-rsls": {"Nonlinear solver/Strategy": "adaptive",
+                         "Nonlinear solver/PETSc VI type": "rsls",
+                         "Linear solver/Solver": "gmres",
+                         "Linear solver/Preconditioner": "amg"},
+    # SSLS's line search takes short steps far from the solution: it gets
+    # 200 iterations (ours needs far fewer than the default 50).
+    "adaptive-vs-ssls": {"Nonlinear solver/Strategy": "adaptive",
+                         "Nonlinear solver/PETSc VI type": "ssls",
+                         "Nonlinear solver/Maximum iterations": 200,
+                         "Linear solver/Solver": "gmres",
+                         "Linear solver/Preconditioner": "amg"},
+    "exact-vs-rsls": {"Nonlinear solver/Strategy": "exact",
+                      "Nonlinear solver/PETSc VI type": "rsls",
+                      "Linear solver/Solver": "direct",
+                      "Estimators/Enabled": "false"},
+}
+
+
+def run(name, settings):
+    directory = os.path.join(OUT, name)
+    settings = dict(settings)
+    settings.update({"Mesh/Initial refinements": 4, "Mesh/Cycles": CYCLES,
+                     "Nonlinear solver/Nested iteration": "true",
+                     "Linear solver/Tolerance": "1e-8",
+                     "Estimators/At every check": "false",
+                     "Benchmark/Compare with PETSc VI": "true",
+                     "Output/Write VTU": "false", "Output/Directory": directory})
+    command = [PROGRAM, os.path.join(ROOT, "parameters", "estimators-disk-p1.prm")]
+    for key, value in settings.items():
+        command += ["--set", f"{key}={value}"]
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    with open(os.path.join(directory, "summary.json")) as f:
+        summary = json.load(f)
+    print(f"  {name}: done", flush=True)
+    return summary["cycles"]
+
+
+def main():
+    os.makedirs(DATA, exist_ok=True)
+    os.makedirs(OUT, exist_ok=True)
+    rows = []
+    for name, settings in PAIRINGS.items():
+        for c in run(name, settings):
+            peer = c["petsc_vi"]
+            if not peer["converged"]:
+                print(f"  {name}, {c['dofs']} unknowns: {peer['reason']}")
+                peer.update({"newton_iterations": "failed", "linear_iterations": "-",
+                             "error_energy": float("nan"),
+                             "residual_complementarity": float("nan"),
+                             "relative_distance_to_ours": float("nan")})
+            timing = c["timing"]
+            shared = timing.get("setup", 0.) + timing.get("assembly", 0.)
+            peer_seconds = shared + peer["seconds"]
+            same_error = abs(peer["error_energy"] / c["error_energy"] - 1) <= 0.1  # NaN: False
+            estimators = sum(seconds for section, seconds in timing.items()
+                             if section.startswith("estimators"))
+            rows.append({
+                "pairing": name, "cells": c["cells"], "unknowns": c["dofs"],
+                "newton": c["newton_iterations"], "linear": c["linear_iterations"],
+                "error": c["error_energy"], "seconds": c["solve_seconds"],
+                "estimator_seconds": estimators,
+                "peer": peer["solver"], "peer_newton": peer["newton_iterations"],
+                "peer_linear": peer["linear_iterations"],
+                "peer_error": peer["error_energy"], "peer_seconds": peer_seconds,
+                "peer_complementarity": peer["residual_complementarity"],
+                "distance": peer["relative_distance_to_ours"],
+                "speedup": peer_seconds / c["solve_seconds"] if same_error else float("nan"),
+                "speedup_without_estimators":
+                    peer_seconds / (c["solve_seconds"] - estimators) if same_error else float("nan")})
+
+    with open(os.path.join(DATA, "petsc_vi.csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+    header = ["pairing", "unknowns", "ours: Newton", "GMRES", "error", "time (s)",
+              "of which estimators", "peer", "Newton", "KSP", "error", "time (s)",
+              "peer / ours", "peer / ours without estimators", "distance"]
+    formats = [("pairing", "{}"), ("unknowns", "{}"), ("newton", "{}"),
+               ("linear", "{}"), ("error", "{:.4e}"), ("seconds", "{:.2f}"),
+               ("estimator_seconds", "{:.2f}"),
+               ("peer", "{}"), ("peer_newton", "{}"), ("peer_linear", "{}"),
+               ("peer_error", "{:.4e}"), ("peer_seconds", "{:.2f}"),
+               ("speedup", "{:.2f}"), ("speedup_without_estimators", "{:.2f}"),
+               ("distance", "{:.1e}")]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in rows:
+        lines.append("| " + " | ".join(fmt.format(row[key]).replace("nan", "-")
+                                       for key, fmt in formats) + " |")
+    with open(os.path.join(DATA, "petsc_vi.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+    dat = os.path.join(OUT, "petsc_vi.dat")
+    with open(dat, "w") as f:
+        for name in PAIRINGS:
+            f.write(f"# {name}: unknowns, ours (s), peer (s)\n")
+            for row in rows:
+                if row["pairing"] == name:
+                    f.write(f"{row['unknowns']} {row['seconds']} {row['peer_seconds']}\n")
+            f.write("\n\n")
+    script = f"""
+set terminal pngcairo size 900,600 font ',11'
+set output '{os.path.join(DATA, 'petsc_vi.png')}'
+set logscale xy
+set grid
+set key left top
+set xlabel 'unknowns (u1, u2, lambda)'
+set ylabel 'wall time of the solve on each mesh (s)'
+set title '[DMV20] disk, Q1, nested iteration: our semismooth Newton against PETSc SNES VI'
+plot '{dat}' index 0 using 1:2 with linespoints lw 2 pt 7 lc 1 title 'ours: adaptive inexact Newton-min, GMRES + contact AMG', \\
+     '{dat}' index 0 using 1:3 with linespoints lw 2 pt 5 lc 2 title 'RSLS, GMRES + BoomerAMG', \\
+     '{dat}' index 1 using 1:3 with linespoints lw 2 pt 9 lc 3 title 'SSLS, GMRES + BoomerAMG', \\
+     '{dat}' index 2 using 1:2 with linespoints lw 1 pt 6 lc 1 dt 2 title 'ours: exact Newton-min, MUMPS', \\
+     '{dat}' index 2 using 1:3 with linespoints lw 1 pt 4 lc 2 dt 2 title 'RSLS, MUMPS'
+"""
+    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    print(f"wrote {os.path.join(DATA, 'petsc_vi')}.{{csv,md,png}}")
+
+
+if __name__ == "__main__":
+    main()
