@@ -4,7 +4,8 @@
 The [DMV20] disk case (Q1, parameters/estimators-disk-p1.prm) on globally
 refined meshes from 3072 to 196608 cells (1e4 to 6e5 unknowns; the next
 mesh needs more memory than the 24 GB of the test machine for our
-estimators), with nested iteration from the boundary data. Each run of
+estimators; 786432 cells, 2.4e6 unknowns, without them), with nested
+iteration from the boundary data. Each run of
 step-membranes uses Benchmark/Compare with PETSc VI: on every mesh our
 solver runs, then PETSc's SNES VI solves the same discrete problem from the
 same initial iterate, in the same process, so the time ratio is meaningful
@@ -14,8 +15,11 @@ on a noisy machine. Three pairings:
                     against SNESVINEWTONRSLS with GMRES + BoomerAMG (KSP
                     relative tolerance 1e-8);
   adaptive-vs-ssls  the same against SNESVINEWTONSSLS;
-  exact-vs-rsls     exact Newton-min against RSLS, both with MUMPS: the
-                    nonlinear iterations alone.
+  inexact-vs-rsls   our inexact Newton-min (forcing term 1e-2) without
+                    estimators against RSLS, both with AMG as above, one
+                    mesh further (786432 cells, 2.4e6 unknowns);
+  exact-vs-rsls     exact Newton-min against RSLS, both with MUMPS and
+                    without estimators: the nonlinear iterations alone.
 
 Times: ours = set-up, assembly, Newton and the estimators that stop it
 and certify the error (solve_seconds; also shown without the estimators,
@@ -26,8 +30,9 @@ exact solution; the speed-up counts only where both errors agree within 10 %.
 
 Writes doc/data/petsc_vi.{csv,md,png}.
 Usage, from the repository root after ./demo.sh or ./test.sh:
-  bench/petsc_vi.py [--quick]
---quick stops at 12288 cells (a smoke test of the script).
+  bench/petsc_vi.py [--quick] [--reuse=pairing,...]
+--quick stops at 12288 cells (a smoke test of the script); --reuse takes
+the named pairings from the summaries of the last run.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
@@ -44,6 +49,8 @@ DATA = os.path.join(ROOT, "doc", "data")
 OUT = os.path.join(ROOT, "output", "bench-petsc-vi")
 QUICK = "--quick" in sys.argv
 CYCLES = 2 if QUICK else 4  # 3072 cells and up to three refinements
+# --reuse a,b: take pairings a and b from the last run's summaries.
+SKIP = next((a.split("=", 1)[1].split(",") for a in sys.argv if a.startswith("--reuse=")), [])
 
 PAIRINGS = {
     "adaptive-vs-rsls": {"Nonlinear solver/Strategy": "adaptive",
@@ -57,6 +64,14 @@ PAIRINGS = {
                          "Nonlinear solver/Maximum iterations": 200,
                          "Linear solver/Solver": "gmres",
                          "Linear solver/Preconditioner": "amg"},
+    # Without estimators (the inexact strategy does not need them) the
+    # meshes go one refinement further, to 2.4e6 unknowns.
+    "inexact-vs-rsls": {"Nonlinear solver/Strategy": "inexact",
+                        "Nonlinear solver/PETSc VI type": "rsls",
+                        "Linear solver/Solver": "gmres",
+                        "Linear solver/Preconditioner": "amg",
+                        "Estimators/Enabled": "false",
+                        "Mesh/Cycles": CYCLES + 1},
     "exact-vs-rsls": {"Nonlinear solver/Strategy": "exact",
                       "Nonlinear solver/PETSc VI type": "rsls",
                       "Linear solver/Solver": "direct",
@@ -66,8 +81,8 @@ PAIRINGS = {
 
 def run(name, settings):
     directory = os.path.join(OUT, name)
-    settings = dict(settings)
-    settings.update({"Mesh/Initial refinements": 4, "Mesh/Cycles": CYCLES,
+    settings = {"Mesh/Cycles": CYCLES, **settings}
+    settings.update({"Mesh/Initial refinements": 4,
                      "Nonlinear solver/Nested iteration": "true",
                      "Linear solver/Tolerance": "1e-8",
                      "Estimators/At every check": "false",
@@ -83,12 +98,18 @@ def run(name, settings):
     return summary["cycles"]
 
 
+def load(name):
+    """The summary of an earlier run (for --reuse)."""
+    with open(os.path.join(OUT, name, "summary.json")) as f:
+        return json.load(f)["cycles"]
+
+
 def main():
     os.makedirs(DATA, exist_ok=True)
     os.makedirs(OUT, exist_ok=True)
     rows = []
     for name, settings in PAIRINGS.items():
-        for c in run(name, settings):
+        for c in run(name, settings) if name not in SKIP else load(name):
             peer = c["petsc_vi"]
             if not peer["converged"]:
                 print(f"  {name}, {c['dofs']} unknowns: {peer['reason']}")
@@ -150,15 +171,17 @@ set terminal pngcairo size 900,600 font ',11'
 set output '{os.path.join(DATA, 'petsc_vi.png')}'
 set logscale xy
 set grid
-set key left top
+set key left top font ',9'
 set xlabel 'unknowns (u1, u2, lambda)'
 set ylabel 'wall time of the solve on each mesh (s)'
 set title '[DMV20] disk, Q1, nested iteration: our semismooth Newton against PETSc SNES VI'
 plot '{dat}' index 0 using 1:2 with linespoints lw 2 pt 7 lc 1 title 'ours: adaptive inexact Newton-min, GMRES + contact AMG', \\
-     '{dat}' index 0 using 1:3 with linespoints lw 2 pt 5 lc 2 title 'RSLS, GMRES + BoomerAMG', \\
-     '{dat}' index 1 using 1:3 with linespoints lw 2 pt 9 lc 3 title 'SSLS, GMRES + BoomerAMG', \\
-     '{dat}' index 2 using 1:2 with linespoints lw 1 pt 6 lc 1 dt 2 title 'ours: exact Newton-min, MUMPS', \\
-     '{dat}' index 2 using 1:3 with linespoints lw 1 pt 4 lc 2 dt 2 title 'RSLS, MUMPS'
+     '{dat}' index 0 using 1:3 with linespoints lw 2 pt 5 lc 2 title 'RSLS, GMRES (rtol 1e-8) + BoomerAMG', \\
+     '{dat}' index 1 using 1:3 with linespoints lw 2 pt 9 lc 3 title 'SSLS, GMRES (rtol 1e-8) + BoomerAMG', \\
+     '{dat}' index 2 using 1:2 with linespoints lw 2 pt 7 lc 4 title 'ours: inexact Newton-min (rtol 1e-2), no estimators, GMRES + contact AMG', \\
+     '{dat}' index 2 using 1:3 with linespoints lw 1 pt 5 lc 4 dt 2 title 'RSLS, GMRES (rtol 1e-2) + BoomerAMG', \\
+     '{dat}' index 3 using 1:2 with linespoints lw 1 pt 6 lc 1 dt 2 title 'ours: exact Newton-min, MUMPS, no estimators', \\
+     '{dat}' index 3 using 1:3 with linespoints lw 1 pt 4 lc 2 dt 2 title 'RSLS, MUMPS'
 """
     subprocess.run(["gnuplot"], input=script.encode(), check=True)
     print(f"wrote {os.path.join(DATA, 'petsc_vi')}.{{csv,md,png}}")
