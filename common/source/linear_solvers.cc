@@ -39,9 +39,16 @@ namespace VI
     // Krylov basis V (m + 1 vectors), Hessenberg matrix after the Givens
     // rotations (upper triangular in its first j columns), the rotations,
     // and the rotated right-hand side g, |g_{j+1}| = |b - A x^j|.
+    // The basis vectors are allocated when the Arnoldi process first
+    // reaches them: with a good preconditioner a solve needs a few tens of
+    // the m + 1 (200 by default), which would otherwise cost 200 vectors of
+    // memory (1.6 kB per unknown).
     std::vector<VectorType> V(m + 1);
-    for (auto &v : V)
-      v.reinit(b, /*omit_zeroing_entries=*/true);
+    const auto basis_vector = [&](const unsigned int i) -> VectorType & {
+      if (V[i].size() != b.size())
+        V[i].reinit(b, /*omit_zeroing_entries=*/true);
+      return V[i];
+    };
     VectorType w, z, correction;
     w.reinit(b, true);
     z.reinit(b, true);
@@ -73,7 +80,7 @@ namespace VI
     for (bool first_cycle = true;; first_cycle = false)
       {
         // r0 = b - A x, V_0 = r0 / |r0|
-        A(V[0], x);
+        A(basis_vector(0), x);
         V[0].sadd(-1., 1., b);
         const double beta = V[0].l2_norm();
         if (first_cycle)
@@ -100,7 +107,7 @@ namespace VI
             // Arnoldi step with modified Gram-Schmidt (twice, for the loss
             // of orthogonality on long cycles).
             preconditioner(z, V[j]);
-            A(V[j + 1], z);
+            A(basis_vector(j + 1), z);
             for (unsigned int i = 0; i <= j; ++i)
               H(i, j) = 0;
             for (unsigned int pass = 0; pass < 2; ++pass)
