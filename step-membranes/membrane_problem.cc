@@ -638,8 +638,10 @@ namespace StepMembranes
         // accepted: estimate the iterate Newton actually took.
         if (!step_estimate || step.step_length < 1)
           step_estimate = estimate(X);
-        estimate_records.push_back(
-          {newton_step, step.linear_iterations, true, *step_estimate});
+        estimate_records.emplace_back(newton_step,
+                                      step.linear_iterations,
+                                      true,
+                                      *step_estimate);
         final_estimate = step_estimate;
         if (parameters.output.verbose)
           pcout << "             eta_disc " << std::scientific
@@ -716,7 +718,7 @@ namespace StepMembranes
       current.linear_iteration = i;
 
       const VI::ContactEstimate own = estimate(current, current);
-      estimate_records.push_back({newton_step, i, false, own});
+      estimate_records.emplace_back(newton_step, i, false, own);
       if (adaptive && criterion(own))
         {
           accept(current, own);
@@ -725,8 +727,10 @@ namespace StepMembranes
       if (previous)
         {
           const VI::ContactEstimate e = estimate(*previous, current);
-          estimate_records.push_back(
-            {newton_step, previous->linear_iteration, false, e});
+          estimate_records.emplace_back(newton_step,
+                                        previous->linear_iteration,
+                                        false,
+                                        e);
           if (adaptive && criterion(e))
             {
               accept(*previous, e);
@@ -1491,10 +1495,10 @@ namespace StepMembranes
         it["k"]        = r.newton_step;
         it["i"]        = r.linear_iteration;
         it["accepted"] = r.accepted;
-        it["eta"]      = r.estimate.eta;
-        it["eta_disc"] = r.estimate.eta_disc;
-        it["eta_lin"]  = r.estimate.eta_lin;
-        it["eta_alg"]  = r.estimate.eta_alg;
+        it["eta"]      = r.eta;
+        it["eta_disc"] = r.eta_disc;
+        it["eta_lin"]  = r.eta_lin;
+        it["eta_alg"]  = r.eta_alg;
         iterations.push_back(it);
       }
     record["iterations"] = iterations;

@@ -117,13 +117,29 @@ namespace StepMembranes
       unsigned int linear_iteration = 0;
     };
 
-    /// One estimate during the solve, for summary.json.
+    /// One estimate during the solve, for summary.json: its components
+    /// only (a whole ContactEstimate carries six cellwise vectors, and
+    /// copying them at every check cost a quarter of an adaptive run in
+    /// the allocator).
     struct EstimateRecord
     {
-      unsigned int        newton_step;
-      unsigned int        linear_iteration;
-      bool                accepted;
-      VI::ContactEstimate estimate;
+      EstimateRecord(const unsigned int         newton_step,
+                     const unsigned int         linear_iteration,
+                     const bool                 accepted,
+                     const VI::ContactEstimate &e)
+          : newton_step(newton_step)
+          , linear_iteration(linear_iteration)
+          , accepted(accepted)
+          , eta(e.eta)
+          , eta_disc(e.eta_disc)
+          , eta_lin(e.eta_lin)
+          , eta_alg(e.eta_alg)
+      {
+      }
+      unsigned int newton_step;
+      unsigned int linear_iteration;
+      bool         accepted;
+      double       eta, eta_disc, eta_lin, eta_alg;
     };
 
     void
