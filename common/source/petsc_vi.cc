@@ -91,9 +91,9 @@ namespace VI
     if (settings.linear_solver == "direct")
       linear = "MUMPS LU";
     else
-      linear =
-        "GMRES + " +
-        std::string(settings.preconditioner == "amg" ? "BoomerAMG" : "ILU");
+      linear = "GMRES + " + std::string(settings.preconditioner == "amg" ?
+                                          "BoomerAMG" :
+                                          "block ILU");
     return "PETSc SNES vinewton" + settings.type + ", " + linear;
   }
 
