@@ -20,17 +20,14 @@ The full study takes about 10 minutes and 20 GB of memory.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
-import csv
-import json
 import math
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.environ.get("STEP_MEMBRANES",
-                         os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, estimator_seconds, program, run as run_program, write_table
+
+PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
 QUICK = "--quick" in sys.argv
 # 12288 cells and up to three refinements: 2.4e6 unknowns on one process
@@ -40,39 +37,26 @@ CYCLES = {1: 2, 2: 2} if QUICK else {1: 4, 2: 3}
 
 
 def run(np):
-    directory = os.path.join(OUT, f"np{np}")
     settings = {"Mesh/Initial refinements": 5, "Mesh/Cycles": CYCLES[np],
                 "Nonlinear solver/Strategy": "adaptive",
                 "Nonlinear solver/Nested iteration": "true",
                 "Linear solver/Preconditioner": "amg",
                 "Estimators/At every check": "false",
                 "Benchmark/Reference Poisson solve": "true",
-                "Output/Write VTU": "false", "Output/Directory": directory}
-    command = [PROGRAM, os.path.join(ROOT, "parameters", "estimators-disk-p1.prm")]
-    for key, value in settings.items():
-        command += ["--set", f"{key}={value}"]
-    if np > 1:
-        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(np)] + command
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(directory, "summary.json")) as f:
-        summary = json.load(f)
+                "Output/Write VTU": "false"}
+    summary = run_program(PROGRAM, "estimators-disk-p1.prm", settings,
+                          os.path.join(OUT, f"np{np}"), np)
     print(f"  np = {np}: done", flush=True)
     return summary["cycles"]
 
 
-def estimator_seconds(cycle):
-    return sum(seconds for section, seconds in cycle["timing"].items()
-               if section.startswith("estimators"))
-
-
 def main():
-    os.makedirs(DATA, exist_ok=True)
     rows = []
     for np in (1, 2):
         previous = None
         for c in run(np):
             poisson = sum(m["seconds"] for m in c["reference_poisson"])
-            estimators = estimator_seconds(c)
+            estimators = estimator_seconds(c["timing"])
             row = {"np": np, "cycle": c["cycle"], "cells": c["cells"],
                    "dofs_per_field": c["dofs_per_field"], "unknowns": c["dofs"],
                    "newton": c["newton_iterations"], "gmres": c["linear_iterations"],
@@ -92,10 +76,6 @@ def main():
         serial = next(r for r in rows if r["np"] == 1 and r["cycle"] == row["cycle"])
         row["speedup"] = serial["solve_seconds"] / row["solve_seconds"]
 
-    with open(os.path.join(DATA, "cost.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
     header = ["np", "DoFs per field", "unknowns", "Newton", "GMRES", "Poisson CG",
               "contact solve (s)", "estimators (s)", "2 Poisson (s)", "ratio",
               "ratio without estimators", "estimators / rest", "growth exponent",
@@ -106,12 +86,7 @@ def main():
                ("poisson_seconds", "{:.2f}"), ("ratio", "{:.1f}"),
                ("ratio_without_estimators", "{:.1f}"), ("estimator_fraction", "{:.2f}"),
                ("growth", "{:.2f}"), ("speedup", "{:.2f}")]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for row in rows:
-        lines.append("| " + " | ".join(fmt.format(row[key]).replace("nan", "-")
-                                       for key, fmt in formats) + " |")
-    with open(os.path.join(DATA, "cost.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_table("cost", rows, header, formats)
 
     dat = os.path.join(OUT, "cost.dat")
     with open(dat, "w") as f:

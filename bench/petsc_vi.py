@@ -36,16 +36,14 @@ the named pairings from the summaries of the last run.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
-import csv
 import json
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.environ.get("STEP_MEMBRANES",
-                         os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, estimator_seconds, program, run as run_program, write_table
+
+PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-petsc-vi")
 QUICK = "--quick" in sys.argv
 CYCLES = 2 if QUICK else 4  # 3072 cells and up to three refinements
@@ -80,20 +78,15 @@ PAIRINGS = {
 
 
 def run(name, settings):
-    directory = os.path.join(OUT, name)
     settings = {"Mesh/Cycles": CYCLES, **settings}
     settings.update({"Mesh/Initial refinements": 4,
                      "Nonlinear solver/Nested iteration": "true",
                      "Linear solver/Tolerance": "1e-8",
                      "Estimators/At every check": "false",
                      "Benchmark/Compare with PETSc VI": "true",
-                     "Output/Write VTU": "false", "Output/Directory": directory})
-    command = [PROGRAM, os.path.join(ROOT, "parameters", "estimators-disk-p1.prm")]
-    for key, value in settings.items():
-        command += ["--set", f"{key}={value}"]
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(directory, "summary.json")) as f:
-        summary = json.load(f)
+                     "Output/Write VTU": "false"})
+    summary = run_program(PROGRAM, "estimators-disk-p1.prm", settings,
+                          os.path.join(OUT, name))
     print(f"  {name}: done", flush=True)
     return summary["cycles"]
 
@@ -105,7 +98,6 @@ def load(name):
 
 
 def main():
-    os.makedirs(DATA, exist_ok=True)
     os.makedirs(OUT, exist_ok=True)
     rows = []
     for name, settings in PAIRINGS.items():
@@ -121,8 +113,7 @@ def main():
             shared = timing.get("setup", 0.) + timing.get("assembly", 0.)
             peer_seconds = shared + peer["seconds"]
             same_error = abs(peer["error_energy"] / c["error_energy"] - 1) <= 0.1  # NaN: False
-            estimators = sum(seconds for section, seconds in timing.items()
-                             if section.startswith("estimators"))
+            estimators = estimator_seconds(timing)
             rows.append({
                 "pairing": name, "cells": c["cells"], "unknowns": c["dofs"],
                 "newton": c["newton_iterations"], "linear": c["linear_iterations"],
@@ -137,10 +128,6 @@ def main():
                 "speedup_without_estimators":
                     peer_seconds / (c["solve_seconds"] - estimators) if same_error else float("nan")})
 
-    with open(os.path.join(DATA, "petsc_vi.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
     header = ["pairing", "unknowns", "ours: Newton", "GMRES", "error", "time (s)",
               "of which estimators", "peer", "Newton", "KSP", "error", "time (s)",
               "peer / ours", "peer / ours without estimators", "distance"]
@@ -151,12 +138,7 @@ def main():
                ("peer_error", "{:.4e}"), ("peer_seconds", "{:.2f}"),
                ("speedup", "{:.2f}"), ("speedup_without_estimators", "{:.2f}"),
                ("distance", "{:.1e}")]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for row in rows:
-        lines.append("| " + " | ".join(fmt.format(row[key]).replace("nan", "-")
-                                       for key, fmt in formats) + " |")
-    with open(os.path.join(DATA, "petsc_vi.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_table("petsc_vi", rows, header, formats)
 
     dat = os.path.join(OUT, "petsc_vi.dat")
     with open(dat, "w") as f:

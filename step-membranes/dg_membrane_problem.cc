@@ -738,9 +738,7 @@ namespace StepMembranes
     settings.max_iterations     = linear.max_iterations;
     settings.krylov_dimension   = linear.krylov_dimension;
     settings.check_interval     = linear.check_interval;
-    settings.relative_tolerance = nonlinear.strategy == "inexact" ?
-                                    nonlinear.forcing_term :
-                                    linear.tolerance;
+    settings.relative_tolerance = VI::linear_tolerance(nonlinear, linear);
     const auto A                = [&](Vector &dst, const Vector &src) {
       system_matrix.vmult(dst, src);
     };

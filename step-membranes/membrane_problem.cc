@@ -689,9 +689,7 @@ namespace StepMembranes
     settings.max_iterations     = linear.max_iterations;
     settings.krylov_dimension   = linear.krylov_dimension;
     settings.check_interval     = linear.check_interval;
-    settings.relative_tolerance = nonlinear.strategy == "inexact" ?
-                                    nonlinear.forcing_term :
-                                    linear.tolerance;
+    settings.relative_tolerance = VI::linear_tolerance(nonlinear, linear);
 
     // At every check the current iterate is certified with its own fluxes
     // (its algebraic residual bounded by the Friedrichs constant), and the
@@ -899,9 +897,7 @@ namespace StepMembranes
     settings.linear_solver         = linear.solver;
     settings.preconditioner        = linear.preconditioner;
     settings.ilu_fill              = linear.ilu_fill;
-    settings.linear_tolerance      = nonlinear.strategy == "inexact" ?
-                                       nonlinear.forcing_term :
-                                       linear.tolerance;
+    settings.linear_tolerance      = VI::linear_tolerance(nonlinear, linear);
     settings.max_linear_iterations = linear.max_iterations;
     settings.krylov_dimension      = linear.krylov_dimension;
     settings.tolerance             = nonlinear.tolerance;

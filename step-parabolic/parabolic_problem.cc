@@ -738,9 +738,7 @@ namespace StepParabolic
     settings.max_iterations     = linear.max_iterations;
     settings.krylov_dimension   = linear.krylov_dimension;
     settings.check_interval     = linear.check_interval;
-    settings.relative_tolerance = nonlinear.strategy == "inexact" ?
-                                    nonlinear.forcing_term :
-                                    linear.tolerance;
+    settings.relative_tolerance = VI::linear_tolerance(nonlinear, linear);
 
     const auto criterion = [&](const StepEstimate &e) {
       return e.eta_alg <=

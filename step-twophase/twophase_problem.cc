@@ -266,11 +266,10 @@ namespace StepTwoPhase
   void
   TwoPhaseProblem::solve_with_semismooth_newton(StepRecord &record)
   {
-    const auto  &p                  = parameters.nonlinear_solver;
-    const bool   adaptive           = (p.strategy == "adaptive");
-    const double relative_tolerance = p.strategy == "inexact" ?
-                                        p.forcing_term :
-                                        parameters.linear_solver.tolerance;
+    const auto  &p        = parameters.nonlinear_solver;
+    const bool   adaptive = (p.strategy == "adaptive");
+    const double relative_tolerance =
+      VI::linear_tolerance(p, parameters.linear_solver);
 
     typename VI::SemismoothNewton<Vector<double>>::AdditionalData settings;
     settings.max_iterations = p.max_iterations;

@@ -307,6 +307,15 @@ namespace VI
   }
 
 
+  double
+  linear_tolerance(const NonlinearSolverParameters &nonlinear,
+                   const LinearSolverParameters    &linear)
+  {
+    return nonlinear.strategy == "inexact" ? nonlinear.forcing_term :
+                                             linear.tolerance;
+  }
+
+
   void
   LinearSolverParameters::declare(ParameterHandler  &prm,
                                   const std::string &solvers,

@@ -41,7 +41,6 @@ namespace VI
     {
       Mat                     K;
       Vec                     b;
-      KSP                     ksp;
       const PetscVI::Monitor *monitor;
     };
 
@@ -135,7 +134,7 @@ namespace VI
       }
     } cleanup{&snes, &J};
 
-    Context context{static_cast<Mat>(K), b, nullptr, &monitor};
+    Context context{static_cast<Mat>(K), b, &monitor};
     check(SNESSetType(snes,
                       settings.type == "rsls" ? SNESVINEWTONRSLS :
                                                 SNESVINEWTONSSLS),
@@ -160,7 +159,6 @@ namespace VI
     PC  pc;
     check(SNESGetKSP(snes, &ksp), "SNESGetKSP");
     check(KSPGetPC(ksp, &pc), "KSPGetPC");
-    context.ksp = ksp;
     if (settings.linear_solver == "direct")
       {
         check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");

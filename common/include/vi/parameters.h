@@ -113,6 +113,14 @@ namespace VI
   };
 
 
+  /// Relative tolerance of the linear solve in each Newton step: the forcing
+  /// term for the inexact strategy, Linear solver/Tolerance otherwise (the
+  /// adaptive strategy stops earlier, on its estimators).
+  double
+  linear_tolerance(const NonlinearSolverParameters &nonlinear,
+                   const LinearSolverParameters    &linear);
+
+
   struct EstimatorParameters
   {
     bool enabled     = true;

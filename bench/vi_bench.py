@@ -1,0 +1,52 @@
+"""What the studies in bench/ share: where the programs and the data are,
+running a program with --set overrides, and writing a table as CSV and
+Markdown (doc/data/<stem>.{csv,md})."""
+import csv
+import json
+import os
+import subprocess
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DATA = os.path.join(ROOT, "doc", "data")
+
+
+def program(name):
+    """The binary of step-<name>; STEP_<NAME> names another one (e.g. a
+    copy, so that the build tree can be rebuilt while a study runs)."""
+    return os.environ.get("STEP_" + name.upper(),
+                          os.path.join(ROOT, "build", f"step-{name}", f"step-{name}"))
+
+
+def run(binary, prm, settings, directory, np=1):
+    """Run binary on parameters/<prm> with the settings (section/name:
+    value) and Output/Directory = directory; return its summary.json."""
+    command = [binary, os.path.join(ROOT, "parameters", prm)]
+    for key, value in {**settings, "Output/Directory": directory}.items():
+        command += ["--set", f"{key}={value}"]
+    if np > 1:
+        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(np)] + command
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    with open(os.path.join(directory, "summary.json")) as f:
+        return json.load(f)
+
+
+def estimator_seconds(timing):
+    """The estimators' share of a TimerOutput split ("timing" in summary.json)."""
+    return sum(seconds for section, seconds in timing.items()
+               if section.startswith("estimators"))
+
+
+def write_table(stem, rows, header, formats):
+    """rows (dicts) to doc/data/<stem>.csv, all keys; and to <stem>.md, the
+    columns of formats ((key, format) pairs) under header, NaN as '-'."""
+    os.makedirs(DATA, exist_ok=True)
+    with open(os.path.join(DATA, stem + ".csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in rows:
+        lines.append("| " + " | ".join(fmt.format(row[key]).replace("nan", "-")
+                                       for key, fmt in formats) + " |")
+    with open(os.path.join(DATA, stem + ".md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
