@@ -75,8 +75,8 @@ namespace StepMembranes
                       "false",
                       Patterns::Bool(),
                       "With Solver = semismooth-newton: solve every mesh a "
-                      "second time with PETSc's SNES VI (PETSc VI type, the "
-                      "Linear solver section with Linear solver/Tolerance) "
+                      "second time with PETSc's SNES VI (PETSc VI type and "
+                      "the Linear solver section, as for Solver = petsc-vi) "
                       "from the same initial iterate, and record its "
                       "iterations, wall time, error and distance to our "
                       "solution in summary.json (petsc_vi). The run goes on "
