@@ -1,4 +1,5 @@
 #include <deal.II/base/geometry_info.h>
+#include <deal.II/base/mpi.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/grid_tools.h>
@@ -10,11 +11,12 @@
 #include <vi/flux_reconstruction.h>
 
 #include <algorithm>
+#include <boost/serialization/utility.hpp>
+#include <boost/serialization/vector.hpp>
 #include <cmath>
 #include <cstdint>
 #include <map>
 #include <set>
-#include <sstream>
 
 namespace VI
 {
@@ -59,295 +61,37 @@ namespace VI
   }
 
 
+  // What the owner of a cell tells the process that solves a patch
+  // containing the cell: psi_a on the cell, which of the cell's
+  // Raviart-Thomas dofs psi_a leaves free and how they expand across
+  // hanging faces, the shape data of the patch key, (psi_a, q_k)_K, and for
+  // patches solved elsewhere the cell matrices. The solver of the patch
+  // needs nothing else of the cell, so it need not see it.
   template <int dim>
-  void
-  FluxReconstruction<dim>::reinit(const DoFHandler<dim> &potential)
+  struct FluxReconstruction<dim>::CellShare
   {
-    const Triangulation<dim> &tria   = potential.get_triangulation();
-    const MPI_Comm            comm   = potential.get_communicator();
-    const unsigned int        rank   = Utilities::MPI::this_mpi_process(comm);
-    const unsigned int        n_rank = Utilities::MPI::n_mpi_processes(comm);
+    types::global_dof_index patch = 0; ///< the degree of freedom of psi_a
+    std::vector<double>     center;    ///< for the canonical cell order
+    double                  diameter = 0;
+    std::vector<double>     points;       ///< mapped points of the key
+    std::vector<int>        orientations; ///< line orientations
+    std::vector<double>     hat;          ///< psi_a at the cell's vertices
+    std::vector<char>       is_free;      ///< psi_a does not vanish on its face
+    /// per local RT dof: the constraint's entries or (dof, 1)
+    std::vector<std::vector<std::pair<types::global_dof_index, double>>>
+                        expansion;
+    std::vector<double> hat_mass; ///< (psi_a, q_k)_K
+    std::vector<double> matrices; ///< of cell_matrices(), if sent
 
-    dof_handler.reinit(tria);
-    dof_handler.distribute_dofs(fe_flux);
-    owned_dofs = dof_handler.locally_owned_dofs();
-    DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_dofs);
-    hanging_constraints.clear();
-    hanging_constraints.reinit(relevant_dofs);
-    DoFTools::make_hanging_node_constraints(dof_handler, hanging_constraints);
-    hanging_constraints.close();
+    CellIterator cell; ///< on the owner only
 
-    patches.clear();
-    cell_patches.assign(tria.n_active_cells(), {});
-    n_local_solvers = 0;
-
-    // The conforming hat functions: Q1 with its hanging node constraints,
-    // one patch per unconstrained (regular) vertex, numbered by its degree
-    // of freedom. hats_of[j] lists the cells where psi_j does not vanish,
-    // with psi_j's values at their vertices.
-    DoFHandler<dim> hats(tria);
-    hats.distribute_dofs(fe_hat);
-    IndexSet relevant_hats;
-    DoFTools::extract_locally_relevant_dofs(hats, relevant_hats);
-    AffineConstraints<double> hat_constraints(relevant_hats);
-    DoFTools::make_hanging_node_constraints(hats, hat_constraints);
-    hat_constraints.close();
-
-    const unsigned int n_vertices = GeometryInfo<dim>::vertices_per_cell;
-    std::map<types::global_dof_index,
-             std::map<CellIterator, std::vector<double>>>
-                                                    hats_of;
-    std::map<types::global_dof_index, unsigned int> vertex_of;
-    for (const auto &hat_cell : hats.active_cell_iterators())
-      if (!hat_cell->is_artificial())
-        {
-          const CellIterator cell(hat_cell);
-          for (const unsigned int v : hat_cell->vertex_indices())
-            {
-              const auto i   = hat_cell->vertex_dof_index(v, 0);
-              const auto add = [&](const types::global_dof_index j,
-                                   const double                  w) {
-                auto &values = hats_of[j][cell];
-                values.resize(n_vertices, 0.);
-                values[v] = w;
-              };
-              if (hat_constraints.is_constrained(i))
-                for (const auto &[j, w] :
-                     *hat_constraints.get_constraint_entries(i))
-                  add(j, w);
-              else
-                {
-                  add(i, 1.);
-                  vertex_of[i] = hat_cell->vertex_index(v);
-                }
-            }
-        }
-
-    // A patch is complete here if every cell around a, and the finer cells
-    // beyond the hanging faces at a, are owned or ghost.
-    std::vector<bool> at_boundary(tria.n_vertices(), false);
-    for (const auto &cell : tria.active_cell_iterators())
-      if (!cell->is_artificial())
-        for (const unsigned int f : cell->face_indices())
-          if (cell->face(f)->at_boundary())
-            for (unsigned int v = 0; v < cell->face(f)->n_vertices(); ++v)
-              at_boundary[cell->face(f)->vertex_index(v)] = true;
-    const auto complete = [&](const types::global_dof_index j) {
-      const auto vertex = vertex_of.find(j);
-      if (vertex == vertex_of.end())
-        return false;
-      for (const auto &[cell, values] : hats_of[j])
-        for (const unsigned int f : cell->face_indices())
-          {
-            bool contains_a = false;
-            for (unsigned int w = 0; w < cell->face(f)->n_vertices(); ++w)
-              contains_a |= (cell->face(f)->vertex_index(w) == vertex->second);
-            if (!contains_a || cell->face(f)->at_boundary())
-              continue;
-            if (cell->face(f)->has_children())
-              {
-                for (unsigned int c = 0; c < cell->face(f)->n_children(); ++c)
-                  if (cell->neighbor_child_on_subface(f, c)->is_artificial())
-                    return false;
-              }
-            else if (cell->neighbor(f)->is_artificial())
-              return false;
-          }
-      return true;
-    };
-
-    // The lowest rank that sees a patch whole solves it.
-    LinearAlgebra::distributed::Vector<double> solver_rank(
-      hats.locally_owned_dofs(), relevant_hats, comm);
-    for (const auto j : relevant_hats)
-      solver_rank(j) = n_rank;
-    for (const auto &[j, cells] : hats_of)
-      if (!hat_constraints.is_constrained(j) && complete(j))
-        solver_rank(j) = rank;
-    solver_rank.compress(VectorOperation::min);
-    solver_rank.update_ghost_values();
-    for (const auto j : hats.locally_owned_dofs())
-      if (!hat_constraints.is_constrained(j) && solver_rank(j) == n_rank)
-        {
-          std::ostringstream where;
-          if (vertex_of.count(j))
-            where << " at " << tria.get_vertices()[vertex_of[j]];
-          AssertThrow(false,
-                      ExcMessage("Flux reconstruction: no process sees the "
-                                 "whole vertex patch" +
-                                 where.str() +
-                                 " (its hanging nodes reach beyond the ghost "
-                                 "cells); use fewer processes."));
-        }
-
-    // Each cell's share of the patch matrices, computed when a first patch
-    // needs it and kept until all patches are built.
-    CellMatrixCache cell_matrix_cache(*this, tria.n_active_cells());
-    // Patch matrices shared between patches of the same normalised shape.
-    std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
-      solvers;
-    // (Mapped points from the Q1 element: in deal.II 9.4 an FEValues of a
-    // Raviart-Thomas element that asks for mapping data only trips over the
-    // face sign changes of unstructured meshes, deal.II PR 15963.)
-    FEValues<dim> shape_values(mapping,
-                               fe_hat,
-                               QGauss<dim>(2),
-                               update_quadrature_points);
-
-    std::vector<types::global_dof_index> rt_dofs(fe_flux.n_dofs_per_cell());
-    std::vector<bool>                    on_face(fe_flux.n_dofs_per_cell());
-    for (const auto &[j, cell_hats] : hats_of)
-      {
-        if (hat_constraints.is_constrained(j) || solver_rank(j) != double(rank))
-          continue;
-        const unsigned int a = vertex_of[j];
-        Patch              patch;
-        patch.vertex          = a;
-        patch.interior        = !at_boundary[a];
-        const Point<dim> &x_a = tria.get_vertices()[a];
-
-        // Cells in a canonical order (by angle around a, then distance),
-        // so that patches of the same shape get the same local numbering.
-        std::vector<CellIterator> cells;
-        for (const auto &entry : cell_hats)
-          cells.push_back(entry.first);
-        const auto polar = [&](const CellIterator &c) {
-          const auto d = c->center() - x_a;
-          return std::make_pair(std::atan2(d[1], d[0]), d.norm());
-        };
-        std::sort(cells.begin(),
-                  cells.end(),
-                  [&](const CellIterator &c1, const CellIterator &c2) {
-                    return polar(c1) < polar(c2);
-                  });
-
-        // The free fluxes: the dofs on faces where psi_a does not vanish
-        // (the others carry sigma^a . n = 0), or their parents on the
-        // coarse side of a hanging face; and the dofs inside the cells.
-        std::set<types::global_dof_index> free;
-        for (const auto &cell : cells)
-          {
-            const auto &psi = cell_hats.at(cell);
-            typename DoFHandler<dim>::active_cell_iterator dof_cell(
-              &tria, cell->level(), cell->index(), &dof_handler);
-            dof_cell->get_dof_indices(rt_dofs);
-            std::fill(on_face.begin(), on_face.end(), false);
-            std::vector<bool> is_free(fe_flux.n_dofs_per_cell(), true);
-            for (const unsigned int f : cell->face_indices())
-              {
-                bool nonzero = false;
-                for (unsigned int w = 0; w < cell->face(f)->n_vertices(); ++w)
-                  nonzero |=
-                    psi[GeometryInfo<dim>::face_to_cell_vertices(f, w)] != 0.;
-                for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f); ++i)
-                  {
-                    const unsigned int k = fe_flux.face_to_cell_index(i, f);
-                    on_face[k]           = true;
-                    is_free[k]           = nonzero;
-                  }
-              }
-            for (unsigned int k = 0; k < fe_flux.n_dofs_per_cell(); ++k)
-              if (is_free[k])
-                {
-                  if (hanging_constraints.is_constrained(rt_dofs[k]))
-                    for (const auto &entry :
-                         *hanging_constraints.get_constraint_entries(
-                           rt_dofs[k]))
-                      free.insert(entry.first);
-                  else
-                    free.insert(rt_dofs[k]);
-                }
-          }
-
-        std::map<types::global_dof_index, unsigned int> sigma_numbers;
-        const auto number = [&](const types::global_dof_index g) {
-          const auto inserted =
-            sigma_numbers.emplace(g, (unsigned int)patch.sigma_dofs.size());
-          if (inserted.second)
-            patch.sigma_dofs.push_back(g);
-          return inserted.first->second;
-        };
-        patch.n_q = 0;
-        for (const auto &cell : cells)
-          {
-            PatchCell patch_cell;
-            patch_cell.cell = cell;
-            patch_cell.hat  = cell_hats.at(cell);
-            typename DoFHandler<dim>::active_cell_iterator dof_cell(
-              &tria, cell->level(), cell->index(), &dof_handler);
-            dof_cell->get_dof_indices(rt_dofs);
-            patch_cell.sigma_index.resize(fe_flux.n_dofs_per_cell());
-            for (unsigned int k = 0; k < fe_flux.n_dofs_per_cell(); ++k)
-              if (hanging_constraints.is_constrained(rt_dofs[k]))
-                {
-                  for (const auto &[g, w] :
-                       *hanging_constraints.get_constraint_entries(rt_dofs[k]))
-                    if (free.count(g))
-                      patch_cell.sigma_index[k].emplace_back(number(g), w);
-                }
-              else if (free.count(rt_dofs[k]))
-                patch_cell.sigma_index[k].emplace_back(number(rt_dofs[k]), 1.);
-            patch_cell.q_offset = patch.n_q;
-            patch.n_q += fe_divergence.n_dofs_per_cell();
-            patch.cells.push_back(patch_cell);
-          }
-
-        // The shape of the patch, normalised by its size: quadrature
-        // points relative to a, line orientations, psi_a, free fluxes.
-        double h = 0;
-        for (const auto &cell : cells)
-          h = std::max(h, cell->diameter());
-        std::vector<std::int64_t> key = {patch.interior,
-                                         std::int64_t(cells.size())};
-        for (const auto &patch_cell : patch.cells)
-          {
-            shape_values.reinit(patch_cell.cell);
-            for (const auto &x : shape_values.get_quadrature_points())
-              for (unsigned int d = 0; d < dim; ++d)
-                key.push_back(std::llround((x[d] - x_a[d]) / h * 1e9));
-            for (const unsigned int l : patch_cell.cell->line_indices())
-              key.push_back(patch_cell.cell->line_orientation(l));
-            for (const double value : patch_cell.hat)
-              key.push_back(std::llround(value * 1e9));
-            for (const auto &expansion : patch_cell.sigma_index)
-              {
-                key.push_back(-1);
-                for (const auto &[I, w] : expansion)
-                  {
-                    key.push_back(I);
-                    key.push_back(std::llround(w * 1e9));
-                  }
-              }
-          }
-        auto &solver = solvers[key];
-        if (!solver)
-          {
-            solver = make_local_solver(patch, cell_matrix_cache);
-            ++n_local_solvers;
-          }
-        patch.solver = solver;
-
-        const unsigned int patch_number = patches.size();
-        for (unsigned int c = 0; c < patch.cells.size(); ++c)
-          cell_patches[patch.cells[c].cell->active_cell_index()].emplace_back(
-            patch_number, c);
-        patches.push_back(std::move(patch));
-      }
-    hats.clear();
-  }
-
-
-  // What a cell contributes to the matrices of the patches it belongs to:
-  // the RT mass matrix (tau_j, tau_i)_K, the divergence coupling (div
-  // tau_i, q_k)_K and the means (1, q_k)_K, computed once per cell (a cell
-  // is in up to 2^dim patches, and FEValues of the RT element on curved
-  // cells is the expensive part of a patch matrix).
-  template <int dim>
-  struct FluxReconstruction<dim>::CellMatrices
-  {
-    FullMatrix<double> mass;
-    FullMatrix<double> divergence; ///< [k][i]
-    Vector<double>     mean;
+    template <class Archive>
+    void
+    serialize(Archive &ar, const unsigned int)
+    {
+      ar &patch &center &diameter &points &orientations &hat &is_free &expansion
+        &hat_mass &matrices;
+    }
   };
 
 
@@ -370,25 +114,350 @@ namespace VI
     {
     }
 
-    FEValues<dim>                              flux_values, q_values;
-    std::vector<std::unique_ptr<CellMatrices>> entries;
+    FEValues<dim>                    flux_values, q_values;
+    std::vector<std::vector<double>> entries;
   };
 
 
   template <int dim>
-  const typename FluxReconstruction<dim>::CellMatrices &
+  void
+  FluxReconstruction<dim>::reinit(const DoFHandler<dim> &potential)
+  {
+    const Triangulation<dim> &tria   = potential.get_triangulation();
+    const MPI_Comm            comm   = potential.get_communicator();
+    const unsigned int        rank   = Utilities::MPI::this_mpi_process(comm);
+    const unsigned int        n_rank = Utilities::MPI::n_mpi_processes(comm);
+
+    dof_handler.reinit(tria);
+    dof_handler.distribute_dofs(fe_flux);
+    owned_dofs = dof_handler.locally_owned_dofs();
+    DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_dofs);
+    hanging_constraints.clear();
+    hanging_constraints.reinit(relevant_dofs);
+    DoFTools::make_hanging_node_constraints(dof_handler, hanging_constraints);
+    hanging_constraints.close();
+
+    patches.clear();
+    memberships.assign(tria.n_active_cells(), {});
+    n_sent.clear();
+    received.clear();
+    n_local_solvers = 0;
+
+    // The conforming hat functions: Q1 with its hanging node constraints,
+    // one patch per unconstrained (regular) vertex, numbered by its degree
+    // of freedom and solved by the owner of that degree of freedom (who
+    // owns a cell at the vertex).
+    DoFHandler<dim> hats(tria);
+    hats.distribute_dofs(fe_hat);
+    IndexSet relevant_hats;
+    DoFTools::extract_locally_relevant_dofs(hats, relevant_hats);
+    AffineConstraints<double> hat_constraints(relevant_hats);
+    DoFTools::make_hanging_node_constraints(hats, hat_constraints);
+    hat_constraints.close();
+
+    const unsigned int n_vertices = GeometryInfo<dim>::vertices_per_cell;
+    const unsigned int n_tau      = fe_flux.n_dofs_per_cell();
+    const unsigned int n_q        = fe_divergence.n_dofs_per_cell();
+    CellMatrixCache    cache(*this, tria.n_active_cells());
+    // (Mapped points from the Q1 element: in deal.II 9.4 an FEValues of a
+    // Raviart-Thomas element that asks for mapping data only trips over the
+    // face sign changes of unstructured meshes, deal.II PR 15963.)
+    FEValues<dim> shape_values(mapping,
+                               fe_hat,
+                               QGauss<dim>(2),
+                               update_quadrature_points);
+    FEValues<dim> hat_values(mapping, fe_hat, quadrature, update_values);
+    FEValues<dim> q_values(mapping,
+                           fe_divergence,
+                           quadrature,
+                           update_values | update_JxW_values);
+    std::vector<types::global_dof_index> rt_dofs(n_tau);
+
+    // The shares of the owned cells, psi_j on a cell being the Q1 function
+    // with value 1 at the vertex of j and the constraint weights at the
+    // hanging vertices that depend on j.
+    std::vector<CellShare>                          shares;
+    std::map<types::global_dof_index, unsigned int> vertex_of;
+    for (const auto &hat_cell : hats.active_cell_iterators())
+      if (hat_cell->is_locally_owned())
+        {
+          const CellIterator                                     cell(hat_cell);
+          std::map<types::global_dof_index, std::vector<double>> psi;
+          for (const unsigned int v : hat_cell->vertex_indices())
+            {
+              const auto i   = hat_cell->vertex_dof_index(v, 0);
+              const auto add = [&](const types::global_dof_index j,
+                                   const double                  w) {
+                auto &values = psi[j];
+                values.resize(n_vertices, 0.);
+                values[v] = w;
+              };
+              if (hat_constraints.is_constrained(i))
+                for (const auto &[j, w] :
+                     *hat_constraints.get_constraint_entries(i))
+                  add(j, w);
+              else
+                {
+                  add(i, 1.);
+                  vertex_of[i] = hat_cell->vertex_index(v);
+                }
+            }
+
+          typename DoFHandler<dim>::active_cell_iterator dof_cell(&tria,
+                                                                  cell->level(),
+                                                                  cell->index(),
+                                                                  &dof_handler);
+          dof_cell->get_dof_indices(rt_dofs);
+          shape_values.reinit(cell);
+          hat_values.reinit(cell);
+          q_values.reinit(cell);
+          // (phi_v, q_k)_K for the Q1 shape functions phi_v
+          FullMatrix<double> vertex_mass(n_vertices, n_q);
+          for (const unsigned int q : q_values.quadrature_point_indices())
+            for (unsigned int v = 0; v < n_vertices; ++v)
+              for (unsigned int k = 0; k < n_q; ++k)
+                vertex_mass(v, k) += hat_values.shape_value(v, q) *
+                                     q_values.shape_value(k, q) *
+                                     q_values.JxW(q);
+
+          for (auto &[j, values] : psi)
+            {
+              CellShare share;
+              share.patch = j;
+              share.cell  = cell;
+              for (unsigned int d = 0; d < dim; ++d)
+                share.center.push_back(cell->center()[d]);
+              share.diameter = cell->diameter();
+              for (const auto &x : shape_values.get_quadrature_points())
+                for (unsigned int d = 0; d < dim; ++d)
+                  share.points.push_back(x[d]);
+              for (const unsigned int l : cell->line_indices())
+                share.orientations.push_back(cell->line_orientation(l));
+              share.hat = std::move(values);
+
+              // The dofs on faces where psi_j vanishes carry
+              // sigma^a . n = 0; the others, and those inside, are free.
+              share.is_free.assign(n_tau, 1);
+              for (const unsigned int f : cell->face_indices())
+                {
+                  bool nonzero = false;
+                  for (unsigned int w = 0; w < cell->face(f)->n_vertices(); ++w)
+                    nonzero |=
+                      share
+                        .hat[GeometryInfo<dim>::face_to_cell_vertices(f, w)] !=
+                      0.;
+                  for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f); ++i)
+                    share.is_free[fe_flux.face_to_cell_index(i, f)] = nonzero;
+                }
+              share.expansion.resize(n_tau);
+              for (unsigned int k = 0; k < n_tau; ++k)
+                if (hanging_constraints.is_constrained(rt_dofs[k]))
+                  share.expansion[k] =
+                    *hanging_constraints.get_constraint_entries(rt_dofs[k]);
+                else
+                  share.expansion[k] = {{rt_dofs[k], 1.}};
+
+              share.hat_mass.assign(n_q, 0.);
+              for (unsigned int v = 0; v < n_vertices; ++v)
+                for (unsigned int k = 0; k < n_q; ++k)
+                  share.hat_mass[k] += share.hat[v] * vertex_mass(v, k);
+              shares.push_back(std::move(share));
+            }
+        }
+
+    // Send the shares of patches solved elsewhere, with the cell matrices.
+    IndexSet patch_hats(hats.n_dofs());
+    for (const auto &share : shares)
+      patch_hats.add_index(share.patch);
+    const std::vector<unsigned int> owners =
+      Utilities::MPI::compute_index_owner(hats.locally_owned_dofs(),
+                                          patch_hats,
+                                          comm);
+    std::map<unsigned int, std::vector<CellShare>> outgoing;
+    std::vector<const CellShare *>                 to_solve_here;
+    for (auto &share : shares)
+      {
+        const unsigned int owner =
+          owners[patch_hats.index_within_set(share.patch)];
+        if (owner == rank)
+          to_solve_here.push_back(&share);
+        else
+          {
+            share.matrices = cell_matrices(share.cell, cache);
+            memberships[share.cell->active_cell_index()].push_back(
+              {owner, n_sent[owner]++, 0, share.hat});
+            outgoing[owner].push_back(share);
+          }
+      }
+    std::map<unsigned int, std::vector<CellShare>> incoming;
+    if (n_rank > 1)
+      incoming = Utilities::MPI::some_to_some(comm, outgoing);
+    outgoing.clear();
+    std::map<types::global_dof_index,
+             std::vector<std::pair<const CellShare *, unsigned int>>>
+      shares_of;
+    for (const CellShare *share : to_solve_here)
+      shares_of[share->patch].emplace_back(share, rank);
+    for (const auto &[from, list] : incoming)
+      {
+        received[from].resize(list.size());
+        for (const auto &share : list)
+          shares_of[share.patch].emplace_back(&share, from);
+      }
+
+    std::vector<bool> at_boundary(tria.n_vertices(), false);
+    for (const auto &cell : tria.active_cell_iterators())
+      if (!cell->is_artificial())
+        for (const unsigned int f : cell->face_indices())
+          if (cell->face(f)->at_boundary())
+            for (unsigned int v = 0; v < cell->face(f)->n_vertices(); ++v)
+              at_boundary[cell->face(f)->vertex_index(v)] = true;
+
+    // Patch matrices shared between patches of the same normalised shape.
+    std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
+                                         solvers;
+    IndexSet                             patch_dofs(dof_handler.n_dofs());
+    std::map<unsigned int, unsigned int> next_received;
+    for (auto &[j, list] : shares_of)
+      {
+        const unsigned int a = vertex_of.at(j);
+        Patch              patch;
+        patch.vertex          = a;
+        patch.interior        = !at_boundary[a];
+        const Point<dim> &x_a = tria.get_vertices()[a];
+
+        // Cells in a canonical order (by angle around a, then distance),
+        // so that patches of the same shape get the same local numbering.
+        const auto polar = [&](const CellShare *share) {
+          Tensor<1, dim> d;
+          for (unsigned int k = 0; k < dim; ++k)
+            d[k] = share->center[k] - x_a[k];
+          return std::make_pair(std::atan2(d[1], d[0]), d.norm());
+        };
+        std::sort(list.begin(),
+                  list.end(),
+                  [&](const auto &s1, const auto &s2) {
+                    return polar(s1.first) < polar(s2.first);
+                  });
+
+        // The free fluxes: the dofs on faces where psi_a does not vanish,
+        // or their parents on the coarse side of a hanging face.
+        std::set<types::global_dof_index> free;
+        for (const auto &[share, from] : list)
+          for (unsigned int k = 0; k < n_tau; ++k)
+            if (share->is_free[k])
+              for (const auto &entry : share->expansion[k])
+                free.insert(entry.first);
+
+        std::map<types::global_dof_index, unsigned int> sigma_numbers;
+        const auto number = [&](const types::global_dof_index g) {
+          const auto inserted =
+            sigma_numbers.emplace(g, (unsigned int)patch.sigma_dofs.size());
+          if (inserted.second)
+            patch.sigma_dofs.push_back(g);
+          return inserted.first->second;
+        };
+        patch.n_q = 0;
+        for (const auto &[share, from] : list)
+          {
+            PatchCell patch_cell;
+            patch_cell.sigma_index.resize(n_tau);
+            for (unsigned int k = 0; k < n_tau; ++k)
+              for (const auto &[g, w] : share->expansion[k])
+                if (free.count(g))
+                  patch_cell.sigma_index[k].emplace_back(number(g), w);
+            patch_cell.q_offset = patch.n_q;
+            patch_cell.hat_mass = share->hat_mass;
+            patch.n_q += n_q;
+            patch.cells.push_back(std::move(patch_cell));
+          }
+
+        // The shape of the patch, normalised by its size: quadrature
+        // points relative to a, line orientations, psi_a, free fluxes.
+        double h = 0;
+        for (const auto &[share, from] : list)
+          h = std::max(h, share->diameter);
+        std::vector<std::int64_t> key = {patch.interior,
+                                         std::int64_t(list.size())};
+        for (unsigned int c = 0; c < list.size(); ++c)
+          {
+            const CellShare &share = *list[c].first;
+            for (unsigned int i = 0; i < share.points.size(); ++i)
+              key.push_back(
+                std::llround((share.points[i] - x_a[i % dim]) / h * 1e9));
+            key.insert(key.end(),
+                       share.orientations.begin(),
+                       share.orientations.end());
+            for (const double value : share.hat)
+              key.push_back(std::llround(value * 1e9));
+            for (const auto &expansion : patch.cells[c].sigma_index)
+              {
+                key.push_back(-1);
+                for (const auto &[I, w] : expansion)
+                  {
+                    key.push_back(I);
+                    key.push_back(std::llround(w * 1e9));
+                  }
+              }
+          }
+        auto &solver = solvers[key];
+        if (!solver)
+          {
+            std::vector<const std::vector<double> *> matrices;
+            for (const auto &[share, from] : list)
+              matrices.push_back(from == rank ?
+                                   &cell_matrices(share->cell, cache) :
+                                   &share->matrices);
+            solver = make_local_solver(patch, matrices);
+            ++n_local_solvers;
+          }
+        patch.solver = solver;
+
+        // Where the right-hand sides of the cells come from.
+        const unsigned int patch_number = patches.size();
+        for (unsigned int c = 0; c < list.size(); ++c)
+          {
+            const auto &[share, from] = list[c];
+            if (from == rank)
+              memberships[share->cell->active_cell_index()].push_back(
+                {rank, patch_number, c, share->hat});
+            else
+              {
+                // shares from one rank arrive in the order they were sent
+                const unsigned int i = share - incoming.at(from).data();
+                received[from][i]    = {patch_number, c};
+                ++next_received[from];
+              }
+          }
+        for (const auto g : patch.sigma_dofs)
+          patch_dofs.add_index(g);
+        patches.push_back(std::move(patch));
+      }
+    for (const auto &[from, list] : incoming)
+      AssertThrow(next_received[from] == list.size(),
+                  ExcMessage("Flux reconstruction: a cell share sent to this "
+                             "process belongs to no patch solved here."));
+    writable_dofs = relevant_dofs;
+    writable_dofs.add_indices(patch_dofs);
+    hats.clear();
+  }
+
+
+  template <int dim>
+  const std::vector<double> &
   FluxReconstruction<dim>::cell_matrices(const CellIterator &cell,
                                          CellMatrixCache    &cache) const
   {
     auto &entry = cache.entries[cell->active_cell_index()];
-    if (entry)
-      return *entry;
-    entry                    = std::make_unique<CellMatrices>();
+    if (!entry.empty())
+      return entry;
     const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
                        n_q   = fe_divergence.n_dofs_per_cell();
-    entry->mass.reinit(n_tau, n_tau);
-    entry->divergence.reinit(n_q, n_tau);
-    entry->mean.reinit(n_q);
+    // mass (n_tau x n_tau), then divergence [k][i] (n_q x n_tau), then mean
+    entry.assign(n_tau * n_tau + n_q * n_tau + n_q, 0.);
+    double *const mass       = entry.data();
+    double *const divergence = mass + n_tau * n_tau;
+    double *const mean       = divergence + n_q * n_tau;
 
     FEValues<dim>                   &flux_values = cache.flux_values;
     FEValues<dim>                   &q_values    = cache.q_values;
@@ -407,16 +476,16 @@ namespace VI
           }
         for (unsigned int i = 0; i < n_tau; ++i)
           for (unsigned int j = 0; j < n_tau; ++j)
-            entry->mass(i, j) += tau[i] * tau[j] * dx;
+            mass[i * n_tau + j] += tau[i] * tau[j] * dx;
         for (unsigned int k = 0; k < n_q; ++k)
           {
             const double q_k = q_values.shape_value(k, q) * dx;
-            entry->mean(k) += q_k;
+            mean[k] += q_k;
             for (unsigned int i = 0; i < n_tau; ++i)
-              entry->divergence(k, i) += div_tau[i] * q_k;
+              divergence[k * n_tau + i] += div_tau[i] * q_k;
           }
       }
-    return *entry;
+    return entry;
   }
 
 
@@ -426,8 +495,9 @@ namespace VI
   // mean-value condition (gamma, 1) = 0 with m_q = (1, q).
   template <int dim>
   std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
-  FluxReconstruction<dim>::make_local_solver(const Patch     &patch,
-                                             CellMatrixCache &cache) const
+  FluxReconstruction<dim>::make_local_solver(
+    const Patch                                    &patch,
+    const std::vector<const std::vector<double> *> &cell_matrices) const
   {
     const unsigned int n_sigma = patch.sigma_dofs.size();
     const unsigned int n       = n_sigma + patch.n_q + (patch.interior ? 1 : 0);
@@ -437,18 +507,21 @@ namespace VI
 
     const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
                        n_q   = fe_divergence.n_dofs_per_cell();
-    for (const auto &patch_cell : patch.cells)
+    for (unsigned int c = 0; c < patch.cells.size(); ++c)
       {
-        const CellMatrices &local = cell_matrices(patch_cell.cell, cache);
+        const PatchCell &patch_cell = patch.cells[c];
+        const double    *mass       = cell_matrices[c]->data();
+        const double    *divergence = mass + n_tau * n_tau;
+        const double    *mean       = divergence + n_q * n_tau;
         for (unsigned int i = 0; i < n_tau; ++i)
           for (const auto &[I, w_i] : patch_cell.sigma_index[i])
             {
               for (unsigned int j = 0; j < n_tau; ++j)
                 for (const auto &[J, w_j] : patch_cell.sigma_index[j])
-                  matrix(I, J) += w_i * w_j * local.mass(i, j);
+                  matrix(I, J) += w_i * w_j * mass[i * n_tau + j];
               for (unsigned int k = 0; k < n_q; ++k)
                 {
-                  const double       b = w_i * local.divergence(k, i);
+                  const double       b = w_i * divergence[k * n_tau + i];
                   const unsigned int K = n_sigma + patch_cell.q_offset + k;
                   matrix(K, I) += b;
                   matrix(I, K) += b;
@@ -458,13 +531,40 @@ namespace VI
           for (unsigned int k = 0; k < n_q; ++k)
             {
               const unsigned int K = n_sigma + patch_cell.q_offset + k;
-              matrix(K, n - 1) += local.mean(k);
-              matrix(n - 1, K) += local.mean(k);
+              matrix(K, n - 1) += mean[k];
+              matrix(n - 1, K) += mean[k];
             }
       }
 
     matrix.compute_lu_factorization();
     return solver;
+  }
+
+
+  // values[f (n_tau + n_q) + j] = -(psi_a F_f, tau_j)_K and
+  // values[f (n_tau + n_q) + n_tau + k] = (s_f psi_a - F_f . grad psi_a,
+  // q_k)_K.
+  template <int dim>
+  void
+  FluxReconstruction<dim>::add_cell_share(const unsigned int        p,
+                                          const unsigned int        position,
+                                          const double             *values,
+                                          const unsigned int        n_fields,
+                                          LAPACKFullMatrix<double> &rhs) const
+  {
+    const Patch       &patch      = patches[p];
+    const PatchCell   &patch_cell = patch.cells[position];
+    const unsigned int n_tau      = fe_flux.n_dofs_per_cell(),
+                       n_q        = fe_divergence.n_dofs_per_cell();
+    const unsigned int n_sigma    = patch.sigma_dofs.size();
+    for (unsigned int f = 0; f < n_fields; ++f, values += n_tau + n_q)
+      {
+        for (unsigned int j = 0; j < n_tau; ++j)
+          for (const auto &[J, w] : patch_cell.sigma_index[j])
+            rhs(J, f) += w * values[j];
+        for (unsigned int k = 0; k < n_q; ++k)
+          rhs(n_sigma + patch_cell.q_offset + k, f) += values[n_tau + k];
+      }
   }
 
 
@@ -475,13 +575,21 @@ namespace VI
     const std::vector<TrilinosWrappers::MPI::Vector *> &sigma) const
   {
     const MPI_Comm     comm     = dof_handler.get_communicator();
+    const unsigned int rank     = Utilities::MPI::this_mpi_process(comm);
     const unsigned int n_fields = sources.n_fields;
+    const unsigned int n_tau    = fe_flux.n_dofs_per_cell(),
+                       n_q      = fe_divergence.n_dofs_per_cell();
+    const unsigned int record   = (n_tau + n_q) * n_fields;
     AssertDimension(sigma.size(), n_fields);
 
-    // Right-hand sides of all patches, one column per field.
+    // Right-hand sides of all patches solved here, one column per field,
+    // and those of owned cells in patches solved elsewhere.
     std::vector<LAPACKFullMatrix<double>> rhs(patches.size());
     for (unsigned int p = 0; p < patches.size(); ++p)
       rhs[p].reinit(patches[p].solver->lu.m(), n_fields);
+    std::map<unsigned int, std::vector<double>> outgoing;
+    for (const auto &[to, n] : n_sent)
+      outgoing[to].assign(n * record, 0.);
 
     FEValues<dim> flux_values(mapping,
                               fe_flux,
@@ -497,67 +605,103 @@ namespace VI
       n_fields, std::vector<Tensor<1, dim>>(quadrature.size()));
     std::vector<std::vector<double>> source(
       n_fields, std::vector<double>(quadrature.size()));
-    std::vector<Tensor<1, dim>> tau(fe_flux.n_dofs_per_cell());
+    std::vector<Tensor<1, dim>> tau(n_tau);
+    std::vector<double>         cell_rhs;
 
-    // One pass over the cells: each cell adds its part of the right-hand
-    // sides of the patches it belongs to.
+    // One pass over the owned cells: each cell computes its part of the
+    // right-hand sides of the patches it belongs to.
     for (const auto &cell :
          dof_handler.get_triangulation().active_cell_iterators())
       {
-        if (cell->is_artificial())
+        if (!cell->is_locally_owned())
           continue;
-        const auto &memberships = cell_patches[cell->active_cell_index()];
-        if (memberships.empty())
+        const auto &parts = memberships[cell->active_cell_index()];
+        if (parts.empty())
           continue;
         flux_values.reinit(cell);
         hat_values.reinit(cell);
         q_values.reinit(cell);
         sources.cell_values(cell, flux, source);
+        cell_rhs.assign(parts.size() * record, 0.);
 
         for (const unsigned int q : flux_values.quadrature_point_indices())
           {
             const double dx = flux_values.JxW(q);
             for (const unsigned int j : flux_values.dof_indices())
               tau[j] = flux_values[flux_extractor].value(j, q);
-            for (const auto &[p, c] : memberships)
+            for (unsigned int m = 0; m < parts.size(); ++m)
               {
-                const Patch       &patch      = patches[p];
-                const PatchCell   &patch_cell = patch.cells[c];
-                const unsigned int n_sigma    = patch.sigma_dofs.size();
-                double             psi        = 0;
-                Tensor<1, dim>     grad_psi;
-                for (unsigned int v = 0; v < patch_cell.hat.size(); ++v)
-                  if (patch_cell.hat[v] != 0.)
+                double         psi = 0;
+                Tensor<1, dim> grad_psi;
+                for (unsigned int v = 0; v < parts[m].hat.size(); ++v)
+                  if (parts[m].hat[v] != 0.)
                     {
-                      psi += patch_cell.hat[v] * hat_values.shape_value(v, q);
-                      grad_psi +=
-                        patch_cell.hat[v] * hat_values.shape_grad(v, q);
+                      psi += parts[m].hat[v] * hat_values.shape_value(v, q);
+                      grad_psi += parts[m].hat[v] * hat_values.shape_grad(v, q);
                     }
-                for (unsigned int f = 0; f < n_fields; ++f)
+                double *values = cell_rhs.data() + m * record;
+                for (unsigned int f = 0; f < n_fields;
+                     ++f, values += n_tau + n_q)
                   {
-                    const double c_a =
-                      sources.vertex_source ?
-                        sources.vertex_source(patch.vertex, f) :
-                        0.;
                     const Tensor<1, dim> weighted_flux = psi * dx * flux[f][q];
-                    for (const unsigned int j : flux_values.dof_indices())
-                      for (const auto &[J, w] : patch_cell.sigma_index[j])
-                        rhs[p](J, f) -= w * (weighted_flux * tau[j]);
+                    for (unsigned int j = 0; j < n_tau; ++j)
+                      values[j] -= weighted_flux * tau[j];
                     const double g =
-                      ((source[f][q] + c_a) * psi - flux[f][q] * grad_psi) * dx;
-                    for (unsigned int k = 0;
-                         k < fe_divergence.n_dofs_per_cell();
-                         ++k)
-                      rhs[p](n_sigma + patch_cell.q_offset + k, f) +=
-                        g * q_values.shape_value(k, q);
+                      (source[f][q] * psi - flux[f][q] * grad_psi) * dx;
+                    for (unsigned int k = 0; k < n_q; ++k)
+                      values[n_tau + k] += g * q_values.shape_value(k, q);
                   }
               }
           }
+        for (unsigned int m = 0; m < parts.size(); ++m)
+          if (parts[m].rank == rank)
+            add_cell_share(parts[m].index,
+                           parts[m].position,
+                           cell_rhs.data() + m * record,
+                           n_fields,
+                           rhs[parts[m].index]);
+          else
+            std::copy_n(cell_rhs.data() + m * record,
+                        record,
+                        outgoing[parts[m].rank].data() +
+                          parts[m].index * record);
       }
+
+    // The parts computed by the owners of cells in patches solved here.
+    if (Utilities::MPI::n_mpi_processes(comm) > 1)
+      {
+        const auto incoming = Utilities::MPI::some_to_some(comm, outgoing);
+        for (const auto &[from, values] : incoming)
+          {
+            const auto &targets = received.at(from);
+            AssertDimension(values.size(), targets.size() * record);
+            for (unsigned int i = 0; i < targets.size(); ++i)
+              add_cell_share(targets[i].first,
+                             targets[i].second,
+                             values.data() + i * record,
+                             n_fields,
+                             rhs[targets[i].first]);
+          }
+      }
+
+    // The constants c_a of the vertices: c_a (psi_a, q_k) on every cell.
+    if (sources.vertex_source)
+      for (unsigned int p = 0; p < patches.size(); ++p)
+        {
+          const Patch &patch = patches[p];
+          for (unsigned int f = 0; f < n_fields; ++f)
+            {
+              const double c_a = sources.vertex_source(patch.vertex, f);
+              for (const auto &patch_cell : patch.cells)
+                for (unsigned int k = 0; k < n_q; ++k)
+                  rhs[p](patch.sigma_dofs.size() + patch_cell.q_offset + k,
+                         f) += c_a * patch_cell.hat_mass[k];
+            }
+        }
 
     std::vector<TrilinosWrappers::MPI::Vector> accumulated(n_fields);
     for (auto &v : accumulated)
-      v.reinit(owned_dofs, relevant_dofs, comm, /*vector_writable=*/true);
+      v.reinit(owned_dofs, writable_dofs, comm, /*vector_writable=*/true);
     std::vector<double> values;
     for (unsigned int p = 0; p < patches.size(); ++p)
       {

@@ -12,6 +12,7 @@
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -59,11 +60,12 @@ namespace VI
    * vertices; RT_p(omega_a) is made H(div)-conforming across the hanging
    * faces by the hanging node constraints of FE_RaviartThomas.
    *
-   * In parallel, a patch is solved by one process that sees all of its
-   * cells (owned or ghost): the lowest rank on which it is complete. On
-   * meshes without hanging nodes that is always the case for the owner of
-   * a; with hanging nodes a patch can reach two cells beyond the ones at a,
-   * and if no process sees it whole, reinit() says so.
+   * In parallel, the process that owns the degree of freedom of psi_a
+   * solves the patch of a, and every cell's part of it (its share of the
+   * patch matrix and of the right-hand sides) is computed by the cell's
+   * owner and sent there. With hanging nodes a patch can reach two cells
+   * beyond the ones at a, past the ghost layer; no process needs to see a
+   * patch whole.
    */
   template <int dim>
   class FluxReconstruction
@@ -80,7 +82,8 @@ namespace VI
     {
       unsigned int n_fields = 1;
       /// Fill flux[c][q] = F and source[c][q] = s of field c at the points of
-      /// get_quadrature() on `cell` (owned or ghost); the vectors are sized.
+      /// get_quadrature() on `cell`, a locally owned cell (each cell is
+      /// evaluated once per reconstruction); the vectors are sized.
       std::function<void(const CellIterator &,
                          std::vector<std::vector<dealii::Tensor<1, dim>>> &flux,
                          std::vector<std::vector<double>> &source)>
@@ -138,17 +141,17 @@ namespace VI
 
   private:
     struct LocalSolver;
+    struct CellShare;
+    struct CellMatrixCache;
 
     struct PatchCell
     {
-      CellIterator cell;
-      /// psi_a on this cell: its values at the cell's vertices
-      std::vector<double> hat;
       /// local RT dof -> (index of sigma^a, weight) pairs: one pair with
       /// weight 1 for a free dof, the constraint's entries for a dof on a
       /// hanging face, none for a dof fixed to zero
       std::vector<std::vector<std::pair<unsigned int, double>>> sigma_index;
-      unsigned int q_offset; ///< first Q_p index of this cell
+      unsigned int        q_offset; ///< first Q_p index of this cell
+      std::vector<double> hat_mass; ///< (psi_a, q_k) on the cell
     };
 
     struct Patch
@@ -161,14 +164,35 @@ namespace VI
       std::shared_ptr<const LocalSolver>           solver;
     };
 
-    struct CellMatrices;
-    struct CellMatrixCache;
+    /// An owned cell's part in a patch: the patch is solved by `rank`;
+    /// here it is patch number `index` with the cell at `position`,
+    /// elsewhere `index` numbers the cell's right-hand side among those
+    /// sent to `rank`.
+    struct Membership
+    {
+      unsigned int        rank;
+      unsigned int        index;
+      unsigned int        position;
+      std::vector<double> hat; ///< psi_a at the cell's vertices
+    };
 
-    const CellMatrices &
+    /// Flattened (tau_j, tau_i)_K, (div tau_i, q_k)_K, (1, q_k)_K.
+    const std::vector<double> &
     cell_matrices(const CellIterator &cell, CellMatrixCache &cache) const;
 
     std::shared_ptr<const LocalSolver>
-    make_local_solver(const Patch &patch, CellMatrixCache &cache) const;
+    make_local_solver(
+      const Patch                                    &patch,
+      const std::vector<const std::vector<double> *> &cell_matrices) const;
+
+    /// Add one cell's right-hand sides (all fields; layout of reconstruct())
+    /// to those of patch p.
+    void
+    add_cell_share(const unsigned int                p,
+                   const unsigned int                position,
+                   const double                     *values,
+                   const unsigned int                n_fields,
+                   dealii::LAPACKFullMatrix<double> &rhs) const;
 
     const dealii::Mapping<dim>       &mapping;
     const unsigned int                degree;
@@ -180,9 +204,14 @@ namespace VI
     dealii::AffineConstraints<double> hanging_constraints; ///< of RT_p
     dealii::IndexSet                  owned_dofs, relevant_dofs;
     std::vector<Patch>                patches;
-    /// For every active cell: (patch, position in patch.cells) pairs.
-    std::vector<std::vector<std::pair<unsigned int, unsigned int>>>
-                 cell_patches;
-    unsigned int n_local_solvers = 0;
+    /// For every active cell (owned ones only): its parts in patches.
+    std::vector<std::vector<Membership>> memberships;
+    /// Right-hand sides sent to each rank per reconstruction, and for those
+    /// received from each rank, the (patch, position) they belong to.
+    std::map<unsigned int, unsigned int> n_sent;
+    std::map<unsigned int, std::vector<std::pair<unsigned int, unsigned int>>>
+                     received;
+    dealii::IndexSet writable_dofs; ///< relevant and patch dofs
+    unsigned int     n_local_solvers = 0;
   };
 } // namespace VI
