@@ -11,12 +11,13 @@
 #include <vi/flux_reconstruction.h>
 
 #include <algorithm>
+#include <array>
 #include <boost/serialization/utility.hpp>
 #include <boost/serialization/vector.hpp>
 #include <cmath>
 #include <cstdint>
 #include <map>
-#include <set>
+#include <tuple>
 
 namespace VI
 {
@@ -61,36 +62,65 @@ namespace VI
   }
 
 
-  // What the owner of a cell tells the process that solves a patch
-  // containing the cell: psi_a on the cell, which of the cell's
-  // Raviart-Thomas dofs psi_a leaves free and how they expand across
-  // hanging faces, the shape data of the patch key, (psi_a, q_k)_K, and for
-  // patches solved elsewhere the cell matrices. The solver of the patch
-  // needs nothing else of the cell, so it need not see it.
+  // What a patch needs to know of one of its cells, computed by the cell's
+  // owner: the shape data of the patch key (center, diameter, mapped
+  // points, line orientations), how its Raviart-Thomas dofs expand across
+  // hanging faces (the constraint's entries, or the dof itself), the
+  // integrals (phi_v, q_k)_K of the Q1 shape functions phi_v against Q_p,
+  // and, for a patch solved on another rank, the cell matrices. The rank
+  // that solves a patch needs nothing else of a cell, so it need not see it.
   template <int dim>
-  struct FluxReconstruction<dim>::CellShare
+  struct FluxReconstruction<dim>::CellData
   {
-    types::global_dof_index patch = 0; ///< the degree of freedom of psi_a
-    std::vector<double>     center;    ///< for the canonical cell order
-    double                  diameter = 0;
-    std::vector<double>     points;       ///< mapped points of the key
-    std::vector<int>        orientations; ///< line orientations
-    std::vector<double>     hat;          ///< psi_a at the cell's vertices
-    std::vector<char>       is_free;      ///< psi_a does not vanish on its face
-    /// per local RT dof: the constraint's entries or (dof, 1)
-    std::vector<std::vector<std::pair<types::global_dof_index, double>>>
-                        expansion;
-    std::vector<double> hat_mass; ///< (psi_a, q_k)_K
-    std::vector<double> matrices; ///< of cell_matrices(), if sent
-
-    CellIterator cell; ///< on the owner only
+    double                    center[dim] = {};
+    double                    diameter    = 0;
+    std::vector<double>       points;
+    std::vector<int>          orientations;
+    std::vector<unsigned int> expansion_start; ///< per local dof, and the end
+    std::vector<std::pair<types::global_dof_index, double>> expansion;
+    std::vector<double> vertex_mass; ///< [v n_q + k]
+    std::vector<double> matrices;    ///< of cell_matrices(), if sent
+    CellIterator        cell;        ///< on the owner only
 
     template <class Archive>
     void
     serialize(Archive &ar, const unsigned int)
     {
-      ar &patch &center &diameter &points &orientations &hat &is_free &expansion
-        &hat_mass &matrices;
+      ar &center &diameter &points &orientations &expansion_start &expansion
+        &vertex_mass &matrices;
+    }
+  };
+
+
+  // (patch, cell) pairs: share i says that psi_a of the patch numbered by
+  // the degree of freedom patch[i] does not vanish on cells[cell[i]], with
+  // the values hat[i n_v ... (i + 1) n_v - 1] at its vertices. What one
+  // rank sends another.
+  template <int dim>
+  struct FluxReconstruction<dim>::Shares
+  {
+    static constexpr unsigned int n_v = GeometryInfo<dim>::vertices_per_cell;
+
+    std::vector<CellData>                cells;
+    std::vector<types::global_dof_index> patch;
+    std::vector<unsigned int>            cell;
+    std::vector<double>                  hat;
+
+    void
+    add(const types::global_dof_index j,
+        const unsigned int            c,
+        const double                 *values)
+    {
+      patch.push_back(j);
+      cell.push_back(c);
+      hat.insert(hat.end(), values, values + n_v);
+    }
+
+    template <class Archive>
+    void
+    serialize(Archive &ar, const unsigned int)
+    {
+      ar &cells &patch &cell &hat;
     }
   };
 
@@ -155,10 +185,10 @@ namespace VI
     DoFTools::make_hanging_node_constraints(hats, hat_constraints);
     hat_constraints.close();
 
-    const unsigned int n_vertices = GeometryInfo<dim>::vertices_per_cell;
-    const unsigned int n_tau      = fe_flux.n_dofs_per_cell();
-    const unsigned int n_q        = fe_divergence.n_dofs_per_cell();
-    CellMatrixCache    cache(*this, tria.n_active_cells());
+    constexpr unsigned int n_v   = GeometryInfo<dim>::vertices_per_cell;
+    const unsigned int     n_tau = fe_flux.n_dofs_per_cell();
+    const unsigned int     n_q   = fe_divergence.n_dofs_per_cell();
+    CellMatrixCache        cache(*this, tria.n_active_cells());
     // (Mapped points from the Q1 element: in deal.II 9.4 an FEValues of a
     // Raviart-Thomas element that asks for mapping data only trips over the
     // face sign changes of unstructured meshes, deal.II PR 15963.)
@@ -173,24 +203,29 @@ namespace VI
                            update_values | update_JxW_values);
     std::vector<types::global_dof_index> rt_dofs(n_tau);
 
-    // The shares of the owned cells, psi_j on a cell being the Q1 function
-    // with value 1 at the vertex of j and the constraint weights at the
-    // hanging vertices that depend on j.
-    std::vector<CellShare>                          shares;
+    // The data and shares of the owned cells, psi_j on a cell being the Q1
+    // function with value 1 at the vertex of j and the constraint weights
+    // at the hanging vertices that depend on j.
+    Shares                                          mine;
     std::map<types::global_dof_index, unsigned int> vertex_of;
+    std::vector<std::pair<types::global_dof_index, std::array<double, n_v>>>
+      psi;
     for (const auto &hat_cell : hats.active_cell_iterators())
       if (hat_cell->is_locally_owned())
         {
-          const CellIterator                                     cell(hat_cell);
-          std::map<types::global_dof_index, std::vector<double>> psi;
+          psi.clear();
           for (const unsigned int v : hat_cell->vertex_indices())
             {
               const auto i   = hat_cell->vertex_dof_index(v, 0);
               const auto add = [&](const types::global_dof_index j,
                                    const double                  w) {
-                auto &values = psi[j];
-                values.resize(n_vertices, 0.);
-                values[v] = w;
+                auto entry =
+                  std::find_if(psi.begin(), psi.end(), [j](const auto &e) {
+                    return e.first == j;
+                  });
+                if (entry == psi.end())
+                  entry = psi.insert(psi.end(), {j, std::array<double, n_v>{}});
+                entry->second[v] = w;
               };
               if (hat_constraints.is_constrained(i))
                 for (const auto &[j, w] :
@@ -203,107 +238,110 @@ namespace VI
                 }
             }
 
+          const CellIterator cell(hat_cell);
+          CellData           data;
+          data.cell = cell;
+          for (unsigned int d = 0; d < dim; ++d)
+            data.center[d] = cell->center()[d];
+          data.diameter = cell->diameter();
+          shape_values.reinit(cell);
+          for (const auto &x : shape_values.get_quadrature_points())
+            for (unsigned int d = 0; d < dim; ++d)
+              data.points.push_back(x[d]);
+          for (const unsigned int l : cell->line_indices())
+            data.orientations.push_back(cell->line_orientation(l));
           typename DoFHandler<dim>::active_cell_iterator dof_cell(&tria,
                                                                   cell->level(),
                                                                   cell->index(),
                                                                   &dof_handler);
           dof_cell->get_dof_indices(rt_dofs);
-          shape_values.reinit(cell);
+          for (unsigned int k = 0; k < n_tau; ++k)
+            {
+              data.expansion_start.push_back(data.expansion.size());
+              if (hanging_constraints.is_constrained(rt_dofs[k]))
+                for (const auto &entry :
+                     *hanging_constraints.get_constraint_entries(rt_dofs[k]))
+                  data.expansion.push_back(entry);
+              else
+                data.expansion.emplace_back(rt_dofs[k], 1.);
+            }
+          data.expansion_start.push_back(data.expansion.size());
           hat_values.reinit(cell);
           q_values.reinit(cell);
-          // (phi_v, q_k)_K for the Q1 shape functions phi_v
-          FullMatrix<double> vertex_mass(n_vertices, n_q);
+          data.vertex_mass.assign(n_v * n_q, 0.);
           for (const unsigned int q : q_values.quadrature_point_indices())
-            for (unsigned int v = 0; v < n_vertices; ++v)
+            for (unsigned int v = 0; v < n_v; ++v)
               for (unsigned int k = 0; k < n_q; ++k)
-                vertex_mass(v, k) += hat_values.shape_value(v, q) *
-                                     q_values.shape_value(k, q) *
-                                     q_values.JxW(q);
+                data.vertex_mass[v * n_q + k] += hat_values.shape_value(v, q) *
+                                                 q_values.shape_value(k, q) *
+                                                 q_values.JxW(q);
 
-          for (auto &[j, values] : psi)
-            {
-              CellShare share;
-              share.patch = j;
-              share.cell  = cell;
-              for (unsigned int d = 0; d < dim; ++d)
-                share.center.push_back(cell->center()[d]);
-              share.diameter = cell->diameter();
-              for (const auto &x : shape_values.get_quadrature_points())
-                for (unsigned int d = 0; d < dim; ++d)
-                  share.points.push_back(x[d]);
-              for (const unsigned int l : cell->line_indices())
-                share.orientations.push_back(cell->line_orientation(l));
-              share.hat = std::move(values);
-
-              // The dofs on faces where psi_j vanishes carry
-              // sigma^a . n = 0; the others, and those inside, are free.
-              share.is_free.assign(n_tau, 1);
-              for (const unsigned int f : cell->face_indices())
-                {
-                  bool nonzero = false;
-                  for (unsigned int w = 0; w < cell->face(f)->n_vertices(); ++w)
-                    nonzero |=
-                      share
-                        .hat[GeometryInfo<dim>::face_to_cell_vertices(f, w)] !=
-                      0.;
-                  for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f); ++i)
-                    share.is_free[fe_flux.face_to_cell_index(i, f)] = nonzero;
-                }
-              share.expansion.resize(n_tau);
-              for (unsigned int k = 0; k < n_tau; ++k)
-                if (hanging_constraints.is_constrained(rt_dofs[k]))
-                  share.expansion[k] =
-                    *hanging_constraints.get_constraint_entries(rt_dofs[k]);
-                else
-                  share.expansion[k] = {{rt_dofs[k], 1.}};
-
-              share.hat_mass.assign(n_q, 0.);
-              for (unsigned int v = 0; v < n_vertices; ++v)
-                for (unsigned int k = 0; k < n_q; ++k)
-                  share.hat_mass[k] += share.hat[v] * vertex_mass(v, k);
-              shares.push_back(std::move(share));
-            }
+          for (const auto &[j, values] : psi)
+            mine.add(j, mine.cells.size(), values.data());
+          mine.cells.push_back(std::move(data));
         }
 
-    // Send the shares of patches solved elsewhere, with the cell matrices.
-    IndexSet patch_hats(hats.n_dofs());
-    for (const auto &share : shares)
-      patch_hats.add_index(share.patch);
+    // The shares of patches solved elsewhere go to their ranks, with the
+    // data (and the matrices) of their cells; the others stay.
+    // (IndexSet::add_index inserts into a sorted list: add sorted ranges.)
+    const auto index_set = [](const types::global_dof_index        size,
+                              std::vector<types::global_dof_index> indices) {
+      std::sort(indices.begin(), indices.end());
+      indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
+      IndexSet set(size);
+      set.add_indices(indices.begin(), indices.end());
+      return set;
+    };
+    const IndexSet patch_hats = index_set(hats.n_dofs(), mine.patch);
     const std::vector<unsigned int> owners =
       Utilities::MPI::compute_index_owner(hats.locally_owned_dofs(),
                                           patch_hats,
                                           comm);
-    std::map<unsigned int, std::vector<CellShare>> outgoing;
-    std::vector<const CellShare *>                 to_solve_here;
-    for (auto &share : shares)
+    std::map<unsigned int, Shares>                                outgoing;
+    std::map<std::pair<unsigned int, unsigned int>, unsigned int> sent_cell;
+    std::vector<unsigned int>                                     solved_here;
+    for (unsigned int i = 0; i < mine.patch.size(); ++i)
       {
         const unsigned int owner =
-          owners[patch_hats.index_within_set(share.patch)];
+          owners[patch_hats.index_within_set(mine.patch[i])];
+        const double *hat = &mine.hat[i * n_v];
         if (owner == rank)
-          to_solve_here.push_back(&share);
-        else
           {
-            share.matrices = cell_matrices(share.cell, cache);
-            memberships[share.cell->active_cell_index()].push_back(
-              {owner, n_sent[owner]++, 0, share.hat});
-            outgoing[owner].push_back(share);
+            solved_here.push_back(i);
+            continue;
           }
+        Shares    &to   = outgoing[owner];
+        CellData  &data = mine.cells[mine.cell[i]];
+        const auto sent = sent_cell.emplace(std::make_pair(owner, mine.cell[i]),
+                                            to.cells.size());
+        if (sent.second)
+          {
+            to.cells.push_back(data);
+            to.cells.back().matrices = cell_matrices(data.cell, cache);
+          }
+        to.add(mine.patch[i], sent.first->second, hat);
+        Membership membership{owner, n_sent[owner]++, 0, {}};
+        std::copy_n(hat, n_v, membership.hat.begin());
+        memberships[data.cell->active_cell_index()].push_back(membership);
       }
-    std::map<unsigned int, std::vector<CellShare>> incoming;
+    std::map<unsigned int, Shares> incoming;
     if (n_rank > 1)
       incoming = Utilities::MPI::some_to_some(comm, outgoing);
     outgoing.clear();
-    std::map<types::global_dof_index,
-             std::vector<std::pair<const CellShare *, unsigned int>>>
-      shares_of;
-    for (const CellShare *share : to_solve_here)
-      shares_of[share->patch].emplace_back(share, rank);
-    for (const auto &[from, list] : incoming)
+
+    // The shares solved here, (patch, rank, index in that rank's Shares),
+    // grouped by patch.
+    std::vector<std::tuple<types::global_dof_index, unsigned int, unsigned int>>
+      shares_here;
+    for (const unsigned int i : solved_here)
+      shares_here.emplace_back(mine.patch[i], rank, i);
+    for (const auto &[from, shares] : incoming)
       {
-        received[from].resize(list.size());
-        for (const auto &share : list)
-          shares_of[share.patch].emplace_back(&share, from);
+        received[from].resize(shares.patch.size());
+        for (unsigned int i = 0; i < shares.patch.size(); ++i)
+          shares_here.emplace_back(shares.patch[i], from, i);
       }
+    std::sort(shares_here.begin(), shares_here.end());
 
     std::vector<bool> at_boundary(tria.n_vertices(), false);
     for (const auto &cell : tria.active_cell_iterators())
@@ -316,10 +354,35 @@ namespace VI
     // Patch matrices shared between patches of the same normalised shape.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
                                          solvers;
-    IndexSet                             patch_dofs(dof_handler.n_dofs());
-    std::map<unsigned int, unsigned int> next_received;
-    for (auto &[j, list] : shares_of)
+    std::vector<types::global_dof_index> patch_dofs;
+    std::map<unsigned int, unsigned int> n_received;
+
+    // Per patch: its cells (data, psi_a, where the share came from) in a
+    // canonical order, free dofs, their local numbers, the shape key.
+    struct Member
+    {
+      std::pair<double, double> polar;
+      const CellData           *data;
+      const double             *hat;
+      unsigned int              from, index;
+      bool
+      operator<(const Member &other) const
       {
+        return polar < other.polar;
+      }
+    };
+    std::vector<Member>                      members;
+    std::vector<types::global_dof_index>     free;
+    std::vector<bool>                        is_free(n_tau);
+    std::vector<std::int64_t>                key;
+    std::vector<const std::vector<double> *> matrices;
+    for (auto first = shares_here.begin(); first != shares_here.end();)
+      {
+        const types::global_dof_index j    = std::get<0>(*first);
+        auto                          last = first;
+        while (last != shares_here.end() && std::get<0>(*last) == j)
+          ++last;
+
         const unsigned int a = vertex_of.at(j);
         Patch              patch;
         patch.vertex          = a;
@@ -328,46 +391,96 @@ namespace VI
 
         // Cells in a canonical order (by angle around a, then distance),
         // so that patches of the same shape get the same local numbering.
-        const auto polar = [&](const CellShare *share) {
-          Tensor<1, dim> d;
-          for (unsigned int k = 0; k < dim; ++k)
-            d[k] = share->center[k] - x_a[k];
-          return std::make_pair(std::atan2(d[1], d[0]), d.norm());
-        };
-        std::sort(list.begin(),
-                  list.end(),
-                  [&](const auto &s1, const auto &s2) {
-                    return polar(s1.first) < polar(s2.first);
-                  });
+        members.clear();
+        for (auto share = first; share != last; ++share)
+          {
+            const auto [patch_dof, from, index] = *share;
+            const Shares &shares = from == rank ? mine : incoming.at(from);
+            Member        member;
+            member.data  = &shares.cells[shares.cell[index]];
+            member.hat   = &shares.hat[index * n_v];
+            member.from  = from;
+            member.index = index;
+            Tensor<1, dim> d;
+            for (unsigned int k = 0; k < dim; ++k)
+              d[k] = member.data->center[k] - x_a[k];
+            member.polar = {std::atan2(d[1], d[0]), d.norm()};
+            members.push_back(member);
+          }
+        std::sort(members.begin(), members.end());
+        first = last;
 
-        // The free fluxes: the dofs on faces where psi_a does not vanish,
-        // or their parents on the coarse side of a hanging face.
-        std::set<types::global_dof_index> free;
-        for (const auto &[share, from] : list)
-          for (unsigned int k = 0; k < n_tau; ++k)
-            if (share->is_free[k])
-              for (const auto &entry : share->expansion[k])
-                free.insert(entry.first);
+        // The free fluxes: the dofs on faces where psi_a does not vanish
+        // (the others carry sigma^a . n = 0), or their parents on the
+        // coarse side of a hanging face; and the dofs inside the cells.
+        free.clear();
+        for (const Member &member : members)
+          {
+            std::fill(is_free.begin(), is_free.end(), true);
+            for (const unsigned int f : GeometryInfo<dim>::face_indices())
+              {
+                bool nonzero = false;
+                for (unsigned int w = 0;
+                     w < GeometryInfo<dim>::vertices_per_face;
+                     ++w)
+                  nonzero |=
+                    member
+                      .hat[GeometryInfo<dim>::face_to_cell_vertices(f, w)] !=
+                    0.;
+                for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f); ++i)
+                  is_free[fe_flux.face_to_cell_index(i, f)] = nonzero;
+              }
+            for (unsigned int k = 0; k < n_tau; ++k)
+              if (is_free[k])
+                for (unsigned int e = member.data->expansion_start[k];
+                     e < member.data->expansion_start[k + 1];
+                     ++e)
+                  free.push_back(member.data->expansion[e].first);
+          }
+        std::sort(free.begin(), free.end());
+        free.erase(std::unique(free.begin(), free.end()), free.end());
 
-        std::map<types::global_dof_index, unsigned int> sigma_numbers;
+        // sigma^a's unknowns are the free dofs, numbered as first met.
+        std::vector<unsigned int> numbers(free.size(),
+                                          numbers::invalid_unsigned_int);
         const auto number = [&](const types::global_dof_index g) {
-          const auto inserted =
-            sigma_numbers.emplace(g, (unsigned int)patch.sigma_dofs.size());
-          if (inserted.second)
-            patch.sigma_dofs.push_back(g);
-          return inserted.first->second;
+          const auto position = std::lower_bound(free.begin(), free.end(), g);
+          if (position == free.end() || *position != g)
+            return numbers::invalid_unsigned_int;
+          unsigned int &n = numbers[position - free.begin()];
+          if (n == numbers::invalid_unsigned_int)
+            {
+              n = patch.sigma_dofs.size();
+              patch.sigma_dofs.push_back(g);
+            }
+          return n;
         };
         patch.n_q = 0;
-        for (const auto &[share, from] : list)
+        for (const Member &member : members)
           {
             PatchCell patch_cell;
-            patch_cell.sigma_index.resize(n_tau);
+            patch_cell.sigma_start.reserve(n_tau + 1);
             for (unsigned int k = 0; k < n_tau; ++k)
-              for (const auto &[g, w] : share->expansion[k])
-                if (free.count(g))
-                  patch_cell.sigma_index[k].emplace_back(number(g), w);
+              {
+                patch_cell.sigma_start.push_back(
+                  patch_cell.sigma_entries.size());
+                for (unsigned int e = member.data->expansion_start[k];
+                     e < member.data->expansion_start[k + 1];
+                     ++e)
+                  {
+                    const auto &[g, w]   = member.data->expansion[e];
+                    const unsigned int I = number(g);
+                    if (I != numbers::invalid_unsigned_int)
+                      patch_cell.sigma_entries.emplace_back(I, w);
+                  }
+              }
+            patch_cell.sigma_start.push_back(patch_cell.sigma_entries.size());
             patch_cell.q_offset = patch.n_q;
-            patch_cell.hat_mass = share->hat_mass;
+            patch_cell.hat_mass.assign(n_q, 0.);
+            for (unsigned int v = 0; v < n_v; ++v)
+              for (unsigned int k = 0; k < n_q; ++k)
+                patch_cell.hat_mass[k] +=
+                  member.hat[v] * member.data->vertex_mass[v * n_q + k];
             patch.n_q += n_q;
             patch.cells.push_back(std::move(patch_cell));
           }
@@ -375,39 +488,42 @@ namespace VI
         // The shape of the patch, normalised by its size: quadrature
         // points relative to a, line orientations, psi_a, free fluxes.
         double h = 0;
-        for (const auto &[share, from] : list)
-          h = std::max(h, share->diameter);
-        std::vector<std::int64_t> key = {patch.interior,
-                                         std::int64_t(list.size())};
-        for (unsigned int c = 0; c < list.size(); ++c)
+        for (const Member &member : members)
+          h = std::max(h, member.data->diameter);
+        key.assign({patch.interior, std::int64_t(members.size())});
+        for (unsigned int c = 0; c < members.size(); ++c)
           {
-            const CellShare &share = *list[c].first;
-            for (unsigned int i = 0; i < share.points.size(); ++i)
+            const CellData &data = *members[c].data;
+            for (unsigned int i = 0; i < data.points.size(); ++i)
               key.push_back(
-                std::llround((share.points[i] - x_a[i % dim]) / h * 1e9));
+                std::llround((data.points[i] - x_a[i % dim]) / h * 1e9));
             key.insert(key.end(),
-                       share.orientations.begin(),
-                       share.orientations.end());
-            for (const double value : share.hat)
-              key.push_back(std::llround(value * 1e9));
-            for (const auto &expansion : patch.cells[c].sigma_index)
+                       data.orientations.begin(),
+                       data.orientations.end());
+            for (unsigned int v = 0; v < n_v; ++v)
+              key.push_back(std::llround(members[c].hat[v] * 1e9));
+            const PatchCell &patch_cell = patch.cells[c];
+            for (unsigned int k = 0; k < n_tau; ++k)
               {
                 key.push_back(-1);
-                for (const auto &[I, w] : expansion)
+                for (unsigned int e = patch_cell.sigma_start[k];
+                     e < patch_cell.sigma_start[k + 1];
+                     ++e)
                   {
-                    key.push_back(I);
-                    key.push_back(std::llround(w * 1e9));
+                    key.push_back(patch_cell.sigma_entries[e].first);
+                    key.push_back(
+                      std::llround(patch_cell.sigma_entries[e].second * 1e9));
                   }
               }
           }
         auto &solver = solvers[key];
         if (!solver)
           {
-            std::vector<const std::vector<double> *> matrices;
-            for (const auto &[share, from] : list)
-              matrices.push_back(from == rank ?
-                                   &cell_matrices(share->cell, cache) :
-                                   &share->matrices);
+            matrices.clear();
+            for (const Member &member : members)
+              matrices.push_back(member.from == rank ?
+                                   &cell_matrices(member.data->cell, cache) :
+                                   &member.data->matrices);
             solver = make_local_solver(patch, matrices);
             ++n_local_solvers;
           }
@@ -415,30 +531,32 @@ namespace VI
 
         // Where the right-hand sides of the cells come from.
         const unsigned int patch_number = patches.size();
-        for (unsigned int c = 0; c < list.size(); ++c)
-          {
-            const auto &[share, from] = list[c];
-            if (from == rank)
-              memberships[share->cell->active_cell_index()].push_back(
-                {rank, patch_number, c, share->hat});
-            else
-              {
-                // shares from one rank arrive in the order they were sent
-                const unsigned int i = share - incoming.at(from).data();
-                received[from][i]    = {patch_number, c};
-                ++next_received[from];
-              }
-          }
-        for (const auto g : patch.sigma_dofs)
-          patch_dofs.add_index(g);
+        for (unsigned int c = 0; c < members.size(); ++c)
+          if (members[c].from == rank)
+            {
+              Membership membership{rank, patch_number, c, {}};
+              std::copy_n(members[c].hat, n_v, membership.hat.begin());
+              memberships[members[c].data->cell->active_cell_index()].push_back(
+                membership);
+            }
+          else
+            {
+              // a rank computes the right-hand sides of the shares it sent
+              // in the order it sent them
+              received[members[c].from][members[c].index] = {patch_number, c};
+              ++n_received[members[c].from];
+            }
+        patch_dofs.insert(patch_dofs.end(),
+                          patch.sigma_dofs.begin(),
+                          patch.sigma_dofs.end());
         patches.push_back(std::move(patch));
       }
-    for (const auto &[from, list] : incoming)
-      AssertThrow(next_received[from] == list.size(),
+    for (const auto &[from, shares] : incoming)
+      AssertThrow(n_received[from] == shares.patch.size(),
                   ExcMessage("Flux reconstruction: a cell share sent to this "
                              "process belongs to no patch solved here."));
     writable_dofs = relevant_dofs;
-    writable_dofs.add_indices(patch_dofs);
+    writable_dofs.add_indices(index_set(dof_handler.n_dofs(), patch_dofs));
     hats.clear();
   }
 
@@ -513,12 +631,16 @@ namespace VI
         const double    *mass       = cell_matrices[c]->data();
         const double    *divergence = mass + n_tau * n_tau;
         const double    *mean       = divergence + n_q * n_tau;
+        const auto      &start      = patch_cell.sigma_start;
+        const auto      &entries    = patch_cell.sigma_entries;
         for (unsigned int i = 0; i < n_tau; ++i)
-          for (const auto &[I, w_i] : patch_cell.sigma_index[i])
+          for (unsigned int e = start[i]; e < start[i + 1]; ++e)
             {
+              const auto [I, w_i] = entries[e];
               for (unsigned int j = 0; j < n_tau; ++j)
-                for (const auto &[J, w_j] : patch_cell.sigma_index[j])
-                  matrix(I, J) += w_i * w_j * mass[i * n_tau + j];
+                for (unsigned int f = start[j]; f < start[j + 1]; ++f)
+                  matrix(I, entries[f].first) +=
+                    w_i * entries[f].second * mass[i * n_tau + j];
               for (unsigned int k = 0; k < n_q; ++k)
                 {
                   const double       b = w_i * divergence[k * n_tau + i];
@@ -560,8 +682,11 @@ namespace VI
     for (unsigned int f = 0; f < n_fields; ++f, values += n_tau + n_q)
       {
         for (unsigned int j = 0; j < n_tau; ++j)
-          for (const auto &[J, w] : patch_cell.sigma_index[j])
-            rhs(J, f) += w * values[j];
+          for (unsigned int e = patch_cell.sigma_start[j];
+               e < patch_cell.sigma_start[j + 1];
+               ++e)
+            rhs(patch_cell.sigma_entries[e].first, f) +=
+              patch_cell.sigma_entries[e].second * values[j];
         for (unsigned int k = 0; k < n_q; ++k)
           rhs(n_sigma + patch_cell.q_offset + k, f) += values[n_tau + k];
       }

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <deal.II/base/geometry_info.h>
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/tensor.h>
@@ -11,6 +12,7 @@
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <array>
 #include <functional>
 #include <map>
 #include <memory>
@@ -141,15 +143,18 @@ namespace VI
 
   private:
     struct LocalSolver;
-    struct CellShare;
+    struct CellData;
+    struct Shares;
     struct CellMatrixCache;
 
     struct PatchCell
     {
-      /// local RT dof -> (index of sigma^a, weight) pairs: one pair with
-      /// weight 1 for a free dof, the constraint's entries for a dof on a
-      /// hanging face, none for a dof fixed to zero
-      std::vector<std::vector<std::pair<unsigned int, double>>> sigma_index;
+      /// local RT dof k -> the (index of sigma^a, weight) pairs
+      /// sigma_entries[sigma_start[k]] ... sigma_entries[sigma_start[k + 1]
+      /// - 1]: one pair with weight 1 for a free dof, the constraint's
+      /// entries for a dof on a hanging face, none for a dof fixed to zero
+      std::vector<unsigned int>                    sigma_start;
+      std::vector<std::pair<unsigned int, double>> sigma_entries;
       unsigned int        q_offset; ///< first Q_p index of this cell
       std::vector<double> hat_mass; ///< (psi_a, q_k) on the cell
     };
@@ -170,10 +175,11 @@ namespace VI
     /// sent to `rank`.
     struct Membership
     {
-      unsigned int        rank;
-      unsigned int        index;
-      unsigned int        position;
-      std::vector<double> hat; ///< psi_a at the cell's vertices
+      unsigned int rank;
+      unsigned int index;
+      unsigned int position;
+      /// psi_a at the cell's vertices
+      std::array<double, dealii::GeometryInfo<dim>::vertices_per_cell> hat;
     };
 
     /// Flattened (tau_j, tau_i)_K, (div tau_i, q_k)_K, (1, q_k)_K.
