@@ -289,6 +289,14 @@ namespace StepMembranes
         flux_reconstruction =
           std::make_unique<VI::FluxReconstruction<dim>>(*mapping, fe.degree);
         flux_reconstruction->reinit(dof_handler);
+        if (parameters.output.verbose)
+          {
+            const auto [n_patches, n_matrices] =
+              flux_reconstruction->statistics();
+            pcout << "   Flux reconstruction: " << n_patches
+                  << " vertex patches, " << n_matrices
+                  << " distinct patch matrices" << std::endl;
+          }
         vertex_dofs.assign(triangulation.n_vertices(),
                            numbers::invalid_dof_index);
         for (const auto &cell : dof_handler.active_cell_iterators())

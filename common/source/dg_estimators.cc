@@ -4,6 +4,7 @@
 #include <deal.II/fe/fe_values.h>
 
 #include <vi/dg_estimators.h>
+#include <vi/piola_divergence.h>
 
 #include <array>
 #include <cmath>
@@ -142,22 +143,24 @@ namespace VI
                               &estimate.cell_total})
       cell_values->reinit(tria.n_active_cells());
 
-    const Quadrature<dim>           &quadrature = *in.quadrature;
-    const unsigned int               n_q        = quadrature.size();
-    FEValues<dim>                    broken_values(*in.mapping,
+    const Quadrature<dim> &quadrature = *in.quadrature;
+    const unsigned int     n_q        = quadrature.size();
+    FEValues<dim>          broken_values(*in.mapping,
                                 in.broken->get_fe(),
                                 quadrature,
                                 update_values | update_gradients |
                                   update_quadrature_points | update_JxW_values);
-    FEValues<dim>                    continuous_values(*in.mapping,
+    FEValues<dim>          continuous_values(*in.mapping,
                                     in.continuous->get_fe(),
                                     quadrature,
                                     update_values | update_gradients |
                                       update_inverse_jacobians);
-    FEValues<dim>                    flux_values(*in.mapping,
+    FEValues<dim>          flux_values(*in.mapping,
                               in.flux->get_fe(),
                               quadrature,
-                              update_values | update_gradients);
+                              PiolaDivergence<dim>::update_flags());
+    PiolaDivergence<dim>   divergence(in.flux->get_fe(), quadrature);
+    std::vector<double> sigma_coefficients(in.flux->get_fe().n_dofs_per_cell());
     const FEValuesExtractors::Vector sigma(0);
 
     std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], flux[2];
@@ -229,6 +232,7 @@ namespace VI
         broken_values.reinit(broken_cell);
         continuous_values.reinit(continuous_cell);
         flux_values.reinit(flux_cell);
+        divergence.reinit(flux_values);
         for (unsigned int a = 0; a < 2; ++a)
           {
             broken_values.get_function_values(*u_vectors[a], u[a]);
@@ -237,8 +241,11 @@ namespace VI
             continuous_values.get_function_values(*s_vectors[a], s[a]);
             continuous_values.get_function_gradients(*s_vectors[a], grad_s[a]);
             flux_values[sigma].get_function_values(*flux_vectors[a], flux[a]);
-            flux_values[sigma].get_function_divergences(*flux_vectors[a],
-                                                        div_flux[a]);
+            flux_cell->get_dof_values(*flux_vectors[a],
+                                      sigma_coefficients.begin(),
+                                      sigma_coefficients.end());
+            divergence.function_divergences(make_array_view(sigma_coefficients),
+                                            div_flux[a]);
           }
         broken_values.get_function_values(*in.lambda, lambda);
         broken_values.get_function_values(*in.lambda_nonnegative,

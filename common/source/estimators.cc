@@ -3,6 +3,7 @@
 #include <deal.II/fe/fe_values.h>
 
 #include <vi/estimators.h>
+#include <vi/piola_divergence.h>
 
 #include <array>
 #include <cmath>
@@ -60,19 +61,21 @@ namespace VI
                               &estimate.cell_total})
       cell_values->reinit(tria.n_active_cells());
 
-    const Quadrature<dim>           &quadrature = *in.quadrature;
-    const unsigned int               n_q        = quadrature.size();
-    FEValues<dim>                    potential_values(*in.mapping,
+    const Quadrature<dim> &quadrature = *in.quadrature;
+    const unsigned int     n_q        = quadrature.size();
+    FEValues<dim>          potential_values(*in.mapping,
                                    in.potential->get_fe(),
                                    quadrature,
                                    update_values | update_gradients |
                                      update_quadrature_points |
                                      update_inverse_jacobians |
                                      update_JxW_values);
-    FEValues<dim>                    flux_values(*in.mapping,
+    FEValues<dim>          flux_values(*in.mapping,
                               in.flux->get_fe(),
                               quadrature,
-                              update_values | update_gradients);
+                              PiolaDivergence<dim>::update_flags());
+    PiolaDivergence<dim>   divergence(in.flux->get_fe(), quadrature);
+    std::vector<double> sigma_coefficients(in.flux->get_fe().n_dofs_per_cell());
     const FEValuesExtractors::Vector sigma(0);
 
     // Values at the quadrature points.
@@ -158,6 +161,7 @@ namespace VI
           &tria, potential_cell->level(), potential_cell->index(), in.flux);
         potential_values.reinit(potential_cell);
         flux_values.reinit(flux_cell);
+        divergence.reinit(flux_values);
         for (unsigned int a = 0; a < 2; ++a)
           {
             potential_values.get_function_gradients(*u_vectors[a], grad_u[a]);
@@ -169,8 +173,11 @@ namespace VI
                                                    sigma_disc[a]);
             flux_values[sigma].get_function_values(*ahead_vectors[a],
                                                    sigma_ahead[a]);
-            flux_values[sigma].get_function_divergences(*ahead_vectors[a],
-                                                        div_ahead[a]);
+            flux_cell->get_dof_values(*ahead_vectors[a],
+                                      sigma_coefficients.begin(),
+                                      sigma_coefficients.end());
+            divergence.function_divergences(make_array_view(sigma_coefficients),
+                                            div_ahead[a]);
             if (dt_vectors[a])
               {
                 potential_values.get_function_values(*dt_vectors[a], dt_u[a]);

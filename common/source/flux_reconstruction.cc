@@ -9,6 +9,7 @@
 #include <deal.II/lac/vector.h>
 
 #include <vi/flux_reconstruction.h>
+#include <vi/piola_divergence.h>
 
 #include <algorithm>
 #include <array>
@@ -44,6 +45,24 @@ namespace VI
       , fe_hat(1)
       , quadrature(quadrature_points(degree))
   {
+    // Q_p and the divergence moments on the reference cell: the values of
+    // FE_DGQ do not depend on the cell, and (div tau_i, q_k)_K = s_i
+    // (div^ tau^_i, q^_k) (see PiolaDivergence).
+    const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
+                       n_q   = fe_divergence.n_dofs_per_cell();
+    const PiolaDivergence<dim> divergence(fe_flux, quadrature);
+    q_reference.resize(quadrature.size() * n_q);
+    divergence_reference.assign(n_q * n_tau, 0.);
+    for (unsigned int q = 0; q < quadrature.size(); ++q)
+      for (unsigned int k = 0; k < n_q; ++k)
+        {
+          const double q_k = fe_divergence.shape_value(k, quadrature.point(q));
+          q_reference[q * n_q + k] = q_k;
+          for (unsigned int i = 0; i < n_tau; ++i)
+            divergence_reference[k * n_tau + i] +=
+              divergence.reference_divergence(i, q) * q_k *
+              quadrature.weight(q);
+        }
   }
 
 
@@ -135,16 +154,14 @@ namespace VI
         : flux_values(reconstruction.mapping,
                       reconstruction.fe_flux,
                       reconstruction.quadrature,
-                      update_values | update_gradients | update_JxW_values)
-        , q_values(reconstruction.mapping,
-                   reconstruction.fe_divergence,
-                   reconstruction.quadrature,
-                   update_values)
+                      PiolaDivergence<dim>::update_flags())
+        , divergence(reconstruction.fe_flux, reconstruction.quadrature)
         , entries(n_active_cells)
     {
     }
 
-    FEValues<dim>                    flux_values, q_values;
+    FEValues<dim>                    flux_values;
+    PiolaDivergence<dim>             divergence;
     std::vector<std::vector<double>> entries;
   };
 
@@ -192,15 +209,14 @@ namespace VI
     // (Mapped points from the Q1 element: in deal.II 9.4 an FEValues of a
     // Raviart-Thomas element that asks for mapping data only trips over the
     // face sign changes of unstructured meshes, deal.II PR 15963.)
-    FEValues<dim> shape_values(mapping,
+    FEValues<dim>                        shape_values(mapping,
                                fe_hat,
                                QGauss<dim>(2),
                                update_quadrature_points);
-    FEValues<dim> hat_values(mapping, fe_hat, quadrature, update_values);
-    FEValues<dim> q_values(mapping,
-                           fe_divergence,
-                           quadrature,
-                           update_values | update_JxW_values);
+    FEValues<dim>                        hat_values(mapping,
+                             fe_hat,
+                             quadrature,
+                             update_values | update_JxW_values);
     std::vector<types::global_dof_index> rt_dofs(n_tau);
 
     // The data and shares of the owned cells, psi_j on a cell being the Q1
@@ -267,14 +283,13 @@ namespace VI
             }
           data.expansion_start.push_back(data.expansion.size());
           hat_values.reinit(cell);
-          q_values.reinit(cell);
           data.vertex_mass.assign(n_v * n_q, 0.);
-          for (const unsigned int q : q_values.quadrature_point_indices())
+          for (const unsigned int q : hat_values.quadrature_point_indices())
             for (unsigned int v = 0; v < n_v; ++v)
               for (unsigned int k = 0; k < n_q; ++k)
                 data.vertex_mass[v * n_q + k] += hat_values.shape_value(v, q) *
-                                                 q_values.shape_value(k, q) *
-                                                 q_values.JxW(q);
+                                                 q_reference[q * n_q + k] *
+                                                 hat_values.JxW(q);
 
           for (const auto &[j, values] : psi)
             mine.add(j, mine.cells.size(), values.data());
@@ -578,31 +593,25 @@ namespace VI
     double *const mean       = divergence + n_q * n_tau;
 
     FEValues<dim>                   &flux_values = cache.flux_values;
-    FEValues<dim>                   &q_values    = cache.q_values;
     const FEValuesExtractors::Vector flux(0);
     flux_values.reinit(cell);
-    q_values.reinit(cell);
+    cache.divergence.reinit(flux_values);
     std::vector<Tensor<1, dim>> tau(n_tau);
-    std::vector<double>         div_tau(n_tau);
     for (const unsigned int q : flux_values.quadrature_point_indices())
       {
         const double dx = flux_values.JxW(q);
         for (unsigned int i = 0; i < n_tau; ++i)
-          {
-            tau[i]     = flux_values[flux].value(i, q);
-            div_tau[i] = flux_values[flux].divergence(i, q);
-          }
+          tau[i] = flux_values[flux].value(i, q);
         for (unsigned int i = 0; i < n_tau; ++i)
           for (unsigned int j = 0; j < n_tau; ++j)
             mass[i * n_tau + j] += tau[i] * tau[j] * dx;
         for (unsigned int k = 0; k < n_q; ++k)
-          {
-            const double q_k = q_values.shape_value(k, q) * dx;
-            mean[k] += q_k;
-            for (unsigned int i = 0; i < n_tau; ++i)
-              divergence[k * n_tau + i] += div_tau[i] * q_k;
-          }
+          mean[k] += q_reference[q * n_q + k] * dx;
       }
+    for (unsigned int k = 0; k < n_q; ++k)
+      for (unsigned int i = 0; i < n_tau; ++i)
+        divergence[k * n_tau + i] =
+          cache.divergence.sign(i) * divergence_reference[k * n_tau + i];
     return entry;
   }
 
@@ -716,15 +725,14 @@ namespace VI
     for (const auto &[to, n] : n_sent)
       outgoing[to].assign(n * record, 0.);
 
-    FEValues<dim> flux_values(mapping,
+    FEValues<dim>                            flux_values(mapping,
                               fe_flux,
                               quadrature,
                               update_values | update_JxW_values);
-    FEValues<dim> hat_values(mapping,
+    FEValues<dim>                            hat_values(mapping,
                              fe_hat,
                              quadrature,
                              update_values | update_gradients);
-    FEValues<dim> q_values(mapping, fe_divergence, quadrature, update_values);
     const FEValuesExtractors::Vector         flux_extractor(0);
     std::vector<std::vector<Tensor<1, dim>>> flux(
       n_fields, std::vector<Tensor<1, dim>>(quadrature.size()));
@@ -745,7 +753,6 @@ namespace VI
           continue;
         flux_values.reinit(cell);
         hat_values.reinit(cell);
-        q_values.reinit(cell);
         sources.cell_values(cell, flux, source);
         cell_rhs.assign(parts.size() * record, 0.);
 
@@ -774,7 +781,7 @@ namespace VI
                     const double g =
                       (source[f][q] * psi - flux[f][q] * grad_psi) * dx;
                     for (unsigned int k = 0; k < n_q; ++k)
-                      values[n_tau + k] += g * q_values.shape_value(k, q);
+                      values[n_tau + k] += g * q_reference[q * n_q + k];
                   }
               }
           }

@@ -200,12 +200,15 @@ namespace VI
                    const unsigned int                n_fields,
                    dealii::LAPACKFullMatrix<double> &rhs) const;
 
-    const dealii::Mapping<dim>       &mapping;
-    const unsigned int                degree;
-    dealii::FE_RaviartThomas<dim>     fe_flux;
-    dealii::FE_DGQ<dim>               fe_divergence;
-    dealii::FE_Q<dim>                 fe_hat;
-    dealii::QGauss<dim>               quadrature;
+    const dealii::Mapping<dim>   &mapping;
+    const unsigned int            degree;
+    dealii::FE_RaviartThomas<dim> fe_flux;
+    dealii::FE_DGQ<dim>           fe_divergence;
+    dealii::FE_Q<dim>             fe_hat;
+    dealii::QGauss<dim>           quadrature;
+    /// q^_k at the quadrature points [q n_q + k], and (div^ tau^_i, q^_k)
+    /// [k n_tau + i], on the reference cell
+    std::vector<double>               q_reference, divergence_reference;
     dealii::DoFHandler<dim>           dof_handler;
     dealii::AffineConstraints<double> hanging_constraints; ///< of RT_p
     dealii::IndexSet                  owned_dofs, relevant_dofs;

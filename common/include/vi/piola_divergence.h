@@ -1,0 +1,84 @@
+#pragma once
+
+#include <deal.II/base/array_view.h>
+#include <deal.II/base/quadrature.h>
+#include <deal.II/base/table.h>
+#include <deal.II/base/tensor.h>
+#include <deal.II/fe/fe.h>
+#include <deal.II/fe/fe_update_flags.h>
+#include <deal.II/fe/fe_values.h>
+
+#include <vector>
+
+namespace VI
+{
+  /**
+   * Divergences of Raviart-Thomas functions without their gradients.
+   *
+   * FE_RaviartThomas maps a reference function tau^ by the contravariant
+   * Piola transform, tau = s J tau^ / det J, with s = +1 or -1 (deal.II
+   * flips the face functions on one side of every interior face so that
+   * normal components agree). Then div tau = s div^ tau^ / det J: at a
+   * quadrature point, div tau_i = s_i div^ tau^_i(x^_q) w_q / JxW_q, and
+   * (div tau_i, q)_K = s_i (div^ tau^_i, q^) on the reference cell for
+   * q = q^ o F^-1: the divergence block of a mixed method does not depend
+   * on the geometry. FEValues computes divergences from the full gradients,
+   * which on curved cells need the derivatives of the Jacobian; here the
+   * reference divergences are tabulated once and a cell needs only the
+   * values FEValues computes anyway, from which the signs s_i are read.
+   */
+  template <int dim>
+  class PiolaDivergence
+  {
+  public:
+    /// What the FEValues handed to reinit() must compute.
+    static dealii::UpdateFlags
+    update_flags()
+    {
+      return dealii::update_values | dealii::update_jacobians |
+             dealii::update_JxW_values;
+    }
+
+    PiolaDivergence(const dealii::FiniteElement<dim> &fe,
+                    const dealii::Quadrature<dim>    &quadrature);
+
+    /// Signs and 1 / det J of the cell of `values` (of the element and
+    /// quadrature of the constructor, with update_flags()).
+    void
+    reinit(const dealii::FEValuesBase<dim> &values);
+
+    /// s_i of the current cell.
+    double
+    sign(const unsigned int i) const
+    {
+      return signs[i];
+    }
+
+    /// div tau_i at quadrature point q of the current cell.
+    double
+    shape_divergence(const unsigned int i, const unsigned int q) const
+    {
+      return signs[i] * reference(q, i) * scale[q];
+    }
+
+    /// (div^ tau^_i)(x^_q) on the reference cell.
+    double
+    reference_divergence(const unsigned int i, const unsigned int q) const
+    {
+      return reference(q, i);
+    }
+
+    /// div (sum_i c_i tau_i) at the quadrature points of the current cell.
+    void
+    function_divergences(const dealii::ArrayView<const double> &coefficients,
+                         std::vector<double> &divergences) const;
+
+  private:
+    dealii::Table<2, double> reference; ///< [q][i]
+    std::vector<double>      weights;
+    /// for each i, a quadrature point where tau^_i is largest, and its value
+    std::vector<unsigned int>           probe;
+    std::vector<dealii::Tensor<1, dim>> probe_value;
+    std::vector<double>                 signs, scale;
+  };
+} // namespace VI

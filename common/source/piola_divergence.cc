@@ -1,0 +1,96 @@
+#include <vi/piola_divergence.h>
+
+#include <cmath>
+
+namespace VI
+{
+  using namespace dealii;
+
+  template <int dim>
+  PiolaDivergence<dim>::PiolaDivergence(const FiniteElement<dim> &fe,
+                                        const Quadrature<dim>    &quadrature)
+      : reference(quadrature.size(), fe.n_dofs_per_cell())
+      , weights(quadrature.get_weights())
+      , probe(fe.n_dofs_per_cell(), 0)
+      , probe_value(fe.n_dofs_per_cell())
+      , signs(fe.n_dofs_per_cell(), 1.)
+      , scale(quadrature.size(), 0.)
+  {
+    AssertThrow(fe.n_components() == dim,
+                ExcMessage("PiolaDivergence: a vector-valued element with "
+                           "dim components is expected."));
+    for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+      {
+        double largest = -1;
+        for (unsigned int q = 0; q < quadrature.size(); ++q)
+          {
+            const Point<dim> &x = quadrature.point(q);
+            Tensor<1, dim>    value;
+            double            divergence = 0;
+            for (unsigned int d = 0; d < dim; ++d)
+              {
+                value[d] = fe.shape_value_component(i, x, d);
+                divergence += fe.shape_grad_component(i, x, d)[d];
+              }
+            reference(q, i) = divergence;
+            if (value.norm() > largest)
+              {
+                largest        = value.norm();
+                probe[i]       = q;
+                probe_value[i] = value;
+              }
+          }
+        AssertThrow(largest > 0,
+                    ExcMessage("PiolaDivergence: a shape function vanishes "
+                               "at every quadrature point."));
+      }
+  }
+
+
+  template <int dim>
+  void
+  PiolaDivergence<dim>::reinit(const FEValuesBase<dim> &values)
+  {
+    AssertDimension(values.n_quadrature_points, scale.size());
+    AssertDimension(values.dofs_per_cell, signs.size());
+    for (unsigned int q = 0; q < scale.size(); ++q)
+      scale[q] = weights[q] / values.JxW(q);
+    // The unsigned Piola image of tau^_i at its probe point against the
+    // value FEValues computed: equal up to the sign s_i.
+    for (unsigned int i = 0; i < signs.size(); ++i)
+      {
+        const unsigned int q       = probe[i];
+        const auto        &J       = values.jacobian(q);
+        double             product = 0;
+        for (unsigned int d = 0; d < dim; ++d)
+          {
+            double mapped = 0;
+            for (unsigned int e = 0; e < dim; ++e)
+              mapped += J[d][e] * probe_value[i][e];
+            product += mapped * values.shape_value_component(i, q, d);
+          }
+        signs[i] = product >= 0 ? 1. : -1.;
+      }
+  }
+
+
+  template <int dim>
+  void
+  PiolaDivergence<dim>::function_divergences(
+    const ArrayView<const double> &coefficients,
+    std::vector<double>           &divergences) const
+  {
+    AssertDimension(coefficients.size(), signs.size());
+    divergences.resize(scale.size());
+    for (unsigned int q = 0; q < scale.size(); ++q)
+      {
+        double divergence = 0;
+        for (unsigned int i = 0; i < signs.size(); ++i)
+          divergence += signs[i] * coefficients[i] * reference(q, i);
+        divergences[q] = divergence * scale[q];
+      }
+  }
+
+
+  template class PiolaDivergence<2>;
+} // namespace VI

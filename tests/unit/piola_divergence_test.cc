@@ -1,0 +1,115 @@
+// Divergences of Raviart-Thomas functions from the reference divergences
+// and the signs read off the values: the same as FEValues' divergences
+// (from the full Piola gradients) on curved, distorted cells whose
+// interior faces are seen with both orientations, and the divergence
+// moments (div tau_i, q_k)_K independent of the geometry.
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/fe_dgq.h>
+#include <deal.II/fe/fe_raviart_thomas.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_q.h>
+#include <deal.II/grid/grid_generator.h>
+#include <deal.II/grid/grid_tools.h>
+#include <deal.II/grid/tria.h>
+
+#include <vi/piola_divergence.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace dealii;
+
+namespace
+{
+  void
+  compare_with_fevalues(const unsigned int degree)
+  {
+    // The disk of five cells has interior faces with neighbours on faces
+    // 0 or 1 as well as 2 or 3, so both signs occur; the distortion makes
+    // the cells non-affine on top of the curved boundary.
+    Triangulation<2> tria;
+    GridGenerator::hyper_ball(tria);
+    tria.refine_global(2);
+    GridTools::distort_random(0.2, tria, /*keep_boundary=*/true, 7);
+    const MappingQ<2>         mapping(3);
+    const FE_RaviartThomas<2> fe(degree);
+    const FE_DGQ<2>           fe_q(degree);
+    const QGauss<2>           quadrature(degree + 3);
+    DoFHandler<2>             dof_handler(tria);
+    dof_handler.distribute_dofs(fe);
+
+    FEValues<2>                      values(mapping,
+                       fe,
+                       quadrature,
+                       VI::PiolaDivergence<2>::update_flags() |
+                         update_gradients);
+    VI::PiolaDivergence<2>           divergence(fe, quadrature);
+    const FEValuesExtractors::Vector flux(0);
+
+    unsigned int        n_negative = 0;
+    double              largest = 0, difference = 0, moment_difference = 0;
+    std::vector<double> coefficients(fe.n_dofs_per_cell()),
+      expected(quadrature.size()), computed;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      {
+        values.reinit(cell);
+        divergence.reinit(values);
+        for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+          {
+            n_negative += divergence.sign(i) < 0;
+            for (unsigned int q = 0; q < quadrature.size(); ++q)
+              {
+                const double d = values[flux].divergence(i, q);
+                largest        = std::max(largest, std::abs(d));
+                difference =
+                  std::max(difference,
+                           std::abs(d - divergence.shape_divergence(i, q)));
+              }
+            // (div tau_i, q_k)_K = s_i (div^ tau^_i, q^_k)
+            for (unsigned int k = 0; k < fe_q.n_dofs_per_cell(); ++k)
+              {
+                double physical = 0, reference = 0;
+                for (unsigned int q = 0; q < quadrature.size(); ++q)
+                  {
+                    const double q_k = fe_q.shape_value(k, quadrature.point(q));
+                    physical +=
+                      values[flux].divergence(i, q) * q_k * values.JxW(q);
+                    reference += divergence.reference_divergence(i, q) * q_k *
+                                 quadrature.weight(q);
+                  }
+                moment_difference =
+                  std::max(moment_difference,
+                           std::abs(physical - divergence.sign(i) * reference));
+              }
+          }
+        // a combination
+        for (unsigned int i = 0; i < coefficients.size(); ++i)
+          coefficients[i] = std::cos(1. + i + cell->active_cell_index());
+        std::fill(expected.begin(), expected.end(), 0.);
+        for (unsigned int q = 0; q < quadrature.size(); ++q)
+          for (unsigned int i = 0; i < coefficients.size(); ++i)
+            expected[q] += coefficients[i] * values[flux].divergence(i, q);
+        divergence.function_divergences(make_array_view(coefficients),
+                                        computed);
+        for (unsigned int q = 0; q < quadrature.size(); ++q)
+          difference =
+            std::max(difference, std::abs(expected[q] - computed[q]));
+      }
+    EXPECT_GT(n_negative, 0u) << "the mesh should exercise both signs";
+    EXPECT_LT(difference, 1e-10 * largest);
+    EXPECT_LT(moment_difference, 1e-10 * largest);
+  }
+} // namespace
+
+
+TEST(PiolaDivergence, AgreesWithFEValuesForRT1)
+{
+  compare_with_fevalues(1);
+}
+
+TEST(PiolaDivergence, AgreesWithFEValuesForRT2)
+{
+  compare_with_fevalues(2);
+}
