@@ -5,7 +5,7 @@
 #include <deal.II/grid/grid_tools.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/la_parallel_vector.h>
-#include <deal.II/lac/lapack_full_matrix.h>
+#include <deal.II/lac/lapack_support.h>
 #include <deal.II/lac/vector.h>
 
 #include <vi/flux_reconstruction.h>
@@ -20,18 +20,78 @@
 #include <map>
 #include <tuple>
 
+// LAPACK's unblocked LU factorisation and the BLAS triangular solve
+// (deal.II wraps only the blocked getrf and getrs).
+extern "C"
+{
+  void
+  dgetf2_(const dealii::types::blas_int *m,
+          const dealii::types::blas_int *n,
+          double                        *a,
+          const dealii::types::blas_int *lda,
+          dealii::types::blas_int       *ipiv,
+          dealii::types::blas_int       *info);
+  void
+  dlaswp_(const dealii::types::blas_int *n,
+          double                        *a,
+          const dealii::types::blas_int *lda,
+          const dealii::types::blas_int *k1,
+          const dealii::types::blas_int *k2,
+          const dealii::types::blas_int *ipiv,
+          const dealii::types::blas_int *incx);
+  void
+  dtrsv_(const char                    *uplo,
+         const char                    *trans,
+         const char                    *diag,
+         const dealii::types::blas_int *n,
+         const double                  *a,
+         const dealii::types::blas_int *lda,
+         double                        *x,
+         const dealii::types::blas_int *incx);
+}
+
 namespace VI
 {
   using namespace dealii;
 
-  // The LU factors of a patch matrix (LAPACK getrf, once per mesh: a third
-  // of the work of an inverse); the patch problems of every field and every
-  // iterate are then two triangular solves each (getrs), which cost what a
-  // product with the inverse would.
+  // The LU factors of a patch matrix, once per mesh (a third of the work of
+  // an inverse); the patch problems of every field and every iterate are
+  // then two triangular solves each, which cost what a product with the
+  // inverse would. The matrices have a few dozen rows: there LAPACK's
+  // unblocked factorisation (getf2) and the level-2 triangular solves
+  // (trsv) take two thirds of the time of the blocked, recursive getrf and
+  // of getrs with the reference BLAS, whose call overhead dominates.
   template <int dim>
   struct FluxReconstruction<dim>::LocalSolver
   {
-    LAPACKFullMatrix<double> lu;
+    types::blas_int              n = 0;
+    std::vector<double>          lu; ///< column-major; the matrix, then LU
+    std::vector<types::blas_int> pivots;
+
+    void
+    factorize()
+    {
+      pivots.resize(n);
+      types::blas_int info = 0;
+      dgetf2_(&n, &n, lu.data(), &n, pivots.data(), &info);
+      AssertThrow(info == 0,
+                  ExcMessage("Flux reconstruction: a patch matrix is "
+                             "singular (LAPACK getf2 info " +
+                             std::to_string(info) + ")."));
+    }
+
+    /// Overwrite the n_columns columns of length n with A^-1 columns.
+    void
+    solve(double *columns, const unsigned int n_columns) const
+    {
+      const types::blas_int one = 1, n_rhs = n_columns;
+      dlaswp_(&n_rhs, columns, &n, &one, &n, pivots.data(), &one);
+      for (unsigned int c = 0; c < n_columns; ++c)
+        {
+          dtrsv_("L", "N", "U", &n, lu.data(), &n, columns + c * n, &one);
+          dtrsv_("U", "N", "N", &n, lu.data(), &n, columns + c * n, &one);
+        }
+    }
   };
 
 
@@ -369,6 +429,8 @@ namespace VI
     // Patch matrices shared between patches of the same normalised shape.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
                                          solvers;
+    bool                                 share_matrices = true;
+    constexpr unsigned int               sharing_trial  = 1000;
     std::vector<types::global_dof_index> patch_dofs;
     std::map<unsigned int, unsigned int> n_received;
 
@@ -502,11 +564,22 @@ namespace VI
 
         // The shape of the patch, normalised by its size: quadrature
         // points relative to a, line orientations, psi_a, free fluxes.
+        // On curved or perturbed meshes no two patches share a shape: once
+        // the first patches show that, keys are no longer built (nor
+        // stored).
+        if (share_matrices && patches.size() == sharing_trial &&
+            n_local_solvers > patches.size() / 2)
+          {
+            share_matrices = false;
+            solvers.clear();
+          }
         double h = 0;
         for (const Member &member : members)
           h = std::max(h, member.data->diameter);
-        key.assign({patch.interior, std::int64_t(members.size())});
-        for (unsigned int c = 0; c < members.size(); ++c)
+        key.clear();
+        if (share_matrices)
+          key.assign({patch.interior, std::int64_t(members.size())});
+        for (unsigned int c = 0; share_matrices && c < members.size(); ++c)
           {
             const CellData &data = *members[c].data;
             for (unsigned int i = 0; i < data.points.size(); ++i)
@@ -531,7 +604,8 @@ namespace VI
                   }
               }
           }
-        auto &solver = solvers[key];
+        std::shared_ptr<const LocalSolver> unshared;
+        auto &solver = share_matrices ? solvers[key] : unshared;
         if (!solver)
           {
             matrices.clear();
@@ -629,8 +703,12 @@ namespace VI
     const unsigned int n_sigma = patch.sigma_dofs.size();
     const unsigned int n       = n_sigma + patch.n_q + (patch.interior ? 1 : 0);
     auto               solver  = std::make_shared<LocalSolver>();
-    LAPACKFullMatrix<double> &matrix = solver->lu;
-    matrix.reinit(n, n);
+    solver->n                  = n;
+    solver->lu.assign(n * n, 0.);
+    const auto matrix = [&](const unsigned int i,
+                            const unsigned int j) -> double & {
+      return solver->lu[i + j * n];
+    };
 
     const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
                        n_q   = fe_divergence.n_dofs_per_cell();
@@ -667,7 +745,7 @@ namespace VI
             }
       }
 
-    matrix.compute_lu_factorization();
+    solver->factorize();
     return solver;
   }
 
@@ -677,27 +755,28 @@ namespace VI
   // q_k)_K.
   template <int dim>
   void
-  FluxReconstruction<dim>::add_cell_share(const unsigned int        p,
-                                          const unsigned int        position,
-                                          const double             *values,
-                                          const unsigned int        n_fields,
-                                          LAPACKFullMatrix<double> &rhs) const
+  FluxReconstruction<dim>::add_cell_share(const unsigned int p,
+                                          const unsigned int position,
+                                          const double      *values,
+                                          const unsigned int n_fields,
+                                          double *const      rhs) const
   {
     const Patch       &patch      = patches[p];
     const PatchCell   &patch_cell = patch.cells[position];
     const unsigned int n_tau      = fe_flux.n_dofs_per_cell(),
                        n_q        = fe_divergence.n_dofs_per_cell();
     const unsigned int n_sigma    = patch.sigma_dofs.size();
+    const unsigned int n          = patch.solver->n;
     for (unsigned int f = 0; f < n_fields; ++f, values += n_tau + n_q)
       {
         for (unsigned int j = 0; j < n_tau; ++j)
           for (unsigned int e = patch_cell.sigma_start[j];
                e < patch_cell.sigma_start[j + 1];
                ++e)
-            rhs(patch_cell.sigma_entries[e].first, f) +=
+            rhs[patch_cell.sigma_entries[e].first + f * n] +=
               patch_cell.sigma_entries[e].second * values[j];
         for (unsigned int k = 0; k < n_q; ++k)
-          rhs(n_sigma + patch_cell.q_offset + k, f) += values[n_tau + k];
+          rhs[n_sigma + patch_cell.q_offset + k + f * n] += values[n_tau + k];
       }
   }
 
@@ -716,11 +795,14 @@ namespace VI
     const unsigned int record   = (n_tau + n_q) * n_fields;
     AssertDimension(sigma.size(), n_fields);
 
-    // Right-hand sides of all patches solved here, one column per field,
-    // and those of owned cells in patches solved elsewhere.
-    std::vector<LAPACKFullMatrix<double>> rhs(patches.size());
+    // Right-hand sides of all patches solved here, one column per field
+    // (patch p from rhs_start[p] on), and those of owned cells in patches
+    // solved elsewhere.
+    std::vector<std::size_t> rhs_start(patches.size() + 1, 0);
     for (unsigned int p = 0; p < patches.size(); ++p)
-      rhs[p].reinit(patches[p].solver->lu.m(), n_fields);
+      rhs_start[p + 1] =
+        rhs_start[p] + std::size_t(patches[p].solver->n) * n_fields;
+    std::vector<double>                         rhs(rhs_start.back(), 0.);
     std::map<unsigned int, std::vector<double>> outgoing;
     for (const auto &[to, n] : n_sent)
       outgoing[to].assign(n * record, 0.);
@@ -791,7 +873,7 @@ namespace VI
                            parts[m].position,
                            cell_rhs.data() + m * record,
                            n_fields,
-                           rhs[parts[m].index]);
+                           rhs.data() + rhs_start[parts[m].index]);
           else
             std::copy_n(cell_rhs.data() + m * record,
                         record,
@@ -812,7 +894,7 @@ namespace VI
                              targets[i].second,
                              values.data() + i * record,
                              n_fields,
-                             rhs[targets[i].first]);
+                             rhs.data() + rhs_start[targets[i].first]);
           }
       }
 
@@ -823,11 +905,14 @@ namespace VI
           const Patch &patch = patches[p];
           for (unsigned int f = 0; f < n_fields; ++f)
             {
-              const double c_a = sources.vertex_source(patch.vertex, f);
+              const double c_a    = sources.vertex_source(patch.vertex, f);
+              double      *column = rhs.data() + rhs_start[p] +
+                               std::size_t(f) * patch.solver->n +
+                               patch.sigma_dofs.size();
               for (const auto &patch_cell : patch.cells)
                 for (unsigned int k = 0; k < n_q; ++k)
-                  rhs[p](patch.sigma_dofs.size() + patch_cell.q_offset + k,
-                         f) += c_a * patch_cell.hat_mass[k];
+                  column[patch_cell.q_offset + k] +=
+                    c_a * patch_cell.hat_mass[k];
             }
         }
 
@@ -837,15 +922,16 @@ namespace VI
     std::vector<double> values;
     for (unsigned int p = 0; p < patches.size(); ++p)
       {
-        // The patch solution overwrites its right-hand sides.
-        LAPACKFullMatrix<double> &solution = rhs[p];
-        patches[p].solver->lu.solve(solution);
+        // The patch solution overwrites its right-hand sides; sigma^a is
+        // the head of each column.
+        const LocalSolver &solver   = *patches[p].solver;
+        double            *solution = rhs.data() + rhs_start[p];
+        solver.solve(solution, n_fields);
         const unsigned int n_sigma = patches[p].sigma_dofs.size();
-        values.resize(n_sigma);
         for (unsigned int f = 0; f < n_fields; ++f)
           {
-            for (unsigned int j = 0; j < n_sigma; ++j)
-              values[j] = solution(j, f);
+            const double *column = solution + std::size_t(f) * solver.n;
+            values.assign(column, column + n_sigma);
             accumulated[f].add(patches[p].sigma_dofs, values);
           }
       }

@@ -18,12 +18,6 @@
 #include <memory>
 #include <vector>
 
-namespace dealii
-{
-  template <typename number>
-  class LAPACKFullMatrix;
-}
-
 namespace VI
 {
   /**
@@ -50,9 +44,10 @@ namespace VI
    * FE_DGQ(p). The patch matrices depend only on the geometry and are
    * invariant under scaling, so they are factorised once per mesh and shared
    * by all patches of the same shape (on uniformly refined meshes a handful
-   * for the whole hierarchy); the divergence block does not depend on the
-   * geometry at all (Piola transform), so sharing keeps the equilibration
-   * exact.
+   * for the whole hierarchy; on curved meshes, where no two patches are
+   * alike, the search stops after the first thousand); the divergence block
+   * does not depend on the geometry at all (Piola transform), so sharing
+   * keeps the equilibration exact.
    *
    * On meshes with hanging nodes psi_a is the conforming hat function of a
    * regular vertex a (the hanging vertices, whose values are constrained,
@@ -192,13 +187,13 @@ namespace VI
       const std::vector<const std::vector<double> *> &cell_matrices) const;
 
     /// Add one cell's right-hand sides (all fields; layout of reconstruct())
-    /// to those of patch p.
+    /// to those of patch p, column-major from rhs on.
     void
-    add_cell_share(const unsigned int                p,
-                   const unsigned int                position,
-                   const double                     *values,
-                   const unsigned int                n_fields,
-                   dealii::LAPACKFullMatrix<double> &rhs) const;
+    add_cell_share(const unsigned int p,
+                   const unsigned int position,
+                   const double      *values,
+                   const unsigned int n_fields,
+                   double *const      rhs) const;
 
     const dealii::Mapping<dim>   &mapping;
     const unsigned int            degree;
