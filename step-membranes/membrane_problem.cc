@@ -303,6 +303,33 @@ namespace StepMembranes
           if (!cell->is_artificial())
             for (const unsigned int v : cell->vertex_indices())
               vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+
+        t.stop();
+
+        // The loads at the quadrature points of the estimators, once per
+        // mesh (a parsed expression costs more than the rest of a cell's
+        // work in an estimate).
+        TimerOutput::Scope     loads(timer, "estimators: loads");
+        const Quadrature<dim> &points = flux_reconstruction->get_quadrature();
+        FEValues<dim> where(*mapping, fe, points, update_quadrature_points);
+        std::vector<double>  values(points.size());
+        const Function<dim> *f[2] = {data.f1.get(), data.f2.get()};
+        for (unsigned int a = 0; a < 2; ++a)
+          load_values[a].assign(triangulation.n_active_cells() * points.size(),
+                                0.);
+        for (const auto &cell : dof_handler.active_cell_iterators())
+          if (cell->is_locally_owned())
+            {
+              where.reinit(cell);
+              for (unsigned int a = 0; a < 2; ++a)
+                {
+                  f[a]->value_list(where.get_quadrature_points(), values);
+                  std::copy(values.begin(),
+                            values.end(),
+                            load_values[a].begin() +
+                              cell->active_cell_index() * points.size());
+                }
+            }
       }
   }
 
@@ -1096,14 +1123,12 @@ namespace StepMembranes
     FEValues<dim>       values(*mapping,
                          fe,
                          flux_reconstruction->get_quadrature(),
-                         update_values | update_gradients |
-                           update_quadrature_points);
+                         update_values | update_gradients);
     std::vector<double> lambda_values(quadrature.size()),
       r_values(quadrature.size());
-    const Vector        *u[2]    = {&it.u1, &it.u2};
-    const Function<dim> *f[2]    = {data.f1.get(), data.f2.get()};
-    const double         mu[2]   = {data.mu1, data.mu2};
-    const double         sign[2] = {-1., 1.}; // (-1)^alpha
+    const Vector *u[2]    = {&it.u1, &it.u2};
+    const double  mu[2]   = {data.mu1, data.mu2};
+    const double  sign[2] = {-1., 1.}; // (-1)^alpha
 
     typename VI::FluxReconstruction<dim>::Sources sources;
     sources.n_fields    = 2;
@@ -1120,7 +1145,10 @@ namespace StepMembranes
           values.get_function_gradients(*u[a], flux[a]);
           for (auto &F : flux[a])
             F *= mu[a];
-          f[a]->value_list(values.get_quadrature_points(), source[a]);
+          std::copy_n(load_values[a].begin() +
+                        cell->active_cell_index() * source[a].size(),
+                      source[a].size(),
+                      source[a].begin());
           if (!lumped)
             {
               values.get_function_values(*r[a], r_values);
@@ -1153,6 +1181,8 @@ namespace StepMembranes
     in.mu2                 = data.mu2;
     in.f1                  = data.f1.get();
     in.f2                  = data.f2.get();
+    in.f1_values           = &load_values[0];
+    in.f2_values           = &load_values[1];
     in.g1                  = data.g1.get();
     in.g2                  = data.g2.get();
     in.friedrichs_constant = VI::friedrichs_constant(geometry);

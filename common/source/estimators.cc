@@ -103,7 +103,8 @@ namespace VI
                                                              in.sigma2_disc},
                                         *ahead_vectors[2] = {in.sigma1_ahead,
                                                              in.sigma2_ahead};
-    const Function<dim>                 *forces[2]        = {in.f1, in.f2};
+    const Function<dim>       *forces[2]                  = {in.f1, in.f2};
+    const std::vector<double> *load_values[2] = {in.f1_values, in.f2_values};
     const TrilinosWrappers::MPI::Vector *dt_vectors[2] = {in.dt_u1, in.dt_u2},
                                         *dt_ahead_vectors[2] = {in.dt_u1_ahead,
                                                                 in.dt_u2_ahead};
@@ -263,7 +264,13 @@ namespace VI
             // (-1)^alpha for alpha = a + 1: the multiplier pulls membrane 1
             // up and membrane 2 down.
             const double sign = (a == 0) ? -1. : 1.;
-            forces[a]->value_list(potential_values.get_quadrature_points(), f);
+            if (load_values[a])
+              std::copy_n(load_values[a]->begin() + index * n_q,
+                          n_q,
+                          f.begin());
+            else
+              forces[a]->value_list(potential_values.get_quadrature_points(),
+                                    f);
             for (unsigned int q = 0; q < n_q; ++q)
               {
                 const double dx      = potential_values.JxW(q);

@@ -96,6 +96,10 @@ namespace VI
 
     double                       mu1 = 1, mu2 = 1;
     const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
+    /// Optional: f1 and f2 at the points of `quadrature` on the locally
+    /// owned cells, [active cell index * n_q + q] (tabulated once per mesh,
+    /// they spare every estimate the evaluation of the load functions).
+    const std::vector<double> *f1_values = nullptr, *f2_values = nullptr;
     /// The Dirichlet data (with gradients): the discrete u_h carries their
     /// interpolant on the boundary, and the estimate accounts for the
     /// difference with a lifting (null: the data are exactly represented).
