@@ -240,10 +240,12 @@ namespace VI
             broken_values.get_function_values(*r_vectors[a], r[a]);
             continuous_values.get_function_values(*s_vectors[a], s[a]);
             continuous_values.get_function_gradients(*s_vectors[a], grad_s[a]);
-            flux_values[sigma].get_function_values(*flux_vectors[a], flux[a]);
+            // (the coefficients read once: values and divergences)
             flux_cell->get_dof_values(*flux_vectors[a],
                                       sigma_coefficients.begin(),
                                       sigma_coefficients.end());
+            flux_values[sigma].get_function_values_from_local_dof_values(
+              sigma_coefficients, flux[a]);
             divergence.function_divergences(make_array_view(sigma_coefficients),
                                             div_flux[a]);
           }

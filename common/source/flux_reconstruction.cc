@@ -59,8 +59,9 @@ namespace VI
   // then two triangular solves each, which cost what a product with the
   // inverse would. The matrices have a few dozen rows: there LAPACK's
   // unblocked factorisation (getf2) and the level-2 triangular solves
-  // (trsv) take two thirds of the time of the blocked, recursive getrf and
-  // of getrs with the reference BLAS, whose call overhead dominates.
+  // (trsv) take about 70 and 75 % of the time of the blocked, recursive
+  // getrf and of getrs with the reference BLAS (41 rows), whose call
+  // overhead dominates.
   template <int dim>
   struct FluxReconstruction<dim>::LocalSolver
   {
@@ -435,7 +436,7 @@ namespace VI
     std::map<unsigned int, unsigned int> n_received;
 
     // Per patch: its cells (data, psi_a, where the share came from) in a
-    // canonical order, free dofs, their local numbers, the shape key.
+    // canonical order, free dofs, their local numbers.
     struct Member
     {
       std::pair<double, double> polar;
@@ -453,6 +454,44 @@ namespace VI
     std::vector<bool>                        is_free(n_tau);
     std::vector<std::int64_t>                key;
     std::vector<const std::vector<double> *> matrices;
+
+    // The shape of a patch, normalised by its size: quadrature points
+    // relative to a, line orientations, psi_a, free fluxes.
+    const auto shape_key =
+      [&](const std::vector<Member> &members,
+          const Patch               &patch,
+          const Point<dim>          &x_a) -> const std::vector<std::int64_t> & {
+      double h = 0;
+      for (const Member &member : members)
+        h = std::max(h, member.data->diameter);
+      key.assign({patch.interior, std::int64_t(members.size())});
+      for (unsigned int c = 0; c < members.size(); ++c)
+        {
+          const CellData &data = *members[c].data;
+          for (unsigned int i = 0; i < data.points.size(); ++i)
+            key.push_back(
+              std::llround((data.points[i] - x_a[i % dim]) / h * 1e9));
+          key.insert(key.end(),
+                     data.orientations.begin(),
+                     data.orientations.end());
+          for (unsigned int v = 0; v < n_v; ++v)
+            key.push_back(std::llround(members[c].hat[v] * 1e9));
+          const PatchCell &patch_cell = patch.cells[c];
+          for (unsigned int k = 0; k < n_tau; ++k)
+            {
+              key.push_back(-1);
+              for (unsigned int e = patch_cell.sigma_start[k];
+                   e < patch_cell.sigma_start[k + 1];
+                   ++e)
+                {
+                  key.push_back(patch_cell.sigma_entries[e].first);
+                  key.push_back(
+                    std::llround(patch_cell.sigma_entries[e].second * 1e9));
+                }
+            }
+        }
+      return key;
+    };
     for (auto first = shares_here.begin(); first != shares_here.end();)
       {
         const types::global_dof_index j    = std::get<0>(*first);
@@ -562,10 +601,8 @@ namespace VI
             patch.cells.push_back(std::move(patch_cell));
           }
 
-        // The shape of the patch, normalised by its size: quadrature
-        // points relative to a, line orientations, psi_a, free fluxes.
         // On curved or perturbed meshes no two patches share a shape: once
-        // the first patches show that, keys are no longer built (nor
+        // the first patches show that, shape keys are no longer built (nor
         // stored).
         if (share_matrices && patches.size() == sharing_trial &&
             n_local_solvers > patches.size() / 2)
@@ -573,39 +610,9 @@ namespace VI
             share_matrices = false;
             solvers.clear();
           }
-        double h = 0;
-        for (const Member &member : members)
-          h = std::max(h, member.data->diameter);
-        key.clear();
-        if (share_matrices)
-          key.assign({patch.interior, std::int64_t(members.size())});
-        for (unsigned int c = 0; share_matrices && c < members.size(); ++c)
-          {
-            const CellData &data = *members[c].data;
-            for (unsigned int i = 0; i < data.points.size(); ++i)
-              key.push_back(
-                std::llround((data.points[i] - x_a[i % dim]) / h * 1e9));
-            key.insert(key.end(),
-                       data.orientations.begin(),
-                       data.orientations.end());
-            for (unsigned int v = 0; v < n_v; ++v)
-              key.push_back(std::llround(members[c].hat[v] * 1e9));
-            const PatchCell &patch_cell = patch.cells[c];
-            for (unsigned int k = 0; k < n_tau; ++k)
-              {
-                key.push_back(-1);
-                for (unsigned int e = patch_cell.sigma_start[k];
-                     e < patch_cell.sigma_start[k + 1];
-                     ++e)
-                  {
-                    key.push_back(patch_cell.sigma_entries[e].first);
-                    key.push_back(
-                      std::llround(patch_cell.sigma_entries[e].second * 1e9));
-                  }
-              }
-          }
         std::shared_ptr<const LocalSolver> unshared;
-        auto &solver = share_matrices ? solvers[key] : unshared;
+        auto                              &solver =
+          share_matrices ? solvers[shape_key(members, patch, x_a)] : unshared;
         if (!solver)
           {
             matrices.clear();
