@@ -1496,7 +1496,7 @@ namespace StepHHO
                              DataOut<dim>::type_cell_data);
     data_out.build_patches(*mapping,
                            degree,
-                           geometry == VI::Geometry::disk ?
+                           VI::has_curved_cells(geometry) ?
                              DataOut<dim>::curved_inner_cells :
                              DataOut<dim>::curved_boundary);
     data_out.write_vtu_with_pvtu_record(

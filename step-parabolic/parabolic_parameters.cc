@@ -38,10 +38,12 @@ namespace StepParabolic
     {
       prm.declare_entry("Geometry",
                         "disk",
-                        Selection("square|disk|L-shape"),
+                        Selection("square|disk|L-shape|square-circle"),
                         "square: (0,1)^2; disk: unit disk centred at the "
                         "origin (curved boundary); L-shape: (-1,1)^2 without "
-                        "(0,1)^2.");
+                        "(0,1)^2; square-circle: (0,1)^2 with the circle of "
+                        "radius 1/3 about (0.5, 0.5) as a line of the mesh "
+                        "(curved cells).");
       prm.declare_entry("Initial refinements",
                         "5",
                         Integer(0, 20),

@@ -1592,7 +1592,7 @@ namespace StepParabolic
 
     data_out.build_patches(*mapping,
                            fe.degree,
-                           geometry == VI::Geometry::disk ?
+                           VI::has_curved_cells(geometry) ?
                              DataOut<dim>::curved_inner_cells :
                              DataOut<dim>::curved_boundary);
     DataOutBase::VtkFlags flags;

@@ -1,5 +1,6 @@
 #include <deal.II/fe/mapping_q.h>
 #include <deal.II/grid/grid_generator.h>
+#include <deal.II/grid/grid_tools.h>
 #include <deal.II/grid/manifold_lib.h>
 
 #include <vi/errors.h>
@@ -20,9 +21,64 @@ namespace VI
       return Geometry::disk;
     if (name == "L-shape")
       return Geometry::L_shape;
+    if (name == "square-circle")
+      return Geometry::square_circle;
     throw InputError("Mesh/Geometry: unknown geometry <" + name +
-                     ">; accepted values: square|disk|L-shape");
+                     ">; accepted values: square|disk|L-shape|square-circle");
   }
+
+
+  bool
+  has_curved_cells(const Geometry geometry)
+  {
+    return geometry == Geometry::disk || geometry == Geometry::square_circle;
+  }
+
+
+  namespace
+  {
+    // The unit square with the circle |x - c| = R, c = (0.5, 0.5), R = 1/3,
+    // as cell faces: the twelve-cell disk of radius R inside, the eight-cell
+    // square with a hole of radius R outside (their eight vertices on the
+    // circle coincide), shifted to c. The faces on the circle follow a
+    // spherical manifold (id 0), and every cell a transfinite interpolation
+    // of its faces (id 1), which keeps the cells next to the circle regular
+    // under refinement on both sides; the boundary of the square is flat.
+    template <int dim>
+    void
+    make_square_circle(Triangulation<dim> &tria)
+    {
+      static_assert(dim == 2, "square-circle is a two-dimensional domain");
+      const double       R = 1. / 3.;
+      const Point<dim>   c(0.5, 0.5);
+      Triangulation<dim> disk, plate;
+      GridGenerator::hyper_ball_balanced(disk, Point<dim>(), R);
+      GridGenerator::hyper_cube_with_cylindrical_hole(plate, R, 0.5);
+      GridGenerator::merge_triangulations(disk, plate, tria, 1e-12);
+      AssertThrow(tria.n_vertices() ==
+                    disk.n_vertices() + plate.n_vertices() - 8,
+                  ExcInternalError("square-circle: the disk and the square "
+                                   "with a hole do not share the eight "
+                                   "vertices of their circle"));
+      GridTools::shift(c, tria);
+
+      tria.set_all_manifold_ids(1);
+      for (const auto &cell : tria.active_cell_iterators())
+        for (const unsigned int f : cell->face_indices())
+          {
+            const auto face = cell->face(f);
+            if (face->at_boundary())
+              face->set_manifold_id(numbers::flat_manifold_id);
+            else if (std::abs(face->vertex(0).distance(c) - R) < 1e-12 &&
+                     std::abs(face->vertex(1).distance(c) - R) < 1e-12)
+              face->set_manifold_id(0);
+          }
+      tria.set_manifold(0, SphericalManifold<dim>(c));
+      TransfiniteInterpolationManifold<dim> inside;
+      inside.initialize(tria);
+      tria.set_manifold(1, inside);
+    }
+  } // namespace
 
 
   template <int dim>
@@ -42,6 +98,9 @@ namespace VI
         case Geometry::L_shape:
           GridGenerator::hyper_L(tria, -1., 1.);
           break;
+        case Geometry::square_circle:
+          make_square_circle(tria);
+          break;
       }
   }
 
@@ -51,7 +110,7 @@ namespace VI
   geometry_center(const Geometry geometry)
   {
     Point<dim> center;
-    if (geometry == Geometry::square)
+    if (geometry == Geometry::square || geometry == Geometry::square_circle)
       for (unsigned int d = 0; d < dim; ++d)
         center[d] = 0.5;
     return center;
@@ -64,6 +123,7 @@ namespace VI
     switch (geometry)
       {
         case Geometry::square:
+        case Geometry::square_circle:
           return std::sqrt(2.);
         case Geometry::disk:
           return 2.;
@@ -80,6 +140,7 @@ namespace VI
     switch (geometry)
       {
         case Geometry::square:
+        case Geometry::square_circle:
           return 1. / std::sqrt(2. * numbers::PI * numbers::PI);
         case Geometry::disk:
           return 1. / std::sqrt(5.7831);
@@ -95,7 +156,7 @@ namespace VI
   make_mapping(const Geometry geometry, const unsigned int fe_degree)
   {
     return std::make_unique<MappingQ<dim>>(
-      geometry == Geometry::disk ? std::max(1u, fe_degree) : 1u);
+      has_curved_cells(geometry) ? std::max(1u, fe_degree) : 1u);
   }
 
 

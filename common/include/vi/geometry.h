@@ -16,17 +16,31 @@ namespace VI
    *   on the boundary and transfinite interpolation inside, so that refined
    *   meshes follow the circle; used with a mapping of the element's degree;
    * - L-shape: (-1,1)^2 without (0,1)^2, with its re-entrant corner at the
-   *   origin.
+   *   origin;
+   * - square-circle: (0,1)^2 again, meshed so that the circle of radius 1/3
+   *   about (0.5, 0.5) is a line of cell faces at every refinement (a
+   *   spherical manifold on it, transfinite interpolation in the cells),
+   *   used with a mapping of the element's degree. The seed tests' contact
+   *   set ends on that circle and the multiplier of the jump test is
+   *   discontinuous across it: on a mesh that cuts the circle, the data
+   *   oscillation of the cut cells (order h^(3/2) in the estimate) ends up
+   *   dominating the error of degree p >= 2 (order h^p).
    */
   enum class Geometry
   {
     square,
     disk,
-    L_shape
+    L_shape,
+    square_circle
   };
 
   Geometry
   geometry_from_name(const std::string &name);
+
+  /// Whether cells are curved (and need a mapping of higher degree, and
+  /// curved inner cells in the output).
+  bool
+  has_curved_cells(const Geometry geometry);
 
   /// Coarse mesh of the domain (to be refined by the caller).
   template <int dim>
@@ -55,7 +69,7 @@ namespace VI
 
   /**
    * Mapping for the domain and element degree p: Q1 on polygons (exact),
-   * Q_p on the disk so that the curved boundary does not limit the rate.
+   * Q_p where cells are curved, so that the curves do not limit the rate.
    */
   template <int dim>
   std::unique_ptr<dealii::Mapping<dim>>
