@@ -5,7 +5,7 @@
 #include <deal.II/grid/grid_tools.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/la_parallel_vector.h>
-#include <deal.II/lac/lapack_support.h>
+#include <deal.II/lac/lapack_full_matrix.h>
 #include <deal.II/lac/vector.h>
 
 #include <vi/flux_reconstruction.h>
@@ -20,77 +20,132 @@
 #include <map>
 #include <tuple>
 
-// LAPACK's unblocked LU factorisation and the BLAS triangular solve
-// (deal.II wraps only the blocked getrf and getrs).
-extern "C"
-{
-  void
-  dgetf2_(const dealii::types::blas_int *m,
-          const dealii::types::blas_int *n,
-          double                        *a,
-          const dealii::types::blas_int *lda,
-          dealii::types::blas_int       *ipiv,
-          dealii::types::blas_int       *info);
-  void
-  dlaswp_(const dealii::types::blas_int *n,
-          double                        *a,
-          const dealii::types::blas_int *lda,
-          const dealii::types::blas_int *k1,
-          const dealii::types::blas_int *k2,
-          const dealii::types::blas_int *ipiv,
-          const dealii::types::blas_int *incx);
-  void
-  dtrsv_(const char                    *uplo,
-         const char                    *trans,
-         const char                    *diag,
-         const dealii::types::blas_int *n,
-         const double                  *a,
-         const dealii::types::blas_int *lda,
-         double                        *x,
-         const dealii::types::blas_int *incx);
-}
-
 namespace VI
 {
   using namespace dealii;
 
-  // The LU factors of a patch matrix, once per mesh (a third of the work of
-  // an inverse); the patch problems of every field and every iterate are
-  // then two triangular solves each, which cost what a product with the
-  // inverse would. The matrices have a few dozen rows: there LAPACK's
-  // unblocked factorisation (getf2) and the level-2 triangular solves
-  // (trsv) take about 70 and 75 % of the time of the blocked, recursive
-  // getrf and of getrs with the reference BLAS (41 rows), whose call
-  // overhead dominates.
+  // The mixed patch problem, A sigma + B^T gamma = b, B sigma = g, in its
+  // divergence-free form. B_{k,i} = (div tau_i, q_k) does not depend on the
+  // geometry beyond the signs of the Piola transform and the hanging-node
+  // weights, so a few distinct B serve a whole mesh: for each, an SVD gives
+  // an orthonormal basis Z of the fluxes of the patch with zero divergence
+  // (and zero normal trace where prescribed) and the pseudo-inverse B^+.
+  // Then sigma = B^+ g + Z y with (Z^T A Z) y = Z^T (b - A B^+ g): the
+  // minimiser of the energy among the fluxes with divergence g. For an
+  // interior patch B has the constants in its left kernel (the flux through
+  // the patch boundary is zero) and g is compatible, (g, 1) = 0, when the
+  // data satisfy the discrete equations, as in the mixed problem with its
+  // mean-value condition; gamma is not needed. Per patch this costs the
+  // Cholesky factor of Z^T A Z, of order dim ker B (9 for an interior Q1
+  // patch, against an LU factorisation of order 41 for the saddle-point
+  // matrix), and each solve three products with Z or B^+.
+  template <int dim>
+  struct FluxReconstruction<dim>::DivergenceBasis
+  {
+    unsigned int        n_sigma = 0, n_q = 0, n_free = 0;
+    std::vector<double> kernel;         ///< Z, n_sigma x n_free, by columns
+    std::vector<double> pseudo_inverse; ///< B^+, n_sigma x n_q, by columns
+
+    /// From B, row-major (n_q rows of n_sigma).
+    DivergenceBasis(const unsigned int         n_sigma,
+                    const unsigned int         n_q,
+                    const std::vector<double> &B)
+        : n_sigma(n_sigma)
+        , n_q(n_q)
+    {
+      LAPACKFullMatrix<double> matrix(n_q, n_sigma);
+      for (unsigned int k = 0; k < n_q; ++k)
+        for (unsigned int i = 0; i < n_sigma; ++i)
+          matrix(k, i) = B[k * n_sigma + i];
+      matrix.compute_svd();
+      const LAPACKFullMatrix<double> &U  = matrix.get_svd_u(),
+                                     &VT = matrix.get_svd_vt();
+      // The rank: B has entries of order one, its zero singular values are
+      // round-off.
+      const unsigned int n_singular = std::min(n_q, n_sigma);
+      unsigned int       rank       = 0;
+      while (rank < n_singular &&
+             matrix.singular_value(rank) > 1e-10 * matrix.singular_value(0))
+        ++rank;
+      n_free = n_sigma - rank;
+      kernel.resize(n_sigma * n_free);
+      for (unsigned int j = 0; j < n_free; ++j)
+        for (unsigned int i = 0; i < n_sigma; ++i)
+          kernel[j * n_sigma + i] = VT(rank + j, i);
+      pseudo_inverse.assign(n_sigma * n_q, 0.);
+      for (unsigned int r = 0; r < rank; ++r)
+        {
+          const double inverse = 1. / matrix.singular_value(r);
+          for (unsigned int k = 0; k < n_q; ++k)
+            for (unsigned int i = 0; i < n_sigma; ++i)
+              pseudo_inverse[k * n_sigma + i] += VT(r, i) * inverse * U(k, r);
+        }
+    }
+  };
+
+
+  // A patch's energy on the divergence-free fluxes: W = Z^T A and the
+  // Cholesky factor L of Z^T A Z, once per mesh and patch shape.
   template <int dim>
   struct FluxReconstruction<dim>::LocalSolver
   {
-    types::blas_int              n = 0;
-    std::vector<double>          lu; ///< column-major; the matrix, then LU
-    std::vector<types::blas_int> pivots;
+    /// Length of a right-hand side column: b (n_sigma), then g (n_q).
+    unsigned int                           n = 0;
+    std::shared_ptr<const DivergenceBasis> basis;
+    std::vector<double>                    energy;   ///< W, n_free rows
+    std::vector<double>                    cholesky; ///< L, row-major
 
+    /// Overwrite the head of each of the n_columns columns (b, g) with
+    /// sigma.
     void
-    factorize()
+    solve(double              *columns,
+          const unsigned int   n_columns,
+          std::vector<double> &work) const
     {
-      pivots.resize(n);
-      types::blas_int info = 0;
-      dgetf2_(&n, &n, lu.data(), &n, pivots.data(), &info);
-      AssertThrow(info == 0,
-                  ExcMessage("Flux reconstruction: a patch matrix is "
-                             "singular (LAPACK getf2 info " +
-                             std::to_string(info) + ")."));
-    }
-
-    /// Overwrite the n_columns columns of length n with A^-1 columns.
-    void
-    solve(double *columns, const unsigned int n_columns) const
-    {
-      const types::blas_int one = 1, n_rhs = n_columns;
-      dlaswp_(&n_rhs, columns, &n, &one, &n, pivots.data(), &one);
+      const unsigned int n_sigma = basis->n_sigma, n_q = basis->n_q,
+                         d = basis->n_free;
+      work.resize(n_sigma + d);
+      double *const particular = work.data();
+      double *const y          = particular + n_sigma;
       for (unsigned int c = 0; c < n_columns; ++c)
         {
-          dtrsv_("L", "N", "U", &n, lu.data(), &n, columns + c * n, &one);
-          dtrsv_("U", "N", "N", &n, lu.data(), &n, columns + c * n, &one);
+          double *const       x = columns + std::size_t(c) * n;
+          const double *const g = x + n_sigma;
+          std::fill(particular, particular + n_sigma, 0.);
+          for (unsigned int k = 0; k < n_q; ++k)
+            {
+              const double *column = &basis->pseudo_inverse[k * n_sigma];
+              for (unsigned int i = 0; i < n_sigma; ++i)
+                particular[i] += column[i] * g[k];
+            }
+          for (unsigned int j = 0; j < d; ++j)
+            {
+              const double *z = &basis->kernel[j * n_sigma];
+              const double *w = &energy[j * n_sigma];
+              double        t = 0;
+              for (unsigned int i = 0; i < n_sigma; ++i)
+                t += z[i] * x[i] - w[i] * particular[i];
+              y[j] = t;
+            }
+          for (unsigned int j = 0; j < d; ++j)
+            {
+              for (unsigned int m = 0; m < j; ++m)
+                y[j] -= cholesky[j * d + m] * y[m];
+              y[j] /= cholesky[j * d + j];
+            }
+          for (unsigned int j = d; j-- > 0;)
+            {
+              for (unsigned int m = j + 1; m < d; ++m)
+                y[j] -= cholesky[m * d + j] * y[m];
+              y[j] /= cholesky[j * d + j];
+            }
+          std::copy_n(particular, n_sigma, x);
+          for (unsigned int j = 0; j < d; ++j)
+            {
+              const double *z = &basis->kernel[j * n_sigma];
+              for (unsigned int i = 0; i < n_sigma; ++i)
+                x[i] += z[i] * y[j];
+            }
         }
     }
   };
@@ -430,6 +485,7 @@ namespace VI
     // Patch matrices shared between patches of the same normalised shape.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
                                          solvers;
+    DivergenceBases                      bases;
     bool                                 share_matrices = true;
     constexpr unsigned int               sharing_trial  = 1000;
     std::vector<types::global_dof_index> patch_dofs;
@@ -620,7 +676,7 @@ namespace VI
               matrices.push_back(member.from == rank ?
                                    &cell_matrices(member.data->cell, cache) :
                                    &member.data->matrices);
-            solver = make_local_solver(patch, matrices);
+            solver = make_local_solver(patch, matrices, bases);
             ++n_local_solvers;
           }
         patch.solver = solver;
@@ -667,11 +723,10 @@ namespace VI
       return entry;
     const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
                        n_q   = fe_divergence.n_dofs_per_cell();
-    // mass (n_tau x n_tau), then divergence [k][i] (n_q x n_tau), then mean
-    entry.assign(n_tau * n_tau + n_q * n_tau + n_q, 0.);
+    // mass (n_tau x n_tau), then divergence [k][i] (n_q x n_tau)
+    entry.assign(n_tau * n_tau + n_q * n_tau, 0.);
     double *const mass       = entry.data();
     double *const divergence = mass + n_tau * n_tau;
-    double *const mean       = divergence + n_q * n_tau;
 
     FEValues<dim>                   &flux_values = cache.flux_values;
     const FEValuesExtractors::Vector flux(0);
@@ -686,8 +741,6 @@ namespace VI
         for (unsigned int i = 0; i < n_tau; ++i)
           for (unsigned int j = 0; j < n_tau; ++j)
             mass[i * n_tau + j] += tau[i] * tau[j] * dx;
-        for (unsigned int k = 0; k < n_q; ++k)
-          mean[k] += q_reference[q * n_q + k] * dx;
       }
     for (unsigned int k = 0; k < n_q; ++k)
       for (unsigned int i = 0; i < n_tau; ++i)
@@ -697,34 +750,27 @@ namespace VI
   }
 
 
-  // The matrix of the mixed patch problem, for the unknowns (sigma, gamma,
-  // rho): [A B^T 0; B 0 m; 0 m^T 0], A the RT mass matrix, B_{q, tau} =
-  // (div tau, q), and for interior patches the multiplier rho of the
-  // mean-value condition (gamma, 1) = 0 with m_q = (1, q).
+  // The patch matrices A (the RT mass matrix) and B (B_{q, tau} = (div tau,
+  // q)), then the divergence basis of B (shared by the patches with the
+  // same B) and the energy on its kernel.
   template <int dim>
   std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
   FluxReconstruction<dim>::make_local_solver(
     const Patch                                    &patch,
-    const std::vector<const std::vector<double> *> &cell_matrices) const
+    const std::vector<const std::vector<double> *> &cell_matrices,
+    DivergenceBases                                &bases) const
   {
-    const unsigned int n_sigma = patch.sigma_dofs.size();
-    const unsigned int n       = n_sigma + patch.n_q + (patch.interior ? 1 : 0);
-    auto               solver  = std::make_shared<LocalSolver>();
-    solver->n                  = n;
-    solver->lu.assign(n * n, 0.);
-    const auto matrix = [&](const unsigned int i,
-                            const unsigned int j) -> double & {
-      return solver->lu[i + j * n];
-    };
+    const unsigned int  n_sigma = patch.sigma_dofs.size();
+    const unsigned int  n_q     = patch.n_q;
+    std::vector<double> A(n_sigma * n_sigma, 0.), B(n_q * n_sigma, 0.);
 
     const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
-                       n_q   = fe_divergence.n_dofs_per_cell();
+                       n_q_K = fe_divergence.n_dofs_per_cell();
     for (unsigned int c = 0; c < patch.cells.size(); ++c)
       {
         const PatchCell &patch_cell = patch.cells[c];
         const double    *mass       = cell_matrices[c]->data();
         const double    *divergence = mass + n_tau * n_tau;
-        const double    *mean       = divergence + n_q * n_tau;
         const auto      &start      = patch_cell.sigma_start;
         const auto      &entries    = patch_cell.sigma_entries;
         for (unsigned int i = 0; i < n_tau; ++i)
@@ -733,26 +779,58 @@ namespace VI
               const auto [I, w_i] = entries[e];
               for (unsigned int j = 0; j < n_tau; ++j)
                 for (unsigned int f = start[j]; f < start[j + 1]; ++f)
-                  matrix(I, entries[f].first) +=
+                  A[I * n_sigma + entries[f].first] +=
                     w_i * entries[f].second * mass[i * n_tau + j];
-              for (unsigned int k = 0; k < n_q; ++k)
-                {
-                  const double       b = w_i * divergence[k * n_tau + i];
-                  const unsigned int K = n_sigma + patch_cell.q_offset + k;
-                  matrix(K, I) += b;
-                  matrix(I, K) += b;
-                }
-            }
-        if (patch.interior)
-          for (unsigned int k = 0; k < n_q; ++k)
-            {
-              const unsigned int K = n_sigma + patch_cell.q_offset + k;
-              matrix(K, n - 1) += mean[k];
-              matrix(n - 1, K) += mean[k];
+              for (unsigned int k = 0; k < n_q_K; ++k)
+                B[(patch_cell.q_offset + k) * n_sigma + I] +=
+                  w_i * divergence[k * n_tau + i];
             }
       }
 
-    solver->factorize();
+    std::vector<std::int64_t> key = {n_sigma, n_q};
+    for (const double b : B)
+      key.push_back(std::llround(b * 1e9));
+    auto &basis = bases[key];
+    if (!basis)
+      basis = std::make_shared<const DivergenceBasis>(n_sigma, n_q, B);
+
+    auto solver          = std::make_shared<LocalSolver>();
+    solver->n            = n_sigma + n_q;
+    solver->basis        = basis;
+    const unsigned int d = basis->n_free;
+    const double      *Z = basis->kernel.data();
+    // W = Z^T A (A is symmetric), then Z^T A Z = L L^T.
+    solver->energy.assign(d * n_sigma, 0.);
+    for (unsigned int j = 0; j < d; ++j)
+      for (unsigned int l = 0; l < n_sigma; ++l)
+        {
+          const double z = Z[j * n_sigma + l];
+          if (z != 0.)
+            for (unsigned int i = 0; i < n_sigma; ++i)
+              solver->energy[j * n_sigma + i] += z * A[l * n_sigma + i];
+        }
+    std::vector<double> &L = solver->cholesky;
+    L.assign(d * d, 0.);
+    for (unsigned int j = 0; j < d; ++j)
+      for (unsigned int m = 0; m <= j; ++m)
+        {
+          double value = 0;
+          for (unsigned int i = 0; i < n_sigma; ++i)
+            value += solver->energy[j * n_sigma + i] * Z[m * n_sigma + i];
+          for (unsigned int r = 0; r < m; ++r)
+            value -= L[j * d + r] * L[m * d + r];
+          if (m < j)
+            L[j * d + m] = value / L[m * d + m];
+          else
+            {
+              AssertThrow(value > 0.,
+                          ExcMessage("Flux reconstruction: the mass matrix "
+                                     "of a patch is not positive definite "
+                                     "on its divergence-free fluxes (a "
+                                     "degenerate cell?)."));
+              L[j * d + j] = std::sqrt(value);
+            }
+        }
     return solver;
   }
 
@@ -926,14 +1004,14 @@ namespace VI
     std::vector<TrilinosWrappers::MPI::Vector> accumulated(n_fields);
     for (auto &v : accumulated)
       v.reinit(owned_dofs, writable_dofs, comm, /*vector_writable=*/true);
-    std::vector<double> values;
+    std::vector<double> values, work;
     for (unsigned int p = 0; p < patches.size(); ++p)
       {
         // The patch solution overwrites its right-hand sides; sigma^a is
         // the head of each column.
         const LocalSolver &solver   = *patches[p].solver;
         double            *solution = rhs.data() + rhs_start[p];
-        solver.solve(solution, n_fields);
+        solver.solve(solution, n_fields, work);
         const unsigned int n_sigma = patches[p].sigma_dofs.size();
         for (unsigned int f = 0; f < n_fields; ++f)
           {

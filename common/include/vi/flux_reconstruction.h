@@ -13,6 +13,7 @@
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -41,13 +42,17 @@ namespace VI
    * flux is in H(div) and in equilibrium with the source, cell by cell.
    *
    * RT_p is FE_RaviartThomas(p), whose divergence lies in Q_p, and Q_p is
-   * FE_DGQ(p). The patch matrices depend only on the geometry and are
-   * invariant under scaling, so they are factorised once per mesh and shared
-   * by all patches of the same shape (on uniformly refined meshes a handful
-   * for the whole hierarchy; on curved meshes, where no two patches are
-   * alike, the search stops after the first thousand); the divergence block
-   * does not depend on the geometry at all (Piola transform), so sharing
-   * keeps the equilibration exact.
+   * FE_DGQ(p). Each patch problem is solved on the divergence-free fluxes
+   * of the patch (a kernel basis of the divergence block, which does not
+   * depend on the geometry beyond signs, computed once per distinct block)
+   * plus a particular flux: sigma^a is the same, the mean-value condition
+   * and gamma^a are not needed (see the .cc file). The patch matrices depend
+   * only on the geometry and are invariant under scaling, so they are
+   * prepared once per mesh and shared by all patches of the same shape (on
+   * uniformly refined meshes a handful for the whole hierarchy; on curved
+   * meshes, where no two patches are alike, the search stops after the
+   * first thousand); the divergence block does not depend on the geometry
+   * at all (Piola transform), so sharing keeps the equilibration exact.
    *
    * On meshes with hanging nodes psi_a is the conforming hat function of a
    * regular vertex a (the hanging vertices, whose values are constrained,
@@ -137,8 +142,11 @@ namespace VI
     statistics() const;
 
   private:
+    struct DivergenceBasis;
     struct LocalSolver;
     struct CellData;
+    using DivergenceBases = std::map<std::vector<std::int64_t>,
+                                     std::shared_ptr<const DivergenceBasis>>;
     struct Shares;
     struct CellMatrixCache;
 
@@ -177,14 +185,15 @@ namespace VI
       std::array<double, dealii::GeometryInfo<dim>::vertices_per_cell> hat;
     };
 
-    /// Flattened (tau_j, tau_i)_K, (div tau_i, q_k)_K, (1, q_k)_K.
+    /// Flattened (tau_j, tau_i)_K, (div tau_i, q_k)_K.
     const std::vector<double> &
     cell_matrices(const CellIterator &cell, CellMatrixCache &cache) const;
 
     std::shared_ptr<const LocalSolver>
     make_local_solver(
       const Patch                                    &patch,
-      const std::vector<const std::vector<double> *> &cell_matrices) const;
+      const std::vector<const std::vector<double> *> &cell_matrices,
+      DivergenceBases                                &bases) const;
 
     /// Add one cell's right-hand sides (all fields; layout of reconstruct())
     /// to those of patch p, column-major from rhs on.
