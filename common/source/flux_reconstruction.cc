@@ -38,7 +38,7 @@ namespace VI
   // mean-value condition; gamma is not needed. Per patch this costs the
   // Cholesky factor of Z^T A Z, of order dim ker B (9 for an interior Q1
   // patch, against an LU factorisation of order 41 for the saddle-point
-  // matrix), and each solve three products with Z or B^+.
+  // matrix), and each solve four small matrix-vector products.
   template <int dim>
   struct FluxReconstruction<dim>::DivergenceBasis
   {
