@@ -67,6 +67,15 @@ namespace VI
       while (rank < n_singular &&
              matrix.singular_value(rank) > 1e-10 * matrix.singular_value(0))
         ++rank;
+      // Onto Q_p of the patch, or onto its mean-zero part for an interior
+      // patch (the constants are the left kernel); anything smaller means
+      // a degenerate patch.
+      AssertThrow(rank + 1 >= n_q,
+                  ExcMessage("Flux reconstruction: the divergence of the "
+                             "Raviart-Thomas fluxes of a patch has rank " +
+                             std::to_string(rank) + " on " +
+                             std::to_string(n_q) +
+                             " moments; at least all but one are needed."));
       n_free = n_sigma - rank;
       kernel.resize(n_sigma * n_free);
       for (unsigned int j = 0; j < n_free; ++j)
