@@ -161,7 +161,6 @@ namespace VI
                               PiolaDivergence<dim>::update_flags());
     PiolaDivergence<dim>   divergence(in.flux->get_fe(), quadrature);
     std::vector<double> sigma_coefficients(in.flux->get_fe().n_dofs_per_cell());
-    const FEValuesExtractors::Vector sigma(0);
 
     std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], flux[2];
     std::vector<double> u[2], s[2], r[2], div_flux[2], f(n_q), lambda(n_q),
@@ -240,14 +239,12 @@ namespace VI
             broken_values.get_function_values(*r_vectors[a], r[a]);
             continuous_values.get_function_values(*s_vectors[a], s[a]);
             continuous_values.get_function_gradients(*s_vectors[a], grad_s[a]);
-            // (the coefficients read once: values and divergences)
-            flux_cell->get_dof_values(*flux_vectors[a],
-                                      sigma_coefficients.begin(),
-                                      sigma_coefficients.end());
-            flux_values[sigma].get_function_values_from_local_dof_values(
-              sigma_coefficients, flux[a]);
-            divergence.function_divergences(make_array_view(sigma_coefficients),
-                                            div_flux[a]);
+            divergence.function_values_and_divergences(flux_values,
+                                                       flux_cell,
+                                                       *flux_vectors[a],
+                                                       sigma_coefficients,
+                                                       flux[a],
+                                                       div_flux[a]);
           }
         broken_values.get_function_values(*in.lambda, lambda);
         broken_values.get_function_values(*in.lambda_nonnegative,

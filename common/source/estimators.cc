@@ -172,14 +172,12 @@ namespace VI
             potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
             flux_values[sigma].get_function_values(*disc_vectors[a],
                                                    sigma_disc[a]);
-            // (the coefficients read once: values and divergences)
-            flux_cell->get_dof_values(*ahead_vectors[a],
-                                      sigma_coefficients.begin(),
-                                      sigma_coefficients.end());
-            flux_values[sigma].get_function_values_from_local_dof_values(
-              sigma_coefficients, sigma_ahead[a]);
-            divergence.function_divergences(make_array_view(sigma_coefficients),
-                                            div_ahead[a]);
+            divergence.function_values_and_divergences(flux_values,
+                                                       flux_cell,
+                                                       *ahead_vectors[a],
+                                                       sigma_coefficients,
+                                                       sigma_ahead[a],
+                                                       div_ahead[a]);
             if (dt_vectors[a])
               {
                 potential_values.get_function_values(*dt_vectors[a], dt_u[a]);

@@ -483,14 +483,6 @@ namespace VI
       }
     std::sort(shares_here.begin(), shares_here.end());
 
-    std::vector<bool> at_boundary(tria.n_vertices(), false);
-    for (const auto &cell : tria.active_cell_iterators())
-      if (!cell->is_artificial())
-        for (const unsigned int f : cell->face_indices())
-          if (cell->face(f)->at_boundary())
-            for (unsigned int v = 0; v < cell->face(f)->n_vertices(); ++v)
-              at_boundary[cell->face(f)->vertex_index(v)] = true;
-
     // Patch matrices shared between patches of the same normalised shape.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
                                          solvers;
@@ -529,7 +521,8 @@ namespace VI
       double h = 0;
       for (const Member &member : members)
         h = std::max(h, member.data->diameter);
-      key.assign({patch.interior, std::int64_t(members.size())});
+      // (boundary patches differ from interior ones in their free fluxes)
+      key.assign({std::int64_t(members.size())});
       for (unsigned int c = 0; c < members.size(); ++c)
         {
           const CellData &data = *members[c].data;
@@ -567,7 +560,6 @@ namespace VI
         const unsigned int a = vertex_of.at(j);
         Patch              patch;
         patch.vertex          = a;
-        patch.interior        = !at_boundary[a];
         const Point<dim> &x_a = tria.get_vertices()[a];
 
         // Cells in a canonical order (by angle around a, then distance),

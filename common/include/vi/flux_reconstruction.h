@@ -165,7 +165,6 @@ namespace VI
     struct Patch
     {
       unsigned int                                 vertex;
-      bool                                         interior;
       std::vector<PatchCell>                       cells;
       std::vector<dealii::types::global_dof_index> sigma_dofs;
       unsigned int                                 n_q;

@@ -73,6 +73,27 @@ namespace VI
     function_divergences(const dealii::ArrayView<const double> &coefficients,
                          std::vector<double> &divergences) const;
 
+    /// Values and divergences at the quadrature points of the current cell
+    /// (that of `values`, reinit()ed) of the function `vector` of a
+    /// DoFHandler with this element: its cell coefficients are read once
+    /// into `coefficients` (sized to the element's dofs).
+    template <class CellIterator, class VectorType>
+    void
+    function_values_and_divergences(
+      const dealii::FEValuesBase<dim>     &values,
+      const CellIterator                  &cell,
+      const VectorType                    &vector,
+      std::vector<double>                 &coefficients,
+      std::vector<dealii::Tensor<1, dim>> &function_values,
+      std::vector<double>                 &divergences) const
+    {
+      cell->get_dof_values(vector, coefficients.begin(), coefficients.end());
+      values[dealii::FEValuesExtractors::Vector(0)]
+        .get_function_values_from_local_dof_values(coefficients,
+                                                   function_values);
+      function_divergences(dealii::make_array_view(coefficients), divergences);
+    }
+
   private:
     dealii::Table<2, double> reference; ///< [q][i]
     std::vector<double>      weights;
