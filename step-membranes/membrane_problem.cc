@@ -297,6 +297,16 @@ namespace StepMembranes
                   << " vertex patches, " << n_matrices
                   << " distinct patch matrices" << std::endl;
           }
+        cell_multiplier.reset();
+        if (fe.degree > 1 &&
+            parameters.estimators.multiplier == "contact cells")
+          {
+            cell_multiplier = std::make_unique<VI::CellMultiplier<dim>>();
+            cell_multiplier->reinit(*mapping,
+                                    dof_handler,
+                                    u1_constraints,
+                                    flux_reconstruction->get_quadrature());
+          }
         vertex_dofs.assign(triangulation.n_vertices(),
                            numbers::invalid_dof_index);
         for (const auto &cell : dof_handler.active_cell_iterators())
@@ -626,6 +636,8 @@ namespace StepMembranes
       ++newton_step;
       linearization_point = &X;
       step_estimate.reset();
+      if (cell_multiplier)
+        contact_nodes(X, step_contact_nodes);
       {
         TimerOutput::Scope t(timer, "newton: jacobian");
         row_weights =
@@ -747,7 +759,7 @@ namespace StepMembranes
     const auto monitor = [&](const Vector &update, const unsigned int i) {
       Vector X(*linearization_point);
       X += update;
-      describe_iterate(X, current);
+      describe_iterate(X, step_contact_nodes, current);
       current.linear_iteration = i;
 
       const VI::ContactEstimate own = estimate(current, current);
@@ -1062,7 +1074,20 @@ namespace StepMembranes
   // (F - E X)_i), and the equilibrated fluxes of both membranes.
   template <int dim>
   void
-  MembraneProblem<dim>::describe_iterate(const Vector &X, Iterate &it) const
+  MembraneProblem<dim>::contact_nodes(const Vector &X, Vector &indicator) const
+  {
+    Vector owned(owned_nodes, comm);
+    contact_rows.contact_set(X, owned);
+    indicator.reinit(owned_nodes, relevant_nodes, comm);
+    indicator = owned;
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::describe_iterate(const Vector &X,
+                                         const Vector &contact,
+                                         Iterate      &it) const
   {
     TimerOutput::Scope t(timer, "estimators: fluxes");
     it.X = X;
@@ -1090,15 +1115,32 @@ namespace StepMembranes
     ghosted(s1, it.s1);
     ghosted(s2, it.s2);
 
-    // lambda_h: <lambda_h, psi_i>_h = D_i X3_i.
+    // lambda_h: <lambda_h, psi_i>_h = D_i X3_i = m_i.
     VI::NodalFields::extract(X, multiplier, moments);
     moments.scale(coupling);
-    function_from_moments(moments, function);
-    ghosted(function, it.lambda);
-    for (double &m : moments)
-      m = std::max(m, 0.);
-    function_from_moments(moments, function);
-    ghosted(function, it.lambda_nonnegative);
+    if (cell_multiplier)
+      {
+        // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i).
+        Vector gap(u1);
+        gap -= u2;
+        it.complementarity = 2. * (moments * gap);
+        Vector m;
+        ghosted(moments, m);
+        cell_multiplier->distribute(m, contact, it.lambda_cells);
+        for (double &value : moments)
+          value = std::max(value, 0.);
+        ghosted(moments, m);
+        cell_multiplier->distribute(m, contact, it.lambda_nonnegative_cells);
+      }
+    else
+      {
+        function_from_moments(moments, function);
+        ghosted(function, it.lambda);
+        for (double &m : moments)
+          m = std::max(m, 0.);
+        function_from_moments(moments, function);
+        ghosted(function, it.lambda_nonnegative);
+      }
 
     // r_h from the residual F - E X of the rows of u1 and u2.
     Vector R(owned_system, comm);
@@ -1138,7 +1180,11 @@ namespace StepMembranes
                                                               cell->index(),
                                                               &dof_handler);
       values.reinit(dof_cell);
-      if (!lumped)
+      if (cell_multiplier)
+        cell_multiplier->values(it.lambda_cells,
+                                cell->active_cell_index(),
+                                lambda_values);
+      else if (!lumped)
         values.get_function_values(it.lambda, lambda_values);
       for (unsigned int a = 0; a < 2; ++a)
         {
@@ -1200,6 +1246,14 @@ namespace StepMembranes
     in.r2_ahead            = &ahead.r2;
     in.sigma1_ahead        = &ahead.sigma1;
     in.sigma2_ahead        = &ahead.sigma2;
+    if (cell_multiplier)
+      {
+        in.cell_multiplier          = cell_multiplier.get();
+        in.lambda_cells             = &it.lambda_cells;
+        in.lambda_nonnegative_cells = &it.lambda_nonnegative_cells;
+        in.lambda_ahead_cells       = &ahead.lambda_cells;
+        in.complementarity          = it.complementarity;
+      }
     return VI::estimate_contact_error(in);
   }
 
@@ -1211,7 +1265,10 @@ namespace StepMembranes
   MembraneProblem<dim>::estimate(const Vector &X) const
   {
     Iterate it;
-    describe_iterate(X, it);
+    Vector  contact;
+    if (cell_multiplier)
+      contact_nodes(X, contact);
+    describe_iterate(X, contact, it);
     return estimate(it, it);
   }
 

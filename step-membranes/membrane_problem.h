@@ -115,6 +115,11 @@ namespace StepMembranes
       Vector       u1, u2, s1, s2, lambda, lambda_nonnegative, r1, r2;
       Vector       sigma1, sigma2;
       unsigned int linear_iteration = 0;
+      /// With the cellwise multiplier (p >= 2): lambda_h and its part from
+      /// the nonnegative coefficients on the cells (then `lambda` and
+      /// `lambda_nonnegative` stay empty), and 2 <lambda_h, u1h - u2h>_h.
+      std::vector<double> lambda_cells, lambda_nonnegative_cells;
+      double              complementarity = 0;
     };
 
     /// One estimate during the solve, for summary.json: its components
@@ -164,8 +169,15 @@ namespace StepMembranes
     /// beside this cycle's solution (Benchmark/Compare with PETSc VI).
     void
     compare_with_petsc_vi(const Vector &initial);
+    /// `contact`: the nodes in contact that decide the contact cells of
+    /// the cellwise multiplier (see contact_nodes()).
     void
-    describe_iterate(const Vector &X, Iterate &iterate) const;
+    describe_iterate(const Vector &X,
+                     const Vector &contact,
+                     Iterate      &iterate) const;
+    /// The nodes in contact at X (1, else 0; with ghosts).
+    void
+    contact_nodes(const Vector &X, Vector &indicator) const;
     VI::ContactEstimate
     estimate(const Iterate &iterate, const Iterate &ahead) const;
     VI::ContactEstimate
@@ -250,6 +262,13 @@ namespace StepMembranes
     std::unique_ptr<TrilinosWrappers::PreconditionILU> ilu;
     std::unique_ptr<VI::ContactPreconditioner>         contact_preconditioner;
     std::unique_ptr<VI::FluxReconstruction<dim>>       flux_reconstruction;
+    /// The multiplier of the estimate on the contact cells (p >= 2 and
+    /// `Estimators/Multiplier = contact cells`; null otherwise).
+    std::unique_ptr<VI::CellMultiplier<dim>> cell_multiplier;
+    /// The nodes in contact at the linearisation point of the current
+    /// Newton step: the contact cells of every iterate of the step, so that
+    /// an iterate and its look-ahead share the map from moments to lambda~.
+    Vector step_contact_nodes;
 
     // The state of the current Newton step (set by setup_jacobian).
     const Vector                      *linearization_point = nullptr;

@@ -185,10 +185,25 @@ namespace VI
                                                      dt_u_ahead[a]);
               }
           }
-        potential_values.get_function_values(*in.lambda, lambda);
-        potential_values.get_function_values(*in.lambda_nonnegative,
-                                             lambda_nonnegative);
-        potential_values.get_function_values(*in.lambda_ahead, lambda_ahead);
+        if (in.cell_multiplier)
+          {
+            const auto index = potential_cell->active_cell_index();
+            in.cell_multiplier->values(*in.lambda_cells, index, lambda);
+            in.cell_multiplier->values(*in.lambda_nonnegative_cells,
+                                       index,
+                                       lambda_nonnegative);
+            in.cell_multiplier->values(*in.lambda_ahead_cells,
+                                       index,
+                                       lambda_ahead);
+          }
+        else
+          {
+            potential_values.get_function_values(*in.lambda, lambda);
+            potential_values.get_function_values(*in.lambda_nonnegative,
+                                                 lambda_nonnegative);
+            potential_values.get_function_values(*in.lambda_ahead,
+                                                 lambda_ahead);
+          }
 
         // G = sum over boundary faces F of delta_F(t) (1 - n) in the
         // reference coordinates (t along F, n away from it), delta_F = g -
@@ -396,7 +411,12 @@ namespace VI
     e.nonc_3                     = 2. * C * lambda_positive * e.nonc_1;
     e.contact_pos                = total[contact_total];
     e.contact_cone               = total[contact_cone];
-    if (in.mass_lumped)
+    if (in.cell_multiplier)
+      {
+        e.contact_lin  = in.complementarity;
+        e.contact_disc = e.contact_cone - e.contact_lin;
+      }
+    else if (in.mass_lumped)
       {
         e.contact_disc = e.contact_cone;
         e.contact_lin  = 0;

@@ -1,6 +1,9 @@
+#include <deal.II/base/mpi.h>
 #include <deal.II/distributed/grid_refinement.h>
 
 #include <vi/marking.h>
+
+#include <algorithm>
 
 namespace VI
 {
@@ -26,6 +29,26 @@ namespace VI
     else
       AssertThrow(false,
                   ExcMessage("Unknown marking strategy \"" + strategy + "\""));
+
+    unsigned int n_marked = 0;
+    double       largest  = 0;
+    for (const auto &cell : triangulation.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          n_marked += cell->refine_flag_set() ? 1 : 0;
+          largest =
+            std::max(largest, squared_indicators(cell->active_cell_index()));
+        }
+    const MPI_Comm comm = triangulation.get_communicator();
+    if (Utilities::MPI::sum(n_marked, comm) > 0)
+      return;
+    largest = Utilities::MPI::max(largest, comm);
+    if (largest > 0)
+      for (const auto &cell : triangulation.active_cell_iterators())
+        if (cell->is_locally_owned() &&
+            squared_indicators(cell->active_cell_index()) >=
+              (1. - 1e-10) * largest)
+          cell->set_refine_flag();
   }
 
 

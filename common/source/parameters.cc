@@ -409,6 +409,17 @@ namespace VI
                         "(always done by the adaptive strategy; costly for "
                         "the exact one, but it draws the estimators against "
                         "the linear iterations).");
+      prm.declare_entry(
+        "Multiplier",
+        "contact cells",
+        Selection("contact cells|conforming"),
+        "The multiplier the estimate works with, for FEM of degree p >= 2 "
+        "(p = 1 keeps its mass-lumped nodal one): 'contact cells' shares "
+        "each nodal moment of lambda_h among the cells at the node, on the "
+        "contact cells where there are some, as a cellwise Q1 function; "
+        "'conforming' is the finite element function M^(-1) m, which "
+        "spreads a jump of the multiplier into the cells outside the "
+        "contact set (doc/estimators.md).");
     }
     prm.leave_subsection();
   }
@@ -421,6 +432,7 @@ namespace VI
     {
       enabled     = prm.get_bool("Enabled");
       every_check = prm.get_bool("At every check");
+      multiplier  = prm.get("Multiplier");
     }
     prm.leave_subsection();
   }

@@ -7,6 +7,8 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
 
+#include <vi/cell_multiplier.h>
+
 #include <string>
 #include <utility>
 #include <vector>
@@ -116,6 +118,19 @@ namespace VI
     /// lambda_h built from the nonnegative multiplier coefficients only.
     const Vector *lambda_nonnegative = nullptr;
     const Vector *sigma1_disc = nullptr, *sigma2_disc = nullptr;
+
+    /// Optional: the multipliers (lambda_h, its part from the nonnegative
+    /// coefficients and the look-ahead's) as the cellwise functions of a
+    /// CellMultiplier, [cell * 2^dim + v], instead of the finite element
+    /// functions lambda, lambda_nonnegative and lambda_ahead. The
+    /// linearisation part of the contact term is then `complementarity` =
+    /// 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i), which
+    /// vanishes with the discrete complementarity.
+    const CellMultiplier<dim> *cell_multiplier          = nullptr;
+    const std::vector<double> *lambda_cells             = nullptr,
+                              *lambda_nonnegative_cells = nullptr,
+                              *lambda_ahead_cells       = nullptr;
+    double complementarity                              = 0;
 
     // The look-ahead.
     const Vector *lambda_ahead = nullptr;

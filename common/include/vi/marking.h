@@ -20,7 +20,12 @@ namespace VI
    *
    * Both set the refinement flags through
    * parallel::distributed::GridRefinement, whose global thresholds make the
-   * marking independent of the partition; no coarsening.
+   * marking independent of the partition; no coarsening. Their thresholds
+   * come from a bisection that can end inside a group of equal indicators
+   * (symmetric meshes: the 8 cells of an orbit of the square's symmetry
+   * group) and then mark none of them; when no cell at all is marked, the
+   * cells whose indicator equals the largest one (to round-off) are, so
+   * that an adaptive loop never solves on the same mesh again.
    */
   template <int dim>
   void

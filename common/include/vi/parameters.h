@@ -125,6 +125,8 @@ namespace VI
   {
     bool enabled     = true;
     bool every_check = true;
+    /// "contact cells" (CellMultiplier) or "conforming" (M^(-1) m).
+    std::string multiplier = "contact cells";
 
     static void
     declare(dealii::ParameterHandler &prm);

@@ -1,0 +1,182 @@
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_q.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/lac/full_matrix.h>
+
+#include <vi/cell_multiplier.h>
+
+namespace VI
+{
+  using namespace dealii;
+
+  template <int dim>
+  void
+  CellMultiplier<dim>::reinit(const Mapping<dim>              &mapping,
+                              const DoFHandler<dim>           &dofs,
+                              const AffineConstraints<double> &constraints,
+                              const Quadrature<dim>           &quadrature)
+  {
+    dof_handler = &dofs;
+    no_moment   = &constraints;
+    relevant    = DoFTools::extract_locally_relevant_dofs(dofs);
+
+    const FiniteElement<dim> &fe = dofs.get_fe();
+    AssertThrow(fe.has_support_points(),
+                ExcMessage("The cellwise multiplier needs a Lagrange "
+                           "element."));
+    const FE_Q<dim>    q1(1);
+    const unsigned int n_nodes = fe.n_dofs_per_cell(), n_q = quadrature.size();
+
+    // Reference integrals of the local shape functions (positive for the
+    // Gauss-Lobatto-based FE_Q; they define the shares of the moments).
+    const QGauss<dim> exact(fe.degree + 1);
+    reference_weights.assign(n_nodes, 0.);
+    for (unsigned int i = 0; i < n_nodes; ++i)
+      {
+        for (unsigned int q = 0; q < exact.size(); ++q)
+          reference_weights[i] +=
+            fe.shape_value(i, exact.point(q)) * exact.weight(q);
+        AssertThrow(reference_weights[i] > 0,
+                    ExcMessage("The cellwise multiplier needs shape functions "
+                               "with positive integrals."));
+      }
+    vertex_function_at_node.reinit(n_nodes, n_vertices);
+    for (unsigned int i = 0; i < n_nodes; ++i)
+      for (unsigned int v = 0; v < n_vertices; ++v)
+        vertex_function_at_node(i, v) =
+          q1.shape_value(v, fe.get_unit_support_points()[i]);
+    vertex_function_at_point.reinit(n_q, n_vertices);
+    for (unsigned int q = 0; q < n_q; ++q)
+      for (unsigned int v = 0; v < n_vertices; ++v)
+        vertex_function_at_point(q, v) = q1.shape_value(v, quadrature.point(q));
+
+    const auto &tria = dofs.get_triangulation();
+    measure.assign(tria.n_active_cells(), 0.);
+    inverse_mass.assign(tria.n_active_cells() * n_vertices * n_vertices, 0.);
+    FEValues<dim>      values(mapping, fe, quadrature, update_JxW_values);
+    FullMatrix<double> mass(n_vertices, n_vertices);
+    for (const auto &cell : dofs.active_cell_iterators())
+      {
+        if (cell->is_artificial())
+          continue;
+        values.reinit(cell);
+        const auto index = cell->active_cell_index();
+        mass             = 0;
+        for (unsigned int q = 0; q < n_q; ++q)
+          {
+            measure[index] += values.JxW(q);
+            for (unsigned int v = 0; v < n_vertices; ++v)
+              for (unsigned int w = 0; w < n_vertices; ++w)
+                mass(v, w) += vertex_function_at_point(q, v) *
+                              vertex_function_at_point(q, w) * values.JxW(q);
+          }
+        if (!cell->is_locally_owned())
+          continue;
+        mass.gauss_jordan();
+        std::copy(mass.begin(),
+                  mass.end(),
+                  inverse_mass.begin() + index * n_vertices * n_vertices);
+      }
+  }
+
+
+  template <int dim>
+  void
+  CellMultiplier<dim>::distribute(const TrilinosWrappers::MPI::Vector &moments,
+                                  const TrilinosWrappers::MPI::Vector &contact,
+                                  std::vector<double> &coefficients) const
+  {
+    Assert(dof_handler, ExcMessage("Call reinit() first."));
+    const unsigned int n_nodes = dof_handler->get_fe().n_dofs_per_cell();
+    std::vector<types::global_dof_index> dofs(n_nodes);
+    std::vector<double>                  m(n_nodes);
+
+    // A cell is a contact cell when all its nodes that carry a moment are
+    // in contact.
+    const auto contact_cell = [&](const auto &cell) {
+      cell->get_dof_indices(dofs);
+      bool in_contact = true;
+      for (unsigned int i = 0; i < n_nodes; ++i)
+        if (no_moment->is_constrained(dofs[i]))
+          m[i] = 0;
+        else
+          {
+            m[i] = moments(dofs[i]);
+            if (!(contact(dofs[i]) > 0))
+              in_contact = false;
+          }
+      return in_contact;
+    };
+
+    // The denominators of the shares: sums of |K| (phi^_i, 1) over the
+    // contact cells and over all cells at node i. All cells at a node of an
+    // owned cell are owned or ghost cells.
+    std::vector<double> on_contact(relevant.n_elements(), 0.),
+      on_all(relevant.n_elements(), 0.);
+    for (const auto &cell : dof_handler->active_cell_iterators())
+      if (cell->is_locally_owned() || cell->is_ghost())
+        {
+          const bool   contact = contact_cell(cell);
+          const double size    = measure[cell->active_cell_index()];
+          for (unsigned int i = 0; i < n_nodes; ++i)
+            {
+              const auto k = relevant.index_within_set(dofs[i]);
+              on_all[k] += size * reference_weights[i];
+              if (contact)
+                on_contact[k] += size * reference_weights[i];
+            }
+        }
+
+    coefficients.assign(measure.size() * n_vertices, 0.);
+    double cell_moments[n_vertices];
+    for (const auto &cell : dof_handler->active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          const bool   contact = contact_cell(cell);
+          const auto   index   = cell->active_cell_index();
+          const double size    = measure[index];
+          std::fill_n(cell_moments, n_vertices, 0.);
+          for (unsigned int i = 0; i < n_nodes; ++i)
+            {
+              if (m[i] == 0)
+                continue;
+              const auto   k = relevant.index_within_set(dofs[i]);
+              const double share =
+                on_contact[k] > 0 ?
+                  (contact ? size * reference_weights[i] / on_contact[k] : 0.) :
+                  size * reference_weights[i] / on_all[k];
+              for (unsigned int v = 0; v < n_vertices; ++v)
+                cell_moments[v] += share * m[i] * vertex_function_at_node(i, v);
+            }
+          const double *inverse =
+            inverse_mass.data() + index * n_vertices * n_vertices;
+          for (unsigned int v = 0; v < n_vertices; ++v)
+            for (unsigned int w = 0; w < n_vertices; ++w)
+              coefficients[index * n_vertices + v] +=
+                inverse[v * n_vertices + w] * cell_moments[w];
+        }
+  }
+
+
+  template <int dim>
+  void
+  CellMultiplier<dim>::values(const std::vector<double> &coefficients,
+                              const unsigned int         index,
+                              std::vector<double>       &values) const
+  {
+    AssertDimension(values.size(), vertex_function_at_point.size(0));
+    const double *c = coefficients.data() + index * n_vertices;
+    for (unsigned int q = 0; q < values.size(); ++q)
+      {
+        double value = 0;
+        for (unsigned int v = 0; v < n_vertices; ++v)
+          value += c[v] * vertex_function_at_point(q, v);
+        values[q] = value;
+      }
+  }
+
+
+  template class CellMultiplier<2>;
+} // namespace VI
