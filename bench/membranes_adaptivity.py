@@ -30,7 +30,7 @@ CASES = {"seed-jump": ("membranes-seed-jump.prm", 2),
 # Cycles so that both refinements reach about 1e4 - 1e5 unknowns per field.
 RUNS = [(case, p, refinement, cycles)
         for case in CASES
-        for p, uniform_cycles, adaptive_cycles in ((1, 6, 16), (2, 5, 12))
+        for p, uniform_cycles, adaptive_cycles in ((1, 6, 16), (2, 5, 16))
         for refinement, cycles in (("global", uniform_cycles),
                                    ("adaptive", adaptive_cycles))]
 

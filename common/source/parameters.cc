@@ -414,7 +414,8 @@ namespace VI
         "contact cells",
         Selection("contact cells|conforming"),
         "The multiplier the estimate works with, for FEM of degree p >= 2 "
-        "(p = 1 keeps its mass-lumped nodal one): 'contact cells' shares "
+        "(p = 1 keeps its mass-lumped nodal one, dG its cellwise one): "
+        "'contact cells' shares "
         "each nodal moment of lambda_h among the cells at the node, on the "
         "contact cells where there are some, as a cellwise Q1 function; "
         "'conforming' is the finite element function M^(-1) m, which "
