@@ -118,13 +118,13 @@ namespace VI
     for (const auto &cell : dof_handler->active_cell_iterators())
       if (cell->is_locally_owned() || cell->is_ghost())
         {
-          const bool   contact = contact_cell(cell);
-          const double size    = measure[cell->active_cell_index()];
+          const bool   is_contact_cell = contact_cell(cell);
+          const double size            = measure[cell->active_cell_index()];
           for (unsigned int i = 0; i < n_nodes; ++i)
             {
               const auto k = relevant.index_within_set(dofs[i]);
               on_all[k] += size * reference_weights[i];
-              if (contact)
+              if (is_contact_cell)
                 on_contact[k] += size * reference_weights[i];
             }
         }
@@ -134,9 +134,9 @@ namespace VI
     for (const auto &cell : dof_handler->active_cell_iterators())
       if (cell->is_locally_owned())
         {
-          const bool   contact = contact_cell(cell);
-          const auto   index   = cell->active_cell_index();
-          const double size    = measure[index];
+          const bool   is_contact_cell = contact_cell(cell);
+          const auto   index           = cell->active_cell_index();
+          const double size            = measure[index];
           std::fill_n(cell_moments, n_vertices, 0.);
           for (unsigned int i = 0; i < n_nodes; ++i)
             {
@@ -145,7 +145,9 @@ namespace VI
               const auto   k = relevant.index_within_set(dofs[i]);
               const double share =
                 on_contact[k] > 0 ?
-                  (contact ? size * reference_weights[i] / on_contact[k] : 0.) :
+                  (is_contact_cell ?
+                     size * reference_weights[i] / on_contact[k] :
+                     0.) :
                   size * reference_weights[i] / on_all[k];
               for (unsigned int v = 0; v < n_vertices; ++v)
                 cell_moments[v] += share * m[i] * vertex_function_at_node(i, v);
