@@ -16,6 +16,7 @@
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <vi/cell_multiplier.h>
 #include <vi/complementarity.h>
 #include <vi/contact_preconditioner.h>
 #include <vi/contact_rows.h>

@@ -2,6 +2,7 @@
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_values.h>
 
+#include <vi/cell_multiplier.h>
 #include <vi/estimators.h>
 #include <vi/piola_divergence.h>
 

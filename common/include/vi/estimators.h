@@ -7,14 +7,15 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
 
-#include <vi/cell_multiplier.h>
-
 #include <string>
 #include <utility>
 #include <vector>
 
 namespace VI
 {
+  template <int dim>
+  class CellMultiplier;
+
   /**
    * A posteriori error estimate of an iterate of the two-membrane problem
    * (doc/estimators.md has the theorem and its proof). All global numbers
