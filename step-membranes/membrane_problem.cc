@@ -1367,8 +1367,14 @@ namespace StepMembranes
       return VectorTools::compute_global_error(triangulation, cellwise, norm);
     };
     const double e1 = error(u1_h, *data.exact_u1, VectorTools::H1_seminorm);
+    cell_error.reinit(cellwise.size());
+    for (unsigned int K = 0; K < cellwise.size(); ++K)
+      cell_error[K] = data.mu1 * cellwise[K] * cellwise[K];
     const double e2 = error(u2_h, *data.exact_u2, VectorTools::H1_seminorm);
-    error_energy    = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
+    for (unsigned int K = 0; K < cellwise.size(); ++K)
+      cell_error[K] =
+        std::sqrt(cell_error[K] + data.mu2 * cellwise[K] * cellwise[K]);
+    error_energy = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
     if (data.exact_lambda)
       error_multiplier =
         error(lambda_h, *data.exact_lambda, VectorTools::L2_norm);
@@ -1400,6 +1406,10 @@ namespace StepMembranes
       indicators = VI::cell_indicators(*final_estimate);
     for (const auto &[name, values] : indicators)
       data_out.add_data_vector(values, name, DataOut<dim>::type_cell_data);
+    if (data.has_exact_solution())
+      data_out.add_data_vector(cell_error,
+                               "error_energy",
+                               DataOut<dim>::type_cell_data);
 
     data_out.build_patches(*mapping,
                            fe.degree,

@@ -289,7 +289,10 @@ namespace StepMembranes
     types::global_dof_index            n_contact_nodes  = 0;
     double                             error_energy     = 0;
     double                             error_multiplier = 0;
-    Timer                              cycle_timer;
+    /// |||u - u_h|||_K per active cell (where the exact solution is known):
+    /// beside the estimators in the VTU, the local effectivity.
+    dealii::Vector<float> cell_error;
+    Timer                 cycle_timer;
     /// Set-up, assembly and semismooth Newton (estimators included) of the
     /// cycle: what the contact problem costs on a given mesh.
     Timer                         solve_timer;
