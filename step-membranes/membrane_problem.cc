@@ -160,6 +160,12 @@ namespace StepMembranes
       // discrete equations (see FluxReconstruction::quadrature_points).
       , quadrature(VI::FluxReconstruction<dim>::quadrature_points(
           parameters.discretization.degree))
+      , multiplier_function(fe.degree,
+                            contact_rows,
+                            coupling,
+                            mass_matrix,
+                            hanging_node_constraints,
+                            relevant_nodes)
   {
   }
 
@@ -1133,14 +1139,9 @@ namespace StepMembranes
         cell_multiplier->distribute(m, contact, it.lambda_nonnegative_cells);
       }
     else
-      {
-        function_from_moments(moments, function);
-        ghosted(function, it.lambda);
-        for (double &m : moments)
-          m = std::max(m, 0.);
-        function_from_moments(moments, function);
-        ghosted(function, it.lambda_nonnegative);
-      }
+      multiplier_function.with_nonnegative_part(moments,
+                                                it.lambda,
+                                                it.lambda_nonnegative);
 
     // r_h from the residual F - E X of the rows of u1 and u2.
     Vector R(owned_system, comm);
@@ -1154,7 +1155,7 @@ namespace StepMembranes
           if (u1_constraints.is_constrained(i))
             moments(i) = 0;
         moments.compress(VectorOperation::insert);
-        function_from_moments(moments, function);
+        multiplier_function.from_moments(moments, function);
         ghosted(function, *r[field]);
       }
 
@@ -1273,36 +1274,6 @@ namespace StepMembranes
   }
 
 
-  // v with <v, psi_i>_h = m_i: v_i = m_i / D_i for the lumped bracket of
-  // p = 1; for p >= 2 the solution of M v = m (m = 0 on constrained nodes).
-  template <int dim>
-  void
-  MembraneProblem<dim>::function_from_moments(const Vector &moments,
-                                              Vector       &v) const
-  {
-    v = 0;
-    if (fe.degree == 1)
-      {
-        for (const types::global_dof_index i : contact_rows.nodes())
-          v(i) = moments(i) / coupling(i);
-        v.compress(VectorOperation::insert);
-      }
-    else
-      {
-        const double norm = moments.l2_norm();
-        if (norm > 0)
-          {
-            SolverControl                        control(1000, 1e-13 * norm);
-            TrilinosWrappers::SolverCG           cg(control);
-            TrilinosWrappers::PreconditionJacobi jacobi;
-            jacobi.initialize(mass_matrix);
-            cg.solve(mass_matrix, v, moments, jacobi);
-          }
-      }
-    hanging_node_constraints.distribute(v);
-  }
-
-
   // The inverse map: X3_i = <lambda_h, psi_i>_h / D_i, i.e. lambda_h(x_i)
   // for p = 1 and (lambda_h, psi_i) for p >= 2, on the contact nodes.
   template <int dim>
@@ -1339,7 +1310,7 @@ namespace StepMembranes
 
     VI::NodalFields::extract(solution, multiplier, field);
     field.scale(coupling);
-    function_from_moments(field, lambda);
+    multiplier_function.from_moments(field, lambda);
     lambda_h = lambda;
 
     n_contact_nodes = contact_rows.contact_set(solution, field);

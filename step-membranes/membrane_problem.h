@@ -25,6 +25,7 @@
 #include <vi/geometry.h>
 #include <vi/linear_solvers.h>
 #include <vi/marking.h>
+#include <vi/multiplier_function.h>
 #include <vi/parameters.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
@@ -195,11 +196,6 @@ namespace StepMembranes
     record_cycle(const unsigned int cycle);
     void
     write_tables() const;
-
-    /// The function v with <v, psi_i>_h = moments_i (v_i = moments_i / D_i
-    /// for p = 1, M^{-1} moments for p >= 2); moments without ghosts.
-    void
-    function_from_moments(const Vector &moments, Vector &v) const;
     /// The dual coefficients X3_i = <lambda_h, psi_i>_h / D_i of lambda_h.
     void
     compute_dual_coefficients(const Vector &lambda, Vector &X3) const;
@@ -240,11 +236,13 @@ namespace StepMembranes
     AffineConstraints<double> system_constraints;
     VI::ContactRows           contact_rows;
 
-    TrilinosWrappers::SparseMatrix system_matrix;    ///< A = [E ; J_C]
-    Vector                         system_rhs;       ///< F
-    Vector                         solution;         ///< X
-    Vector                         coupling;         ///< D_ii per node
-    TrilinosWrappers::SparseMatrix mass_matrix;      ///< L2 Gram matrix, p >= 2
+    TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E ; J_C]
+    Vector                         system_rhs;    ///< F
+    Vector                         solution;      ///< X
+    Vector                         coupling;      ///< D_ii per node
+    TrilinosWrappers::SparseMatrix mass_matrix;   ///< L2 Gram matrix, p >= 2
+    /// lambda_h as a finite element function, from its nodal moments.
+    const VI::MultiplierFunction   multiplier_function;
     TrilinosWrappers::SparseMatrix stiffness_matrix; ///< S, for AMG
     double                         load_norm        = 0;
     double                         multiplier_scale = 0;

@@ -106,6 +106,12 @@ namespace StepParabolic
       // with the discrete equations.
       , quadrature(VI::FluxReconstruction<dim>::quadrature_points(
           parameters.discretization.degree))
+      , multiplier_function(fe.degree,
+                            contact_rows,
+                            coupling,
+                            mass_matrix,
+                            hanging_node_constraints,
+                            relevant_nodes)
   {
   }
 
@@ -863,12 +869,9 @@ namespace StepParabolic
 
     VI::NodalFields::extract(X, multiplier, moments);
     moments.scale(coupling);
-    function_from_moments(moments, function);
-    ghosted(function, it.lambda);
-    for (double &m : moments)
-      m = std::max(m, 0.);
-    function_from_moments(moments, function);
-    ghosted(function, it.lambda_nonnegative);
+    multiplier_function.with_nonnegative_part(moments,
+                                              it.lambda,
+                                              it.lambda_nonnegative);
 
     Vector R(owned_system, comm);
     system_matrix.vmult(R, X);
@@ -881,7 +884,7 @@ namespace StepParabolic
           if (u1_constraints.is_constrained(i))
             moments(i) = 0;
         moments.compress(VectorOperation::insert);
-        function_from_moments(moments, function);
+        multiplier_function.from_moments(moments, function);
         ghosted(function, *r[field]);
       }
 
@@ -1299,36 +1302,6 @@ namespace StepParabolic
   }
 
 
-  // v with <v, psi_i>_h = m_i: v_i = m_i / D_i for p = 1 (lumped), the
-  // solution of M v = m for p >= 2.
-  template <int dim>
-  void
-  ParabolicProblem<dim>::function_from_moments(const Vector &moments,
-                                               Vector       &v) const
-  {
-    v = 0;
-    if (fe.degree == 1)
-      {
-        for (const types::global_dof_index i : contact_rows.nodes())
-          v(i) = moments(i) / coupling(i);
-        v.compress(VectorOperation::insert);
-      }
-    else
-      {
-        const double norm = moments.l2_norm();
-        if (norm > 0)
-          {
-            SolverControl                        control(1000, 1e-13 * norm);
-            TrilinosWrappers::SolverCG           cg(control);
-            TrilinosWrappers::PreconditionJacobi jacobi;
-            jacobi.initialize(mass_matrix);
-            cg.solve(mass_matrix, v, moments, jacobi);
-          }
-      }
-    hanging_node_constraints.distribute(v);
-  }
-
-
   // The solution of the step as finite element functions; the contact set
   // (and, for the ring test, its size in every ring).
   template <int dim>
@@ -1347,7 +1320,7 @@ namespace StepParabolic
 
     VI::NodalFields::extract(solution, multiplier, field);
     field.scale(coupling);
-    function_from_moments(field, lambda);
+    multiplier_function.from_moments(field, lambda);
     lambda_h = lambda;
 
     n_contact_nodes = contact_rows.contact_set(solution, field);

@@ -22,6 +22,7 @@
 #include <vi/flux_reconstruction.h>
 #include <vi/geometry.h>
 #include <vi/linear_solvers.h>
+#include <vi/multiplier_function.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 
@@ -251,9 +252,6 @@ namespace StepParabolic
     problem_fingerprint() const;
     void
     compare_with_run(const std::string &directory);
-
-    void
-    function_from_moments(const Vector &moments, Vector &v) const;
     /// (1 - theta) a + theta b into a ghosted vector.
     void
     interpolate_in_time(const Vector &a,
@@ -290,6 +288,8 @@ namespace StepParabolic
     Vector                         solution;      ///< X^n
     Vector                         coupling;      ///< D_ii per node
     TrilinosWrappers::SparseMatrix mass_matrix;   ///< L2 Gram matrix, p >= 2
+    /// lambda_h as a finite element function, from its nodal moments.
+    const VI::MultiplierFunction multiplier_function;
     /// S + M / (mu dt) (mu1 = mu2 = mu), for the AMG preconditioner.
     TrilinosWrappers::SparseMatrix stiffness_matrix;
     double                         load_norm        = 0;
