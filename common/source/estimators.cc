@@ -151,6 +151,13 @@ namespace VI
         grad_G[a].resize(n_q);
       }
 
+    // An iterate estimated with itself as look-ahead (sigma_alg = 0): its
+    // fluxes and multiplier are read once.
+    const bool own_look_ahead =
+      in.sigma1_ahead == in.sigma1_disc && in.sigma2_ahead == in.sigma2_disc &&
+      (in.cell_multiplier ? in.lambda_ahead_cells == in.lambda_cells :
+                            in.lambda_ahead == in.lambda);
+
     std::array<double, n_sums> sums{};
     const double               c_mu = std::sqrt(1. / in.mu1 + 1. / in.mu2);
     const double               C    = in.friedrichs_constant * c_mu;
@@ -171,14 +178,17 @@ namespace VI
             potential_values.get_function_values(*u_vectors[a], u[a]);
             potential_values.get_function_values(*s_vectors[a], s[a]);
             potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
-            flux_values[sigma].get_function_values(*disc_vectors[a],
-                                                   sigma_disc[a]);
             divergence.function_values_and_divergences(flux_values,
                                                        flux_cell,
                                                        *ahead_vectors[a],
                                                        sigma_coefficients,
                                                        sigma_ahead[a],
                                                        div_ahead[a]);
+            if (own_look_ahead)
+              sigma_disc[a] = sigma_ahead[a];
+            else
+              flux_values[sigma].get_function_values(*disc_vectors[a],
+                                                     sigma_disc[a]);
             if (dt_vectors[a])
               {
                 potential_values.get_function_values(*dt_vectors[a], dt_u[a]);
@@ -193,17 +203,23 @@ namespace VI
             in.cell_multiplier->values(*in.lambda_nonnegative_cells,
                                        index,
                                        lambda_nonnegative);
-            in.cell_multiplier->values(*in.lambda_ahead_cells,
-                                       index,
-                                       lambda_ahead);
+            if (own_look_ahead)
+              lambda_ahead = lambda;
+            else
+              in.cell_multiplier->values(*in.lambda_ahead_cells,
+                                         index,
+                                         lambda_ahead);
           }
         else
           {
             potential_values.get_function_values(*in.lambda, lambda);
             potential_values.get_function_values(*in.lambda_nonnegative,
                                                  lambda_nonnegative);
-            potential_values.get_function_values(*in.lambda_ahead,
-                                                 lambda_ahead);
+            if (own_look_ahead)
+              lambda_ahead = lambda;
+            else
+              potential_values.get_function_values(*in.lambda_ahead,
+                                                   lambda_ahead);
           }
 
         // G = sum over boundary faces F of delta_F(t) (1 - n) in the
