@@ -93,33 +93,31 @@ namespace VI
     std::vector<types::global_dof_index> dofs(n_nodes);
     std::vector<double>                  m(n_nodes);
 
-    // A cell is a contact cell when all its nodes that carry a moment are
-    // in contact.
-    const auto contact_cell = [&](const auto &cell) {
+    // The dofs and moments of a cell (zero on the nodes that carry none).
+    const auto read_cell = [&](const auto &cell) {
       cell->get_dof_indices(dofs);
-      bool in_contact = true;
       for (unsigned int i = 0; i < n_nodes; ++i)
-        if (no_moment->is_constrained(dofs[i]))
-          m[i] = 0;
-        else
-          {
-            m[i] = moments(dofs[i]);
-            if (!(contact(dofs[i]) > 0))
-              in_contact = false;
-          }
-      return in_contact;
+        m[i] = no_moment->is_constrained(dofs[i]) ? 0. : moments(dofs[i]);
     };
 
     // The denominators of the shares: sums of |K| (phi^_i, 1) over the
     // contact cells and over all cells at node i. All cells at a node of an
-    // owned cell are owned or ghost cells.
+    // owned cell are owned or ghost cells. A cell is a contact cell when
+    // all its nodes that carry a moment are in contact.
     std::vector<double> on_contact(relevant.n_elements(), 0.),
       on_all(relevant.n_elements(), 0.);
+    std::vector<bool> is_contact(measure.size(), false);
     for (const auto &cell : dof_handler->active_cell_iterators())
       if (cell->is_locally_owned() || cell->is_ghost())
         {
-          const bool   is_contact_cell = contact_cell(cell);
-          const double size            = measure[cell->active_cell_index()];
+          cell->get_dof_indices(dofs);
+          const auto index           = cell->active_cell_index();
+          bool       is_contact_cell = true;
+          for (unsigned int i = 0; i < n_nodes; ++i)
+            if (!no_moment->is_constrained(dofs[i]) && !(contact(dofs[i]) > 0))
+              is_contact_cell = false;
+          is_contact[index] = is_contact_cell;
+          const double size = measure[index];
           for (unsigned int i = 0; i < n_nodes; ++i)
             {
               const auto k = relevant.index_within_set(dofs[i]);
@@ -134,8 +132,9 @@ namespace VI
     for (const auto &cell : dof_handler->active_cell_iterators())
       if (cell->is_locally_owned())
         {
-          const bool   is_contact_cell = contact_cell(cell);
+          read_cell(cell);
           const auto   index           = cell->active_cell_index();
+          const bool   is_contact_cell = is_contact[index];
           const double size            = measure[index];
           std::fill_n(cell_moments, n_vertices, 0.);
           for (unsigned int i = 0; i < n_nodes; ++i)

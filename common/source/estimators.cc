@@ -203,9 +203,7 @@ namespace VI
             in.cell_multiplier->values(*in.lambda_nonnegative_cells,
                                        index,
                                        lambda_nonnegative);
-            if (own_look_ahead)
-              lambda_ahead = lambda;
-            else
+            if (!own_look_ahead)
               in.cell_multiplier->values(*in.lambda_ahead_cells,
                                          index,
                                          lambda_ahead);
@@ -215,12 +213,12 @@ namespace VI
             potential_values.get_function_values(*in.lambda, lambda);
             potential_values.get_function_values(*in.lambda_nonnegative,
                                                  lambda_nonnegative);
-            if (own_look_ahead)
-              lambda_ahead = lambda;
-            else
+            if (!own_look_ahead)
               potential_values.get_function_values(*in.lambda_ahead,
                                                    lambda_ahead);
           }
+        if (own_look_ahead)
+          lambda_ahead = lambda;
 
         // G = sum over boundary faces F of delta_F(t) (1 - n) in the
         // reference coordinates (t along F, n away from it), delta_F = g -
