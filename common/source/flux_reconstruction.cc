@@ -93,68 +93,100 @@ namespace VI
   };
 
 
-  // A patch's energy on the divergence-free fluxes: W = Z^T A and the
-  // Cholesky factor L of Z^T A Z, once per mesh and patch shape.
+  // How the cells of a patch connect to its unknowns: local RT dof k of the
+  // patch's cell c contributes to the (sigma^a index, weight) pairs
+  // sigma_entries[sigma_start[c (n_tau + 1) + k]] ...
+  // sigma_entries[sigma_start[c (n_tau + 1) + k + 1] - 1] (one pair of
+  // weight 1 for a free dof, the constraint's entries for a dof on a
+  // hanging face, none for a dof fixed to zero), and its moments are the
+  // Q_p indices c n_q ... (c + 1) n_q - 1. With the divergence basis of
+  // the B this gives. A layout depends on the connectivity, the hanging
+  // faces and the Piola signs only: a few serve a whole mesh, curved or
+  // not.
+  template <int dim>
+  struct FluxReconstruction<dim>::PatchLayout
+  {
+    unsigned int                                 n_cells = 0, n_sigma = 0;
+    std::vector<unsigned int>                    sigma_start;
+    std::vector<std::pair<unsigned int, double>> sigma_entries;
+    std::shared_ptr<const DivergenceBasis>       basis;
+  };
+
+
+  // A patch's energy on the divergence-free fluxes, once per mesh and patch
+  // shape: the Cholesky factor L of Z^T A Z and C = Z^T A B^+, in
+  // factors (C by rows, n_free x n_q, then the rows of L, packed).
   template <int dim>
   struct FluxReconstruction<dim>::LocalSolver
   {
+    std::shared_ptr<const PatchLayout> layout;
+    std::vector<double>                factors;
+
     /// Length of a right-hand side column: b (n_sigma), then g (n_q).
-    unsigned int                           n = 0;
-    std::shared_ptr<const DivergenceBasis> basis;
-    std::vector<double>                    energy;   ///< W, n_free rows
-    std::vector<double>                    cholesky; ///< L, row-major
+    unsigned int
+    n() const
+    {
+      return layout->basis->n_sigma + layout->basis->n_q;
+    }
 
     /// Overwrite the head of each of the n_columns columns (b, g) with
-    /// sigma.
+    /// sigma = B^+ g + Z y, (Z^T A Z) y = Z^T b - C g.
     void
     solve(double              *columns,
           const unsigned int   n_columns,
           std::vector<double> &work) const
     {
-      const unsigned int n_sigma = basis->n_sigma, n_q = basis->n_q,
-                         d = basis->n_free;
+      const DivergenceBasis &basis   = *layout->basis;
+      const unsigned int     n_sigma = basis.n_sigma, n_q = basis.n_q,
+                         d  = basis.n_free;
+      const double *const C = factors.data();
+      const double *const L = C + std::size_t(d) * n_q;
       work.resize(n_sigma + d);
       double *const particular = work.data();
       double *const y          = particular + n_sigma;
       for (unsigned int c = 0; c < n_columns; ++c)
         {
-          double *const       x = columns + std::size_t(c) * n;
+          double *const       x = columns + std::size_t(c) * n();
           const double *const g = x + n_sigma;
+          for (unsigned int j = 0; j < d; ++j)
+            {
+              const double *z   = &basis.kernel[j * n_sigma];
+              const double *c_j = &C[j * n_q];
+              double        t   = 0;
+              for (unsigned int i = 0; i < n_sigma; ++i)
+                t += z[i] * x[i];
+              for (unsigned int k = 0; k < n_q; ++k)
+                t -= c_j[k] * g[k];
+              y[j] = t;
+            }
+          // L (row j from j (j + 1) / 2 on) and L^T
+          for (unsigned int j = 0; j < d; ++j)
+            {
+              const double *row = L + j * (j + 1) / 2;
+              for (unsigned int m = 0; m < j; ++m)
+                y[j] -= row[m] * y[m];
+              y[j] /= row[j];
+            }
+          for (unsigned int j = d; j-- > 0;)
+            {
+              for (unsigned int m = j + 1; m < d; ++m)
+                y[j] -= L[m * (m + 1) / 2 + j] * y[m];
+              y[j] /= L[j * (j + 1) / 2 + j];
+            }
           std::fill(particular, particular + n_sigma, 0.);
           for (unsigned int k = 0; k < n_q; ++k)
             {
-              const double *column = &basis->pseudo_inverse[k * n_sigma];
+              const double *column = &basis.pseudo_inverse[k * n_sigma];
               for (unsigned int i = 0; i < n_sigma; ++i)
                 particular[i] += column[i] * g[k];
             }
           for (unsigned int j = 0; j < d; ++j)
             {
-              const double *z = &basis->kernel[j * n_sigma];
-              const double *w = &energy[j * n_sigma];
-              double        t = 0;
+              const double *z = &basis.kernel[j * n_sigma];
               for (unsigned int i = 0; i < n_sigma; ++i)
-                t += z[i] * x[i] - w[i] * particular[i];
-              y[j] = t;
-            }
-          for (unsigned int j = 0; j < d; ++j)
-            {
-              for (unsigned int m = 0; m < j; ++m)
-                y[j] -= cholesky[j * d + m] * y[m];
-              y[j] /= cholesky[j * d + j];
-            }
-          for (unsigned int j = d; j-- > 0;)
-            {
-              for (unsigned int m = j + 1; m < d; ++m)
-                y[j] -= cholesky[m * d + j] * y[m];
-              y[j] /= cholesky[j * d + j];
+                particular[i] += z[i] * y[j];
             }
           std::copy_n(particular, n_sigma, x);
-          for (unsigned int j = 0; j < d; ++j)
-            {
-              const double *z = &basis->kernel[j * n_sigma];
-              for (unsigned int i = 0; i < n_sigma; ++i)
-                x[i] += z[i] * y[j];
-            }
         }
     }
   };
@@ -483,14 +515,35 @@ namespace VI
       }
     std::sort(shares_here.begin(), shares_here.end());
 
-    // Patch matrices shared between patches of the same normalised shape.
+    // A cell's matrices and data are released after the last of its
+    // patches solved here (or after sending, if it has none): what is held
+    // is the front of the patch loop, not the mesh.
+    std::vector<unsigned int> pending(mine.cells.size(), 0);
+    for (const unsigned int i : solved_here)
+      ++pending[mine.cell[i]];
+    const auto release = [&](CellData &data) {
+      std::vector<double>().swap(cache.entries[data.cell->active_cell_index()]);
+      std::vector<double>().swap(data.points);
+      std::vector<int>().swap(data.orientations);
+      std::vector<unsigned int>().swap(data.expansion_start);
+      std::vector<std::pair<types::global_dof_index, double>>().swap(
+        data.expansion);
+      std::vector<double>().swap(data.vertex_mass);
+    };
+    for (unsigned int c = 0; c < mine.cells.size(); ++c)
+      if (pending[c] == 0)
+        release(mine.cells[c]);
+
+    // Patch matrices shared between patches of the same normalised shape,
+    // layouts between patches of the same connectivity.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
                                          solvers;
-    DivergenceBases                      bases;
+    Layouts                              layouts;
     bool                                 share_matrices = true;
     constexpr unsigned int               sharing_trial  = 1000;
-    std::vector<types::global_dof_index> patch_dofs;
     std::map<unsigned int, unsigned int> n_received;
+    patch_dofs.clear();
+    hat_masses.clear();
 
     // Per patch: its cells (data, psi_a, where the share came from) in a
     // canonical order, free dofs, their local numbers.
@@ -508,15 +561,16 @@ namespace VI
     };
     std::vector<Member>                      members;
     std::vector<types::global_dof_index>     free;
+    std::vector<unsigned int>                numbers;
     std::vector<bool>                        is_free(n_tau);
-    std::vector<std::int64_t>                key;
+    std::vector<std::int64_t>                key, layout_key;
     std::vector<const std::vector<double> *> matrices;
+    PatchLayout                              layout; // of the current patch
 
     // The shape of a patch, normalised by its size: quadrature points
     // relative to a, line orientations, psi_a, free fluxes.
     const auto shape_key =
       [&](const std::vector<Member> &members,
-          const Patch               &patch,
           const Point<dim>          &x_a) -> const std::vector<std::int64_t> & {
       double h = 0;
       for (const Member &member : members)
@@ -534,17 +588,16 @@ namespace VI
                      data.orientations.end());
           for (unsigned int v = 0; v < n_v; ++v)
             key.push_back(std::llround(members[c].hat[v] * 1e9));
-          const PatchCell &patch_cell = patch.cells[c];
           for (unsigned int k = 0; k < n_tau; ++k)
             {
               key.push_back(-1);
-              for (unsigned int e = patch_cell.sigma_start[k];
-                   e < patch_cell.sigma_start[k + 1];
+              for (unsigned int e = layout.sigma_start[c * (n_tau + 1) + k];
+                   e < layout.sigma_start[c * (n_tau + 1) + k + 1];
                    ++e)
                 {
-                  key.push_back(patch_cell.sigma_entries[e].first);
+                  key.push_back(layout.sigma_entries[e].first);
                   key.push_back(
-                    std::llround(patch_cell.sigma_entries[e].second * 1e9));
+                    std::llround(layout.sigma_entries[e].second * 1e9));
                 }
             }
         }
@@ -560,6 +613,8 @@ namespace VI
         const unsigned int a = vertex_of.at(j);
         Patch              patch;
         patch.vertex          = a;
+        patch.dofs_start      = patch_dofs.size();
+        patch.hat_mass_start  = hat_masses.size();
         const Point<dim> &x_a = tria.get_vertices()[a];
 
         // Cells in a canonical order (by angle around a, then distance),
@@ -614,8 +669,7 @@ namespace VI
         free.erase(std::unique(free.begin(), free.end()), free.end());
 
         // sigma^a's unknowns are the free dofs, numbered as first met.
-        std::vector<unsigned int> numbers(free.size(),
-                                          numbers::invalid_unsigned_int);
+        numbers.assign(free.size(), numbers::invalid_unsigned_int);
         const auto number = [&](const types::global_dof_index g) {
           const auto position = std::lower_bound(free.begin(), free.end(), g);
           if (position == free.end() || *position != g)
@@ -623,20 +677,19 @@ namespace VI
           unsigned int &n = numbers[position - free.begin()];
           if (n == numbers::invalid_unsigned_int)
             {
-              n = patch.sigma_dofs.size();
-              patch.sigma_dofs.push_back(g);
+              n = patch_dofs.size() - patch.dofs_start;
+              patch_dofs.push_back(g);
             }
           return n;
         };
-        patch.n_q = 0;
+        layout.n_cells = members.size();
+        layout.sigma_start.clear();
+        layout.sigma_entries.clear();
         for (const Member &member : members)
           {
-            PatchCell patch_cell;
-            patch_cell.sigma_start.reserve(n_tau + 1);
             for (unsigned int k = 0; k < n_tau; ++k)
               {
-                patch_cell.sigma_start.push_back(
-                  patch_cell.sigma_entries.size());
+                layout.sigma_start.push_back(layout.sigma_entries.size());
                 for (unsigned int e = member.data->expansion_start[k];
                      e < member.data->expansion_start[k + 1];
                      ++e)
@@ -644,19 +697,18 @@ namespace VI
                     const auto &[g, w]   = member.data->expansion[e];
                     const unsigned int I = number(g);
                     if (I != numbers::invalid_unsigned_int)
-                      patch_cell.sigma_entries.emplace_back(I, w);
+                      layout.sigma_entries.emplace_back(I, w);
                   }
               }
-            patch_cell.sigma_start.push_back(patch_cell.sigma_entries.size());
-            patch_cell.q_offset = patch.n_q;
-            patch_cell.hat_mass.assign(n_q, 0.);
+            layout.sigma_start.push_back(layout.sigma_entries.size());
+            const std::size_t start = hat_masses.size();
+            hat_masses.resize(start + n_q, 0.);
             for (unsigned int v = 0; v < n_v; ++v)
               for (unsigned int k = 0; k < n_q; ++k)
-                patch_cell.hat_mass[k] +=
+                hat_masses[start + k] +=
                   member.hat[v] * member.data->vertex_mass[v * n_q + k];
-            patch.n_q += n_q;
-            patch.cells.push_back(std::move(patch_cell));
           }
+        layout.n_sigma = patch_dofs.size() - patch.dofs_start;
 
         // On curved or perturbed meshes no two patches share a shape: once
         // the first patches show that, shape keys are no longer built (nor
@@ -669,7 +721,7 @@ namespace VI
           }
         std::shared_ptr<const LocalSolver> unshared;
         auto                              &solver =
-          share_matrices ? solvers[shape_key(members, patch, x_a)] : unshared;
+          share_matrices ? solvers[shape_key(members, x_a)] : unshared;
         if (!solver)
           {
             matrices.clear();
@@ -677,7 +729,7 @@ namespace VI
               matrices.push_back(member.from == rank ?
                                    &cell_matrices(member.data->cell, cache) :
                                    &member.data->matrices);
-            solver = make_local_solver(patch, matrices, bases);
+            solver = make_local_solver(layout, matrices, layouts, layout_key);
             ++n_local_solvers;
           }
         patch.solver = solver;
@@ -699,15 +751,17 @@ namespace VI
               received[members[c].from][members[c].index] = {patch_number, c};
               ++n_received[members[c].from];
             }
-        patch_dofs.insert(patch_dofs.end(),
-                          patch.sigma_dofs.begin(),
-                          patch.sigma_dofs.end());
+        for (const Member &member : members)
+          if (member.from == rank && --pending[mine.cell[member.index]] == 0)
+            release(mine.cells[mine.cell[member.index]]);
         patches.push_back(std::move(patch));
       }
     for (const auto &[from, shares] : incoming)
       AssertThrow(n_received[from] == shares.patch.size(),
                   ExcMessage("Flux reconstruction: a cell share sent to this "
                              "process belongs to no patch solved here."));
+    patch_dofs.shrink_to_fit();
+    hat_masses.shrink_to_fit();
     writable_dofs = relevant_dofs;
     writable_dofs.add_indices(index_set(dof_handler.n_dofs(), patch_dofs));
     hats.clear();
@@ -752,28 +806,27 @@ namespace VI
 
 
   // The patch matrices A (the RT mass matrix) and B (B_{q, tau} = (div tau,
-  // q)), then the divergence basis of B (shared by the patches with the
-  // same B) and the energy on its kernel.
+  // q)), then the layout with the divergence basis of B (shared by the
+  // patches with the same connectivity and B) and the energy on its kernel.
   template <int dim>
   std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
   FluxReconstruction<dim>::make_local_solver(
-    const Patch                                    &patch,
+    const PatchLayout                              &layout,
     const std::vector<const std::vector<double> *> &cell_matrices,
-    DivergenceBases                                &bases) const
+    Layouts                                        &layouts,
+    std::vector<std::int64_t>                      &key) const
   {
-    const unsigned int  n_sigma = patch.sigma_dofs.size();
-    const unsigned int  n_q     = patch.n_q;
+    const unsigned int n_tau    = fe_flux.n_dofs_per_cell(),
+                       n_q_K    = fe_divergence.n_dofs_per_cell();
+    const unsigned int  n_sigma = layout.n_sigma;
+    const unsigned int  n_q     = layout.n_cells * n_q_K;
     std::vector<double> A(n_sigma * n_sigma, 0.), B(n_q * n_sigma, 0.);
-
-    const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
-                       n_q_K = fe_divergence.n_dofs_per_cell();
-    for (unsigned int c = 0; c < patch.cells.size(); ++c)
+    const auto         &entries = layout.sigma_entries;
+    for (unsigned int c = 0; c < layout.n_cells; ++c)
       {
-        const PatchCell &patch_cell = patch.cells[c];
-        const double    *mass       = cell_matrices[c]->data();
-        const double    *divergence = mass + n_tau * n_tau;
-        const auto      &start      = patch_cell.sigma_start;
-        const auto      &entries    = patch_cell.sigma_entries;
+        const double *mass       = cell_matrices[c]->data();
+        const double *divergence = mass + n_tau * n_tau;
+        const auto   *start      = &layout.sigma_start[c * (n_tau + 1)];
         for (unsigned int i = 0; i < n_tau; ++i)
           for (unsigned int e = start[i]; e < start[i + 1]; ++e)
             {
@@ -783,45 +836,68 @@ namespace VI
                   A[I * n_sigma + entries[f].first] +=
                     w_i * entries[f].second * mass[i * n_tau + j];
               for (unsigned int k = 0; k < n_q_K; ++k)
-                B[(patch_cell.q_offset + k) * n_sigma + I] +=
+                B[(c * n_q_K + k) * n_sigma + I] +=
                   w_i * divergence[k * n_tau + i];
             }
       }
 
-    std::vector<std::int64_t> key = {n_sigma, n_q};
+    key.assign({layout.n_cells, n_sigma});
+    key.insert(key.end(), layout.sigma_start.begin(), layout.sigma_start.end());
+    for (const auto &[I, w] : entries)
+      {
+        key.push_back(I);
+        key.push_back(std::llround(w * 1e9));
+      }
     for (const double b : B)
       key.push_back(std::llround(b * 1e9));
-    auto &basis = bases[key];
-    if (!basis)
-      basis = std::make_shared<const DivergenceBasis>(n_sigma, n_q, B);
+    auto &shared_layout = layouts[key];
+    if (!shared_layout)
+      {
+        auto new_layout = std::make_shared<PatchLayout>(layout);
+        new_layout->basis =
+          std::make_shared<const DivergenceBasis>(n_sigma, n_q, B);
+        shared_layout = new_layout;
+      }
 
-    auto solver          = std::make_shared<LocalSolver>();
-    solver->n            = n_sigma + n_q;
-    solver->basis        = basis;
-    const unsigned int d = basis->n_free;
-    const double      *Z = basis->kernel.data();
-    // W = Z^T A (A is symmetric), then Z^T A Z = L L^T.
-    solver->energy.assign(d * n_sigma, 0.);
+    auto solver                  = std::make_shared<LocalSolver>();
+    solver->layout               = shared_layout;
+    const DivergenceBasis &basis = *shared_layout->basis;
+    const unsigned int     d     = basis.n_free;
+    const double          *Z     = basis.kernel.data();
+    // W = Z^T A (A is symmetric), C = W B^+, then Z^T A Z = W Z = L L^T.
+    std::vector<double> W(d * n_sigma, 0.);
     for (unsigned int j = 0; j < d; ++j)
       for (unsigned int l = 0; l < n_sigma; ++l)
         {
           const double z = Z[j * n_sigma + l];
           if (z != 0.)
             for (unsigned int i = 0; i < n_sigma; ++i)
-              solver->energy[j * n_sigma + i] += z * A[l * n_sigma + i];
+              W[j * n_sigma + i] += z * A[l * n_sigma + i];
         }
-    std::vector<double> &L = solver->cholesky;
-    L.assign(d * d, 0.);
+    solver->factors.assign(d * n_q + d * (d + 1) / 2, 0.);
+    double *const C = solver->factors.data();
+    double *const L = C + d * n_q;
+    for (unsigned int j = 0; j < d; ++j)
+      for (unsigned int k = 0; k < n_q; ++k)
+        {
+          const double *column = &basis.pseudo_inverse[k * n_sigma];
+          double        value  = 0;
+          for (unsigned int i = 0; i < n_sigma; ++i)
+            value += W[j * n_sigma + i] * column[i];
+          C[j * n_q + k] = value;
+        }
     for (unsigned int j = 0; j < d; ++j)
       for (unsigned int m = 0; m <= j; ++m)
         {
           double value = 0;
           for (unsigned int i = 0; i < n_sigma; ++i)
-            value += solver->energy[j * n_sigma + i] * Z[m * n_sigma + i];
+            value += W[j * n_sigma + i] * Z[m * n_sigma + i];
+          double *const row_j = L + j * (j + 1) / 2;
+          double *const row_m = L + m * (m + 1) / 2;
           for (unsigned int r = 0; r < m; ++r)
-            value -= L[j * d + r] * L[m * d + r];
+            value -= row_j[r] * row_m[r];
           if (m < j)
-            L[j * d + m] = value / L[m * d + m];
+            row_j[m] = value / row_m[m];
           else
             {
               AssertThrow(value > 0.,
@@ -829,7 +905,7 @@ namespace VI
                                      "of a patch is not positive definite "
                                      "on its divergence-free fluxes (a "
                                      "degenerate cell?)."));
-              L[j * d + j] = std::sqrt(value);
+              row_j[j] = std::sqrt(value);
             }
         }
     return solver;
@@ -847,22 +923,21 @@ namespace VI
                                           const unsigned int n_fields,
                                           double *const      rhs) const
   {
-    const Patch       &patch      = patches[p];
-    const PatchCell   &patch_cell = patch.cells[position];
-    const unsigned int n_tau      = fe_flux.n_dofs_per_cell(),
-                       n_q        = fe_divergence.n_dofs_per_cell();
-    const unsigned int n_sigma    = patch.sigma_dofs.size();
-    const unsigned int n          = patch.solver->n;
+    const PatchLayout &layout   = *patches[p].solver->layout;
+    const unsigned int n_tau    = fe_flux.n_dofs_per_cell(),
+                       n_q      = fe_divergence.n_dofs_per_cell();
+    const unsigned int  n_sigma = layout.n_sigma;
+    const unsigned int  n       = patches[p].solver->n();
+    const unsigned int *start   = &layout.sigma_start[position * (n_tau + 1)];
+    const auto         *entries = layout.sigma_entries.data();
     for (unsigned int f = 0; f < n_fields; ++f, values += n_tau + n_q)
       {
+        double *const column = rhs + std::size_t(f) * n;
         for (unsigned int j = 0; j < n_tau; ++j)
-          for (unsigned int e = patch_cell.sigma_start[j];
-               e < patch_cell.sigma_start[j + 1];
-               ++e)
-            rhs[patch_cell.sigma_entries[e].first + f * n] +=
-              patch_cell.sigma_entries[e].second * values[j];
+          for (unsigned int e = start[j]; e < start[j + 1]; ++e)
+            column[entries[e].first] += entries[e].second * values[j];
         for (unsigned int k = 0; k < n_q; ++k)
-          rhs[n_sigma + patch_cell.q_offset + k + f * n] += values[n_tau + k];
+          column[n_sigma + position * n_q + k] += values[n_tau + k];
       }
   }
 
@@ -887,7 +962,7 @@ namespace VI
     std::vector<std::size_t> rhs_start(patches.size() + 1, 0);
     for (unsigned int p = 0; p < patches.size(); ++p)
       rhs_start[p + 1] =
-        rhs_start[p] + std::size_t(patches[p].solver->n) * n_fields;
+        rhs_start[p] + std::size_t(patches[p].solver->n()) * n_fields;
     std::vector<double>                         rhs(rhs_start.back(), 0.);
     std::map<unsigned int, std::vector<double>> outgoing;
     for (const auto &[to, n] : n_sent)
@@ -988,24 +1063,24 @@ namespace VI
     if (sources.vertex_source)
       for (unsigned int p = 0; p < patches.size(); ++p)
         {
-          const Patch &patch = patches[p];
+          const Patch       &patch  = patches[p];
+          const PatchLayout &layout = *patch.solver->layout;
+          const double *hat_mass    = hat_masses.data() + patch.hat_mass_start;
           for (unsigned int f = 0; f < n_fields; ++f)
             {
               const double c_a    = sources.vertex_source(patch.vertex, f);
               double      *column = rhs.data() + rhs_start[p] +
-                               std::size_t(f) * patch.solver->n +
-                               patch.sigma_dofs.size();
-              for (const auto &patch_cell : patch.cells)
-                for (unsigned int k = 0; k < n_q; ++k)
-                  column[patch_cell.q_offset + k] +=
-                    c_a * patch_cell.hat_mass[k];
+                               std::size_t(f) * patch.solver->n() +
+                               layout.n_sigma;
+              for (unsigned int k = 0; k < layout.n_cells * n_q; ++k)
+                column[k] += c_a * hat_mass[k];
             }
         }
 
     std::vector<TrilinosWrappers::MPI::Vector> accumulated(n_fields);
     for (auto &v : accumulated)
       v.reinit(owned_dofs, writable_dofs, comm, /*vector_writable=*/true);
-    std::vector<double> values, work;
+    std::vector<double> work;
     for (unsigned int p = 0; p < patches.size(); ++p)
       {
         // The patch solution overwrites its right-hand sides; sigma^a is
@@ -1013,13 +1088,11 @@ namespace VI
         const LocalSolver &solver   = *patches[p].solver;
         double            *solution = rhs.data() + rhs_start[p];
         solver.solve(solution, n_fields, work);
-        const unsigned int n_sigma = patches[p].sigma_dofs.size();
+        const unsigned int n_sigma = solver.layout->n_sigma;
         for (unsigned int f = 0; f < n_fields; ++f)
-          {
-            const double *column = solution + std::size_t(f) * solver.n;
-            values.assign(column, column + n_sigma);
-            accumulated[f].add(patches[p].sigma_dofs, values);
-          }
+          accumulated[f].add(n_sigma,
+                             patch_dofs.data() + patches[p].dofs_start,
+                             solution + std::size_t(f) * solver.n());
       }
     // The fluxes on the fine side of hanging faces from the coarse side.
     TrilinosWrappers::MPI::Vector owned(owned_dofs, comm);

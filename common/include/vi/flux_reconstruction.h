@@ -143,32 +143,23 @@ namespace VI
 
   private:
     struct DivergenceBasis;
+    struct PatchLayout;
     struct LocalSolver;
     struct CellData;
-    using DivergenceBases = std::map<std::vector<std::int64_t>,
-                                     std::shared_ptr<const DivergenceBasis>>;
+    using Layouts =
+      std::map<std::vector<std::int64_t>, std::shared_ptr<const PatchLayout>>;
     struct Shares;
     struct CellMatrixCache;
 
-    struct PatchCell
-    {
-      /// local RT dof k -> the (index of sigma^a, weight) pairs
-      /// sigma_entries[sigma_start[k]] ... sigma_entries[sigma_start[k + 1]
-      /// - 1]: one pair with weight 1 for a free dof, the constraint's
-      /// entries for a dof on a hanging face, none for a dof fixed to zero
-      std::vector<unsigned int>                    sigma_start;
-      std::vector<std::pair<unsigned int, double>> sigma_entries;
-      unsigned int        q_offset; ///< first Q_p index of this cell
-      std::vector<double> hat_mass; ///< (psi_a, q_k) on the cell
-    };
-
+    /// A vertex patch solved here: its unknowns sigma^a are the Raviart-Thomas
+    /// dofs patch_dofs[dofs_start ...] (as many as the layout of its solver
+    /// says), and (psi_a, q_k)_K of its cells are hat_masses[hat_mass_start
+    /// ...], cell by cell.
     struct Patch
     {
-      unsigned int                                 vertex;
-      std::vector<PatchCell>                       cells;
-      std::vector<dealii::types::global_dof_index> sigma_dofs;
-      unsigned int                                 n_q;
-      std::shared_ptr<const LocalSolver>           solver;
+      unsigned int                       vertex;
+      std::size_t                        dofs_start, hat_mass_start;
+      std::shared_ptr<const LocalSolver> solver;
     };
 
     /// An owned cell's part in a patch: the patch is solved by `rank`;
@@ -188,11 +179,15 @@ namespace VI
     const std::vector<double> &
     cell_matrices(const CellIterator &cell, CellMatrixCache &cache) const;
 
+    /// The solver of a patch with the given layout (only its connectivity
+    /// is read) and cell matrices; the layout is looked up in (or added to)
+    /// `layouts`.
     std::shared_ptr<const LocalSolver>
     make_local_solver(
-      const Patch                                    &patch,
+      const PatchLayout                              &layout,
       const std::vector<const std::vector<double> *> &cell_matrices,
-      DivergenceBases                                &bases) const;
+      Layouts                                        &layouts,
+      std::vector<std::int64_t>                      &key) const;
 
     /// Add one cell's right-hand sides (all fields; layout of reconstruct())
     /// to those of patch p, column-major from rhs on.
@@ -216,6 +211,9 @@ namespace VI
     dealii::AffineConstraints<double> hanging_constraints; ///< of RT_p
     dealii::IndexSet                  owned_dofs, relevant_dofs;
     std::vector<Patch>                patches;
+    /// The unknowns of all patches, and their cells' (psi_a, q_k)_K.
+    std::vector<dealii::types::global_dof_index> patch_dofs;
+    std::vector<double>                          hat_masses;
     /// For every active cell (owned ones only): its parts in patches.
     std::vector<std::vector<Membership>> memberships;
     /// Right-hand sides sent to each rank per reconstruction, and for those
