@@ -210,6 +210,13 @@ namespace VI
     const PiolaDivergence<dim> divergence(fe_flux, quadrature);
     q_reference.resize(quadrature.size() * n_q);
     divergence_reference.assign(n_q * n_tau, 0.);
+    weighted_flux_reference.resize(quadrature.size() * n_tau * dim);
+    for (unsigned int q = 0; q < quadrature.size(); ++q)
+      for (unsigned int i = 0; i < n_tau; ++i)
+        for (unsigned int d = 0; d < dim; ++d)
+          weighted_flux_reference[(q * n_tau + i) * dim + d] =
+            fe_flux.shape_value_component(i, quadrature.point(q), d) *
+            quadrature.weight(q);
     for (unsigned int q = 0; q < quadrature.size(); ++q)
       for (unsigned int k = 0; k < n_q; ++k)
         {
@@ -308,17 +315,17 @@ namespace VI
   {
     CellMatrixCache(const FluxReconstruction<dim> &reconstruction,
                     const unsigned int             n_active_cells)
-        : flux_values(reconstruction.mapping,
-                      reconstruction.fe_flux,
-                      reconstruction.quadrature,
-                      PiolaDivergence<dim>::update_flags())
-        , divergence(reconstruction.fe_flux, reconstruction.quadrature)
+        : geometry(reconstruction.mapping,
+                   reconstruction.fe_hat,
+                   reconstruction.quadrature,
+                   update_jacobians | update_JxW_values)
         , entries(n_active_cells)
     {
     }
 
-    FEValues<dim>                    flux_values;
-    PiolaDivergence<dim>             divergence;
+    /// J and JxW at the quadrature points (the Piola transform of the
+    /// reference functions needs nothing else, given the signs)
+    FEValues<dim>                    geometry;
     std::vector<std::vector<double>> entries;
   };
 
@@ -375,6 +382,17 @@ namespace VI
                              quadrature,
                              update_values | update_JxW_values);
     std::vector<types::global_dof_index> rt_dofs(n_tau);
+    // The Piola signs, for the cell matrices and the right-hand sides of
+    // reconstruct(). (A Gauss rule of p + 2 points per direction has a
+    // point where a given nonzero function of RT_p does not vanish, so the
+    // signs can be read off.)
+    const QGauss<dim>    sign_points(degree + 2);
+    FEValues<dim>        sign_values(mapping,
+                              fe_flux,
+                              sign_points,
+                              PiolaDivergence<dim>::update_flags());
+    PiolaDivergence<dim> signs(fe_flux, sign_points);
+    piola_signs.assign(std::size_t(tria.n_active_cells()) * n_tau, 0);
 
     // The data and shares of the owned cells, psi_j on a cell being the Q1
     // function with value 1 at the vertex of j and the constraint weights
@@ -428,6 +446,11 @@ namespace VI
                                                                   cell->index(),
                                                                   &dof_handler);
           dof_cell->get_dof_indices(rt_dofs);
+          sign_values.reinit(dof_cell);
+          signs.reinit(sign_values);
+          for (unsigned int i = 0; i < n_tau; ++i)
+            piola_signs[cell->active_cell_index() * n_tau + i] =
+              signs.sign(i) > 0 ? 1 : -1;
           for (unsigned int k = 0; k < n_tau; ++k)
             {
               data.expansion_start.push_back(data.expansion.size());
@@ -778,36 +801,47 @@ namespace VI
       return entry;
     const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
                        n_q   = fe_divergence.n_dofs_per_cell();
-    // mass (n_tau x n_tau), then divergence [k][i] (n_q x n_tau)
-    entry.assign(n_tau * n_tau + n_q * n_tau, 0.);
+    // mass (n_tau x n_tau), divergence [k][i] (n_q x n_tau), signs s_i
+    entry.assign(n_tau * n_tau + n_q * n_tau + n_tau, 0.);
     double *const mass       = entry.data();
     double *const divergence = mass + n_tau * n_tau;
 
-    FEValues<dim>                   &flux_values = cache.flux_values;
-    const FEValuesExtractors::Vector flux(0);
-    flux_values.reinit(cell);
-    cache.divergence.reinit(flux_values);
+    // (tau_i, tau_j)_K = s_i s_j sum_q (J tau^_i w_q) . (J tau^_j w_q) /
+    // JxW_q, by the Piola transform tau_i = s_i J tau^_i / det J
+    FEValues<dim> &geometry = cache.geometry;
+    geometry.reinit(cell);
+    const std::int8_t *signs = &piola_signs[cell->active_cell_index() * n_tau];
     std::vector<Tensor<1, dim>> tau(n_tau);
-    for (const unsigned int q : flux_values.quadrature_point_indices())
+    for (const unsigned int q : geometry.quadrature_point_indices())
       {
-        const double dx = flux_values.JxW(q);
+        const auto   &J         = geometry.jacobian(q);
+        const double *reference = &weighted_flux_reference[q * n_tau * dim];
         for (unsigned int i = 0; i < n_tau; ++i)
-          tau[i] = flux_values[flux].value(i, q);
+          for (unsigned int d = 0; d < dim; ++d)
+            {
+              double value = 0;
+              for (unsigned int e = 0; e < dim; ++e)
+                value += J[d][e] * reference[i * dim + e];
+              tau[i][d] = signs[i] * value;
+            }
+        const double scale = 1. / geometry.JxW(q);
         for (unsigned int i = 0; i < n_tau; ++i)
           for (unsigned int j = 0; j < n_tau; ++j)
-            mass[i * n_tau + j] += tau[i] * tau[j] * dx;
+            mass[i * n_tau + j] += tau[i] * tau[j] * scale;
       }
     for (unsigned int k = 0; k < n_q; ++k)
       for (unsigned int i = 0; i < n_tau; ++i)
         divergence[k * n_tau + i] =
-          cache.divergence.sign(i) * divergence_reference[k * n_tau + i];
+          signs[i] * divergence_reference[k * n_tau + i];
+    std::copy_n(signs, n_tau, divergence + n_q * n_tau);
     return entry;
   }
 
 
   // The patch matrices A (the RT mass matrix) and B (B_{q, tau} = (div tau,
   // q)), then the layout with the divergence basis of B (shared by the
-  // patches with the same connectivity and B) and the energy on its kernel.
+  // patches with the same connectivity and signs) and the energy on its
+  // kernel.
   template <int dim>
   std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
   FluxReconstruction<dim>::make_local_solver(
@@ -816,17 +850,52 @@ namespace VI
     Layouts                                        &layouts,
     std::vector<std::int64_t>                      &key) const
   {
-    const unsigned int n_tau    = fe_flux.n_dofs_per_cell(),
-                       n_q_K    = fe_divergence.n_dofs_per_cell();
-    const unsigned int  n_sigma = layout.n_sigma;
-    const unsigned int  n_q     = layout.n_cells * n_q_K;
-    std::vector<double> A(n_sigma * n_sigma, 0.), B(n_q * n_sigma, 0.);
-    const auto         &entries = layout.sigma_entries;
+    const unsigned int n_tau   = fe_flux.n_dofs_per_cell(),
+                       n_q_K   = fe_divergence.n_dofs_per_cell();
+    const unsigned int n_sigma = layout.n_sigma;
+    const unsigned int n_q     = layout.n_cells * n_q_K;
+    // The layout: the connectivity and the Piola signs of the cells, which
+    // determine B.
+    const auto &entries = layout.sigma_entries;
+    key.assign({layout.n_cells, n_sigma});
+    key.insert(key.end(), layout.sigma_start.begin(), layout.sigma_start.end());
+    for (const auto &[I, w] : entries)
+      {
+        key.push_back(I);
+        key.push_back(std::llround(w * 1e9));
+      }
     for (unsigned int c = 0; c < layout.n_cells; ++c)
       {
-        const double *mass       = cell_matrices[c]->data();
-        const double *divergence = mass + n_tau * n_tau;
-        const auto   *start      = &layout.sigma_start[c * (n_tau + 1)];
+        const double *signs =
+          cell_matrices[c]->data() + n_tau * n_tau + n_q_K * n_tau;
+        for (unsigned int i = 0; i < n_tau; ++i)
+          key.push_back(signs[i] > 0 ? 1 : -1);
+      }
+    auto &shared_layout = layouts[key];
+    if (!shared_layout)
+      {
+        std::vector<double> B(n_q * n_sigma, 0.);
+        for (unsigned int c = 0; c < layout.n_cells; ++c)
+          {
+            const double *divergence = cell_matrices[c]->data() + n_tau * n_tau;
+            const auto   *start      = &layout.sigma_start[c * (n_tau + 1)];
+            for (unsigned int i = 0; i < n_tau; ++i)
+              for (unsigned int e = start[i]; e < start[i + 1]; ++e)
+                for (unsigned int k = 0; k < n_q_K; ++k)
+                  B[(c * n_q_K + k) * n_sigma + entries[e].first] +=
+                    entries[e].second * divergence[k * n_tau + i];
+          }
+        auto new_layout = std::make_shared<PatchLayout>(layout);
+        new_layout->basis =
+          std::make_shared<const DivergenceBasis>(n_sigma, n_q, B);
+        shared_layout = new_layout;
+      }
+
+    std::vector<double> A(n_sigma * n_sigma, 0.);
+    for (unsigned int c = 0; c < layout.n_cells; ++c)
+      {
+        const double *mass  = cell_matrices[c]->data();
+        const auto   *start = &layout.sigma_start[c * (n_tau + 1)];
         for (unsigned int i = 0; i < n_tau; ++i)
           for (unsigned int e = start[i]; e < start[i + 1]; ++e)
             {
@@ -835,28 +904,7 @@ namespace VI
                 for (unsigned int f = start[j]; f < start[j + 1]; ++f)
                   A[I * n_sigma + entries[f].first] +=
                     w_i * entries[f].second * mass[i * n_tau + j];
-              for (unsigned int k = 0; k < n_q_K; ++k)
-                B[(c * n_q_K + k) * n_sigma + I] +=
-                  w_i * divergence[k * n_tau + i];
             }
-      }
-
-    key.assign({layout.n_cells, n_sigma});
-    key.insert(key.end(), layout.sigma_start.begin(), layout.sigma_start.end());
-    for (const auto &[I, w] : entries)
-      {
-        key.push_back(I);
-        key.push_back(std::llround(w * 1e9));
-      }
-    for (const double b : B)
-      key.push_back(std::llround(b * 1e9));
-    auto &shared_layout = layouts[key];
-    if (!shared_layout)
-      {
-        auto new_layout = std::make_shared<PatchLayout>(layout);
-        new_layout->basis =
-          std::make_shared<const DivergenceBasis>(n_sigma, n_q, B);
-        shared_layout = new_layout;
       }
 
     auto solver                  = std::make_shared<LocalSolver>();
@@ -968,24 +1016,22 @@ namespace VI
     for (const auto &[to, n] : n_sent)
       outgoing[to].assign(n * record, 0.);
 
-    FEValues<dim>                            flux_values(mapping,
-                              fe_flux,
-                              quadrature,
-                              update_values | update_JxW_values);
     FEValues<dim>                            hat_values(mapping,
                              fe_hat,
                              quadrature,
-                             update_values | update_gradients);
-    const FEValuesExtractors::Vector         flux_extractor(0);
+                             update_values | update_gradients |
+                               update_jacobians | update_JxW_values);
     std::vector<std::vector<Tensor<1, dim>>> flux(
       n_fields, std::vector<Tensor<1, dim>>(quadrature.size()));
     std::vector<std::vector<double>> source(
       n_fields, std::vector<double>(quadrature.size()));
-    std::vector<Tensor<1, dim>> tau(n_tau);
-    std::vector<double>         cell_rhs;
+    std::vector<double> cell_rhs, flux_moments(n_fields * n_tau);
 
     // One pass over the owned cells: each cell computes its part of the
-    // right-hand sides of the patches it belongs to.
+    // right-hand sides of the patches it belongs to. With the Piola
+    // transform tau_j = s_j J tau^_j / det J, (psi F, tau_j)_K is the sum
+    // over the quadrature points of psi s_j (J^T F) . tau^_j w_q: no
+    // Raviart-Thomas values on the cell are needed, only J and the signs.
     for (const auto &cell :
          dof_handler.get_triangulation().active_cell_iterators())
       {
@@ -994,16 +1040,33 @@ namespace VI
         const auto &parts = memberships[cell->active_cell_index()];
         if (parts.empty())
           continue;
-        flux_values.reinit(cell);
         hat_values.reinit(cell);
         sources.cell_values(cell, flux, source);
         cell_rhs.assign(parts.size() * record, 0.);
 
-        for (const unsigned int q : flux_values.quadrature_point_indices())
+        for (const unsigned int q : hat_values.quadrature_point_indices())
           {
-            const double dx = flux_values.JxW(q);
-            for (const unsigned int j : flux_values.dof_indices())
-              tau[j] = flux_values[flux_extractor].value(j, q);
+            const double  dx        = hat_values.JxW(q);
+            const auto   &J         = hat_values.jacobian(q);
+            const double *reference = &weighted_flux_reference[q * n_tau * dim];
+            // (J^T F_f) . tau^_j w_q, without the signs
+            for (unsigned int f = 0; f < n_fields; ++f)
+              {
+                double mapped[dim];
+                for (unsigned int e = 0; e < dim; ++e)
+                  {
+                    mapped[e] = 0;
+                    for (unsigned int d = 0; d < dim; ++d)
+                      mapped[e] += J[d][e] * flux[f][q][d];
+                  }
+                for (unsigned int j = 0; j < n_tau; ++j)
+                  {
+                    double value = 0;
+                    for (unsigned int e = 0; e < dim; ++e)
+                      value += mapped[e] * reference[j * dim + e];
+                    flux_moments[f * n_tau + j] = value;
+                  }
+              }
             for (unsigned int m = 0; m < parts.size(); ++m)
               {
                 double         psi = 0;
@@ -1018,9 +1081,9 @@ namespace VI
                 for (unsigned int f = 0; f < n_fields;
                      ++f, values += n_tau + n_q)
                   {
-                    const Tensor<1, dim> weighted_flux = psi * dx * flux[f][q];
+                    const double *moments = &flux_moments[f * n_tau];
                     for (unsigned int j = 0; j < n_tau; ++j)
-                      values[j] -= weighted_flux * tau[j];
+                      values[j] -= psi * moments[j];
                     const double g =
                       (source[f][q] * psi - flux[f][q] * grad_psi) * dx;
                     for (unsigned int k = 0; k < n_q; ++k)
@@ -1028,6 +1091,16 @@ namespace VI
                   }
               }
           }
+        const std::int8_t *signs =
+          &piola_signs[cell->active_cell_index() * n_tau];
+        for (unsigned int m = 0; m < parts.size(); ++m)
+          for (unsigned int f = 0; f < n_fields; ++f)
+            {
+              double *values = cell_rhs.data() + m * record + f * (n_tau + n_q);
+              for (unsigned int j = 0; j < n_tau; ++j)
+                if (signs[j] < 0)
+                  values[j] = -values[j];
+            }
         for (unsigned int m = 0; m < parts.size(); ++m)
           if (parts[m].rank == rank)
             add_cell_share(parts[m].index,

@@ -206,7 +206,13 @@ namespace VI
     dealii::QGauss<dim>           quadrature;
     /// q^_k at the quadrature points [q n_q + k], and (div^ tau^_i, q^_k)
     /// [k n_tau + i], on the reference cell
-    std::vector<double>               q_reference, divergence_reference;
+    std::vector<double> q_reference, divergence_reference;
+    /// tau^_i at the quadrature points [(q n_tau + i) dim + d], times the
+    /// weight w_q
+    std::vector<double> weighted_flux_reference;
+    /// The Piola signs s_i of the owned cells' Raviart-Thomas functions
+    /// [active cell index n_tau + i]
+    std::vector<std::int8_t>          piola_signs;
     dealii::DoFHandler<dim>           dof_handler;
     dealii::AffineConstraints<double> hanging_constraints; ///< of RT_p
     dealii::IndexSet                  owned_dofs, relevant_dofs;
