@@ -99,10 +99,10 @@ namespace VI
   // sigma_entries[sigma_start[c (n_tau + 1) + k + 1] - 1] (one pair of
   // weight 1 for a free dof, the constraint's entries for a dof on a
   // hanging face, none for a dof fixed to zero), and its moments are the
-  // Q_p indices c n_q ... (c + 1) n_q - 1. With the divergence basis of
-  // the B this gives. A layout depends on the connectivity, the hanging
-  // faces and the Piola signs only: a few serve a whole mesh, curved or
-  // not.
+  // Q_p indices c n_q ... (c + 1) n_q - 1. These maps and the cells'
+  // Piola signs determine the divergence block B, whose basis the layout
+  // holds. A layout depends on the connectivity, the hanging faces and the
+  // signs only: a few serve a whole mesh, curved or not.
   template <int dim>
   struct FluxReconstruction<dim>::PatchLayout
   {
@@ -546,12 +546,9 @@ namespace VI
       ++pending[mine.cell[i]];
     const auto release = [&](CellData &data) {
       std::vector<double>().swap(cache.entries[data.cell->active_cell_index()]);
-      std::vector<double>().swap(data.points);
-      std::vector<int>().swap(data.orientations);
-      std::vector<unsigned int>().swap(data.expansion_start);
-      std::vector<std::pair<types::global_dof_index, double>>().swap(
-        data.expansion);
-      std::vector<double>().swap(data.vertex_mass);
+      const CellIterator cell = data.cell;
+      data                    = CellData();
+      data.cell               = cell;
     };
     for (unsigned int c = 0; c < mine.cells.size(); ++c)
       if (pending[c] == 0)

@@ -181,7 +181,7 @@ namespace VI
 
     /// The solver of a patch with the given layout (only its connectivity
     /// is read) and cell matrices; the layout is looked up in (or added to)
-    /// `layouts`.
+    /// `layouts`, with `key` as scratch space.
     std::shared_ptr<const LocalSolver>
     make_local_solver(
       const PatchLayout                              &layout,
