@@ -42,6 +42,39 @@ namespace VI
       dirichlet_squared,  // |||G|||^2
       n_sums
     };
+
+    // Values and gradients at the quadrature points of `values`' cell of the
+    // finite element function `vector`, its cell coefficients read once
+    // (into `coefficients`): the sums of FEValues::get_function_values()
+    // and get_function_gradients(), in the same order, without reading
+    // the coefficients twice from the distributed vector.
+    template <int dim, class CellIterator>
+    void
+    values_and_gradients(const FEValues<dim>                 &values,
+                         const CellIterator                  &cell,
+                         const TrilinosWrappers::MPI::Vector &vector,
+                         std::vector<double>                 &coefficients,
+                         std::vector<double>                 &function_values,
+                         std::vector<Tensor<1, dim>> &function_gradients)
+    {
+      coefficients.resize(values.dofs_per_cell);
+      cell->get_dof_values(vector, coefficients.begin(), coefficients.end());
+      std::fill(function_values.begin(), function_values.end(), 0.);
+      std::fill(function_gradients.begin(),
+                function_gradients.end(),
+                Tensor<1, dim>());
+      for (unsigned int i = 0; i < coefficients.size(); ++i)
+        {
+          const double c = coefficients[i];
+          if (c == 0.)
+            continue;
+          for (const unsigned int q : values.quadrature_point_indices())
+            {
+              function_values[q] += c * values.shape_value(i, q);
+              function_gradients[q] += c * values.shape_grad(i, q);
+            }
+        }
+    }
   } // namespace
 
 
@@ -76,7 +109,8 @@ namespace VI
                               quadrature,
                               PiolaDivergence<dim>::update_flags());
     PiolaDivergence<dim>   divergence(in.flux->get_fe(), quadrature);
-    std::vector<double> sigma_coefficients(in.flux->get_fe().n_dofs_per_cell());
+    std::vector<double> sigma_coefficients(in.flux->get_fe().n_dofs_per_cell()),
+      potential_coefficients;
     const FEValuesExtractors::Vector sigma(0);
 
     // Values at the quadrature points.
@@ -173,10 +207,18 @@ namespace VI
         divergence.reinit(flux_values);
         for (unsigned int a = 0; a < 2; ++a)
           {
-            potential_values.get_function_gradients(*u_vectors[a], grad_u[a]);
-            potential_values.get_function_gradients(*s_vectors[a], grad_s[a]);
-            potential_values.get_function_values(*u_vectors[a], u[a]);
-            potential_values.get_function_values(*s_vectors[a], s[a]);
+            values_and_gradients(potential_values,
+                                 potential_cell,
+                                 *u_vectors[a],
+                                 potential_coefficients,
+                                 u[a],
+                                 grad_u[a]);
+            values_and_gradients(potential_values,
+                                 potential_cell,
+                                 *s_vectors[a],
+                                 potential_coefficients,
+                                 s[a],
+                                 grad_s[a]);
             potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
             divergence.function_values_and_divergences(flux_values,
                                                        flux_cell,

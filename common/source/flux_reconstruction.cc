@@ -397,7 +397,8 @@ namespace VI
     // The data and shares of the owned cells, psi_j on a cell being the Q1
     // function with value 1 at the vertex of j and the constraint weights
     // at the hanging vertices that depend on j.
-    Shares                                          mine;
+    Shares mine;
+    mine.cells.reserve(tria.n_active_cells());
     std::map<types::global_dof_index, unsigned int> vertex_of;
     std::vector<std::pair<types::global_dof_index, std::array<double, n_v>>>
       psi;
@@ -1169,9 +1170,14 @@ namespace VI
     for (unsigned int f = 0; f < n_fields; ++f)
       {
         accumulated[f].compress(VectorOperation::add);
-        for (const auto i : owned_dofs)
-          owned(i) = accumulated[f](i);
-        owned.compress(VectorOperation::insert);
+        // (a writable vector with ghosts keeps its owned entries in a vector
+        // of the owned map, the ghosts in a separate one: copy the former)
+        const Epetra_MultiVector &from = accumulated[f].trilinos_vector();
+        Epetra_MultiVector       &to   = owned.trilinos_vector();
+        AssertThrow(from.Map().SameAs(to.Map()),
+                    ExcMessage(
+                      "Flux reconstruction: vectors of different layouts."));
+        std::copy_n(from[0], to.MyLength(), to[0]);
         hanging_constraints.distribute(owned);
         sigma[f]->reinit(owned_dofs, relevant_dofs, comm);
         *sigma[f] = owned;
