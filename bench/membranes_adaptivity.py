@@ -7,7 +7,9 @@ Q1 and Q2, with the Newton iterations of every cycle (nested iteration).
 
 Writes doc/data/adaptivity.{csv,md} and doc/data/adaptivity-<case>.png.
 Usage, from the repository root after ./demo.sh or ./test.sh:
-  bench/membranes_adaptivity.py
+  bench/membranes_adaptivity.py [--tables-only]
+--tables-only writes the table and the plots again from the runs recorded in
+doc/data/adaptivity.csv, without running them.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree can
 be rebuilt while the study runs).
 """
@@ -15,12 +17,15 @@ import csv
 import json
 import os
 import subprocess
+import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PROGRAM = os.environ.get("STEP_MEMBRANES",
                          os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
 DATA = os.path.join(ROOT, "doc", "data")
 OUT = os.path.join(ROOT, "output", "bench-adaptivity")
+# --tables-only: the table and the plots again from doc/data/adaptivity.csv
+TABLES_ONLY = "--tables-only" in sys.argv
 
 # case: (scene, initial refinements); the fitted square-circle mesh starts
 # from 20 cells, the square from one.
@@ -40,9 +45,9 @@ RUNS = [(case, p, refinement, cycles)
         for p in (1, 2)
         for refinement, cycles in zip(("global", "adaptive"),
                                       LONGER.get((case, p), CYCLES[p]))]
-# The fitted order: least squares of log(error) against log(N) over the
+# The fitted orders: least squares of log(error) against log(N) over the
 # cycles with at least this many unknowns per field.
-FIT_FROM = 1000
+FIT_FROM = (1000, 10000)
 
 
 def run(case, p, refinement, cycles):
@@ -65,7 +70,14 @@ def run(case, p, refinement, cycles):
 def main():
     os.makedirs(DATA, exist_ok=True)
     rows = []
-    for case, p, refinement, cycles in RUNS:
+    if TABLES_ONLY:
+        with open(os.path.join(DATA, "adaptivity.csv"), newline="") as f:
+            for x in csv.DictReader(f):
+                rows.append({k: (v if k in ("case", "refinement") else
+                                 float(v) if k in ("error_energy", "eta", "effectivity",
+                                                   "wall_seconds") else int(v))
+                             for k, v in x.items()})
+    for case, p, refinement, cycles in ([] if TABLES_ONLY else RUNS):
         for c in run(case, p, refinement, cycles):
             rows.append({"case": case, "p": p, "refinement": refinement,
                          "cycle": c["cycle"], "cells": c["cells"],
@@ -74,22 +86,24 @@ def main():
                          "error_energy": c["error_energy"], "eta": c["eta"],
                          "effectivity": c["effectivity"],
                          "wall_seconds": c["wall_seconds"]})
-    with open(os.path.join(DATA, "adaptivity.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
+    if not TABLES_ONLY:
+        with open(os.path.join(DATA, "adaptivity.csv"), "w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+            writer.writeheader()
+            writer.writerows(rows)
 
     # The convergence order in DoFs over the last three cycles of each run,
     # and fitted over all its cycles from FIT_FROM unknowns on.
     lines = ["| case | p | refinement | cycles | final DoFs per field | final error | "
-             "order in DoFs (last 3 cycles) | order of error / estimate "
-             f"(fit, N >= {FIT_FROM}) | optimal | Newton per cycle | effectivity range |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "order in DoFs (last 3 cycles) | "
+             + " | ".join(f"order of error / estimate (fit, N >= {n})" for n in FIT_FROM)
+             + " | optimal | Newton per cycle | effectivity range |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     import math
 
-    def fitted_order(r, key):
+    def fitted_order(r, key, smallest):
         points = [(math.log(x["dofs_per_field"]), math.log(x[key]))
-                  for x in r if x["dofs_per_field"] >= FIT_FROM]
+                  for x in r if x["dofs_per_field"] >= smallest]
         if len(points) < 2:
             return float("nan")
         mx = sum(a for a, _ in points) / len(points)
@@ -103,7 +117,9 @@ def main():
             b["dofs_per_field"] / a["dofs_per_field"])
         newton = " ".join(str(x["newton"]) for x in r)
         eff = [x["effectivity"] for x in r]
-        fit = f"{fitted_order(r, 'error_energy'):.2f} / {fitted_order(r, 'eta'):.2f}"
+        fit = " | ".join(f"{fitted_order(r, 'error_energy', n):.2f} / "
+                         f"{fitted_order(r, 'eta', n):.2f}".replace("nan", "-")
+                         for n in FIT_FROM)
         lines.append(f"| {case} | {p} | {refinement} | {len(r)} | {b['dofs_per_field']} | "
                      f"{b['error_energy']:.3e} | {order:.2f} | {fit} | {p / 2:.2f} | {newton} | "
                      f"{min(eff):.2f} - {max(eff):.2f} |")
