@@ -45,9 +45,7 @@ namespace VI
 
     // Values and gradients at the quadrature points of `values`' cell of the
     // finite element function `vector`, its cell coefficients read once
-    // (into `coefficients`): the sums of FEValues::get_function_values()
-    // and get_function_gradients(), in the same order, without reading
-    // the coefficients twice from the distributed vector.
+    // from the distributed vector (into `coefficients`).
     template <int dim, class CellIterator>
     void
     values_and_gradients(const FEValues<dim>                 &values,
@@ -59,21 +57,12 @@ namespace VI
     {
       coefficients.resize(values.dofs_per_cell);
       cell->get_dof_values(vector, coefficients.begin(), coefficients.end());
-      std::fill(function_values.begin(), function_values.end(), 0.);
-      std::fill(function_gradients.begin(),
-                function_gradients.end(),
-                Tensor<1, dim>());
-      for (unsigned int i = 0; i < coefficients.size(); ++i)
-        {
-          const double c = coefficients[i];
-          if (c == 0.)
-            continue;
-          for (const unsigned int q : values.quadrature_point_indices())
-            {
-              function_values[q] += c * values.shape_value(i, q);
-              function_gradients[q] += c * values.shape_grad(i, q);
-            }
-        }
+      const FEValuesViews::Scalar<dim> &scalar =
+        values[FEValuesExtractors::Scalar(0)];
+      scalar.get_function_values_from_local_dof_values(coefficients,
+                                                       function_values);
+      scalar.get_function_gradients_from_local_dof_values(coefficients,
+                                                          function_gradients);
     }
   } // namespace
 

@@ -797,12 +797,12 @@ namespace VI
     auto &entry = cache.entries[cell->active_cell_index()];
     if (!entry.empty())
       return entry;
-    const unsigned int n_tau = fe_flux.n_dofs_per_cell(),
-                       n_q   = fe_divergence.n_dofs_per_cell();
-    // mass (n_tau x n_tau), divergence [k][i] (n_q x n_tau), signs s_i
-    entry.assign(n_tau * n_tau + n_q * n_tau + n_tau, 0.);
-    double *const mass       = entry.data();
-    double *const divergence = mass + n_tau * n_tau;
+    const unsigned int n_tau = fe_flux.n_dofs_per_cell();
+    // mass (n_tau x n_tau), then the signs s_i (which, with the reference
+    // moments, give the divergence block (div tau_i, q_k)_K = s_i
+    // (div^ tau^_i, q^_k))
+    entry.assign(n_tau * n_tau + n_tau, 0.);
+    double *const mass = entry.data();
 
     // (tau_i, tau_j)_K = s_i s_j sum_q (J tau^_i w_q) . (J tau^_j w_q) /
     // JxW_q, by the Piola transform tau_i = s_i J tau^_i / det J
@@ -827,11 +827,7 @@ namespace VI
           for (unsigned int j = 0; j < n_tau; ++j)
             mass[i * n_tau + j] += tau[i] * tau[j] * scale;
       }
-    for (unsigned int k = 0; k < n_q; ++k)
-      for (unsigned int i = 0; i < n_tau; ++i)
-        divergence[k * n_tau + i] =
-          signs[i] * divergence_reference[k * n_tau + i];
-    std::copy_n(signs, n_tau, divergence + n_q * n_tau);
+    std::copy_n(signs, n_tau, mass + n_tau * n_tau);
     return entry;
   }
 
@@ -864,8 +860,7 @@ namespace VI
       }
     for (unsigned int c = 0; c < layout.n_cells; ++c)
       {
-        const double *signs =
-          cell_matrices[c]->data() + n_tau * n_tau + n_q_K * n_tau;
+        const double *signs = cell_matrices[c]->data() + n_tau * n_tau;
         for (unsigned int i = 0; i < n_tau; ++i)
           key.push_back(signs[i] > 0 ? 1 : -1);
       }
@@ -875,13 +870,14 @@ namespace VI
         std::vector<double> B(n_q * n_sigma, 0.);
         for (unsigned int c = 0; c < layout.n_cells; ++c)
           {
-            const double *divergence = cell_matrices[c]->data() + n_tau * n_tau;
-            const auto   *start      = &layout.sigma_start[c * (n_tau + 1)];
+            const double *signs = cell_matrices[c]->data() + n_tau * n_tau;
+            const auto   *start = &layout.sigma_start[c * (n_tau + 1)];
             for (unsigned int i = 0; i < n_tau; ++i)
               for (unsigned int e = start[i]; e < start[i + 1]; ++e)
                 for (unsigned int k = 0; k < n_q_K; ++k)
                   B[(c * n_q_K + k) * n_sigma + entries[e].first] +=
-                    entries[e].second * divergence[k * n_tau + i];
+                    entries[e].second *
+                    (signs[i] * divergence_reference[k * n_tau + i]);
           }
         auto new_layout = std::make_shared<PatchLayout>(layout);
         new_layout->basis =
@@ -1170,14 +1166,7 @@ namespace VI
     for (unsigned int f = 0; f < n_fields; ++f)
       {
         accumulated[f].compress(VectorOperation::add);
-        // (a writable vector with ghosts keeps its owned entries in a vector
-        // of the owned map, the ghosts in a separate one: copy the former)
-        const Epetra_MultiVector &from = accumulated[f].trilinos_vector();
-        Epetra_MultiVector       &to   = owned.trilinos_vector();
-        AssertThrow(from.Map().SameAs(to.Map()),
-                    ExcMessage(
-                      "Flux reconstruction: vectors of different layouts."));
-        std::copy_n(from[0], to.MyLength(), to[0]);
+        owned = accumulated[f];
         hanging_constraints.distribute(owned);
         sigma[f]->reinit(owned_dofs, relevant_dofs, comm);
         *sigma[f] = owned;

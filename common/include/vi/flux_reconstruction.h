@@ -175,7 +175,7 @@ namespace VI
       std::array<double, dealii::GeometryInfo<dim>::vertices_per_cell> hat;
     };
 
-    /// Flattened (tau_j, tau_i)_K, (div tau_i, q_k)_K.
+    /// Flattened (tau_j, tau_i)_K, then the Piola signs s_i.
     const std::vector<double> &
     cell_matrices(const CellIterator &cell, CellMatrixCache &cache) const;
 
