@@ -1353,18 +1353,13 @@ namespace StepHHO
     newton.solve_with_jacobian = [&](const auto &rhs, auto &dX) {
       return solve_with_jacobian(rhs, dX);
     };
+    newton.active_set = [&](const auto &X, const bool first) {
+      return contact_rows.linearised_active_set(C, X, active_rows, !first);
+    };
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &step) {
-        pcout << "      k = " << std::setw(2) << step.iteration
-              << ": residuals " << std::scientific << std::setprecision(2)
-              << step.residual.equations << " (equations), "
-              << step.residual.complementarity << " (complementarity)"
-              << std::defaultfloat;
-        if (step.linear_iterations > 0)
-          pcout << ", " << step.linear_iterations << " CG iterations";
-        if (step.step_length < 1)
-          pcout << ", step " << step.step_length;
-        pcout << std::endl;
+        pcout << "      k = " << std::setw(2) << step.iteration << ": "
+              << VI::describe(step, "CG") << std::endl;
       };
 
     newton_report = newton.solve(solution);

@@ -222,6 +222,7 @@ namespace StepHHO
     TrilinosWrappers::MPI::Vector boundary_values;    ///< X with Pi_F g only
     types::global_dof_index       n_boundary_face_dofs = 0;
     VI::ContactRows               contact_rows;
+    std::vector<bool> active_rows; ///< of the last Newton linearisation
 
     // Per locally owned cell (by active_cell_index): the positions in X of
     // its unknowns (x1, x2, x3, y1, y2: 3 n_c + 2 n_f of them, the local

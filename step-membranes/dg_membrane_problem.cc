@@ -707,14 +707,13 @@ namespace StepMembranes
     newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
       return solve_linearized(rhs, dX);
     };
+    newton.active_set = [&](const Vector &X, const bool first) {
+      return contact_rows.linearised_active_set(C, X, active_rows, !first);
+    };
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &step) {
-        pcout << "      k = " << std::setw(2) << step.iteration
-              << ": residuals " << std::scientific << std::setprecision(2)
-              << step.residual.equations << " (equations), "
-              << step.residual.complementarity << " (complementarity), "
-              << step.linear_iterations << " linear iterations"
-              << std::defaultfloat << std::endl;
+        pcout << "      k = " << std::setw(2) << step.iteration << ": "
+              << VI::describe(step) << std::endl;
       };
     newton_report = newton.solve(solution);
   }
@@ -1081,18 +1080,7 @@ namespace StepMembranes
         record["estimate"]   = json;
       }
     record["wall_seconds"] = wall;
-    VI::Json steps         = VI::Json::array();
-    for (const VI::NewtonStep &step : newton_report.steps)
-      {
-        VI::Json it                    = VI::Json::object();
-        it["k"]                        = step.iteration;
-        it["linear_iterations"]        = step.linear_iterations;
-        it["residual_equations"]       = step.residual.equations;
-        it["residual_complementarity"] = step.residual.complementarity;
-        it["step_length"]              = step.step_length;
-        steps.push_back(it);
-      }
-    record["newton_steps"] = steps;
+    record["newton_steps"] = VI::newton_steps(newton_report);
     summary["cycles"].push_back(record);
   }
 

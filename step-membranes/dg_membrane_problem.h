@@ -179,7 +179,8 @@ namespace StepMembranes
     IndexSet owned_nodes, relevant_nodes;
     IndexSet owned_system, relevant_system;
 
-    VI::ContactRows                contact_rows;
+    VI::ContactRows   contact_rows;
+    std::vector<bool> active_rows; ///< of the last Newton linearisation
     TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E ; J_C]
     Vector                         system_rhs;    ///< F
     Vector                         solution;      ///< X

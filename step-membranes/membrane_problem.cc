@@ -672,17 +672,13 @@ namespace StepMembranes
       system_hanging_constraints.distribute(dX);
       return iterations;
     };
+    newton.active_set = [&](const Vector &X, const bool first) {
+      return contact_rows.linearised_active_set(C, X, active_rows, !first);
+    };
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &step) {
-        pcout << "      k = " << std::setw(2) << step.iteration
-              << ": residuals " << std::scientific << std::setprecision(2)
-              << step.residual.equations << " (equations), "
-              << step.residual.complementarity << " (complementarity), "
-              << step.linear_iterations << " linear iterations"
-              << std::defaultfloat;
-        if (step.step_length < 1)
-          pcout << ", step " << step.step_length;
-        pcout << std::endl;
+        pcout << "      k = " << std::setw(2) << step.iteration << ": "
+              << VI::describe(step) << std::endl;
       };
     if (parameters.estimators.enabled)
       newton.stopping_criterion = [&](const Vector         &X,
@@ -1548,18 +1544,7 @@ namespace StepMembranes
       }
 
     // Newton steps, and every estimate (inner checks and accepted iterates).
-    VI::Json steps = VI::Json::array();
-    for (const VI::NewtonStep &step : newton_report.steps)
-      {
-        VI::Json it                    = VI::Json::object();
-        it["k"]                        = step.iteration;
-        it["linear_iterations"]        = step.linear_iterations;
-        it["residual_equations"]       = step.residual.equations;
-        it["residual_complementarity"] = step.residual.complementarity;
-        it["step_length"]              = step.step_length;
-        steps.push_back(it);
-      }
-    record["newton_steps"] = steps;
+    record["newton_steps"] = VI::newton_steps(newton_report);
     VI::Json iterations    = VI::Json::array();
     for (const EstimateRecord &r : estimate_records)
       {

@@ -235,6 +235,7 @@ namespace StepMembranes
     AffineConstraints<double> u1_constraints, u2_constraints;
     AffineConstraints<double> system_constraints;
     VI::ContactRows           contact_rows;
+    std::vector<bool>         active_rows; ///< of the last Newton linearisation
 
     TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E ; J_C]
     Vector                         system_rhs;    ///< F

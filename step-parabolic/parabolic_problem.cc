@@ -673,16 +673,13 @@ namespace StepParabolic
     newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
       return solve_linearized(rhs, dX);
     };
+    newton.active_set = [&](const Vector &X, const bool first) {
+      return contact_rows.linearised_active_set(C, X, active_rows, !first);
+    };
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &s) {
-        pcout << "      k = " << std::setw(2) << s.iteration << ": residuals "
-              << std::scientific << std::setprecision(2) << s.residual.equations
-              << " (equations), " << s.residual.complementarity
-              << " (complementarity), " << s.linear_iterations
-              << " linear iterations" << std::defaultfloat;
-        if (s.step_length < 1)
-          pcout << ", step " << s.step_length;
-        pcout << std::endl;
+        pcout << "      k = " << std::setw(2) << s.iteration << ": "
+              << VI::describe(s) << std::endl;
       };
     // Every Newton iterate is estimated by the adaptive strategy (its
     // stopping test) and on request (At every check); otherwise only the
@@ -1506,18 +1503,7 @@ namespace StepParabolic
           json["effectivity"] = totals.eta() / totals.error();
       }
     json["wall_seconds"] = wall_seconds;
-    VI::Json steps       = VI::Json::array();
-    for (const VI::NewtonStep &s : newton_report.steps)
-      {
-        VI::Json it                    = VI::Json::object();
-        it["k"]                        = s.iteration;
-        it["linear_iterations"]        = s.linear_iterations;
-        it["residual_equations"]       = s.residual.equations;
-        it["residual_complementarity"] = s.residual.complementarity;
-        it["step_length"]              = s.step_length;
-        steps.push_back(it);
-      }
-    json["newton_steps"] = steps;
+    json["newton_steps"] = VI::newton_steps(newton_report);
     VI::Json iterations  = VI::Json::array();
     for (const EstimateRecord &e : estimate_records)
       {

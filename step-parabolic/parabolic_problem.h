@@ -282,6 +282,7 @@ namespace StepParabolic
     AffineConstraints<double> u1_constraints, u2_constraints;
     AffineConstraints<double> system_constraints;
     VI::ContactRows           contact_rows;
+    std::vector<bool>         active_rows; ///< of the last Newton linearisation
 
     TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E^n ; J_C]
     Vector                         system_rhs;    ///< F^n

@@ -137,6 +137,37 @@ namespace VI
   }
 
 
+  ActiveSetChange
+  ContactRows::linearised_active_set(const ComplementarityFunction       &C,
+                                     const TrilinosWrappers::MPI::Vector &X,
+                                     std::vector<bool> &active,
+                                     const bool         compare) const
+  {
+    AssertThrow(!compare || active.size() == positions.size(),
+                ExcMessage("ContactRows: the previous active set belongs to "
+                           "another mesh."));
+    active.resize(positions.size());
+    const double      *x        = X.begin();
+    unsigned long long local[2] = {0, 0};
+    for (std::size_t n = 0; n < positions.size(); ++n)
+      {
+        const std::size_t k = positions[n];
+        const auto        g =
+          C.generalized_gradient(x[n_fields * k] - x[n_fields * k + 1],
+                                 x[n_fields * k + 2]);
+        const bool is_active = std::abs(g[0]) >= std::abs(g[1]);
+        local[0] += is_active;
+        local[1] += compare && is_active != active[n];
+        active[n] = is_active;
+      }
+    unsigned long long global[2];
+    Utilities::MPI::sum(ArrayView<const unsigned long long>(local, 2),
+                        X.get_mpi_communicator(),
+                        ArrayView<unsigned long long>(global, 2));
+    return {global[0], global[1]};
+  }
+
+
   types::global_dof_index
   ContactRows::contact_set(const TrilinosWrappers::MPI::Vector &X,
                            TrilinosWrappers::MPI::Vector       &indicator) const

@@ -5,6 +5,7 @@
 #include <vi/semismooth_newton.h>
 
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 namespace VI
@@ -79,6 +80,12 @@ namespace VI
           }
 
         setup_jacobian(X);
+        NewtonStep step;
+        if (active_set)
+          {
+            step.has_active_set = true;
+            step.active_set     = active_set(X, k == 1);
+          }
         rhs = R;
         rhs *= -1.;
         const unsigned int linear_iterations = solve_with_jacobian(rhs, dX);
@@ -119,7 +126,6 @@ namespace VI
             X = trial;
           }
 
-        NewtonStep step;
         step.iteration         = k;
         step.residual          = norms;
         step.step_length       = step_length;
@@ -135,6 +141,29 @@ namespace VI
 
     report.final_residual = norms;
     return report;
+  }
+
+
+  std::string
+  describe(const NewtonStep &step, const std::string &linear_solver)
+  {
+    std::ostringstream line;
+    line << "residuals " << std::scientific << std::setprecision(2)
+         << step.residual.equations << " (equations), "
+         << step.residual.complementarity << " (complementarity)"
+         << std::defaultfloat;
+    if (step.linear_iterations > 0)
+      line << ", " << step.linear_iterations << ' ' << linear_solver
+           << " iterations";
+    if (step.step_length < 1)
+      line << ", step " << step.step_length;
+    if (step.has_active_set)
+      {
+        line << ", " << step.active_set.active << " active rows";
+        if (step.iteration > 1)
+          line << " (" << step.active_set.switched << " switched)";
+      }
+    return line.str();
   }
 
 

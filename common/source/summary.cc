@@ -246,6 +246,30 @@ namespace VI
   }
 
 
+  Json
+  newton_steps(const NewtonReport &report)
+  {
+    Json steps = Json::array();
+    for (const NewtonStep &step : report.steps)
+      {
+        Json it                        = Json::object();
+        it["k"]                        = step.iteration;
+        it["linear_iterations"]        = step.linear_iterations;
+        it["residual_equations"]       = step.residual.equations;
+        it["residual_complementarity"] = step.residual.complementarity;
+        it["step_length"]              = step.step_length;
+        if (step.has_active_set)
+          {
+            it["active_rows"] = step.active_set.active;
+            if (step.iteration > 1)
+              it["switched_rows"] = step.active_set.switched;
+          }
+        steps.push_back(it);
+      }
+    return steps;
+  }
+
+
   void
   write_summary(const Json        &summary,
                 const std::string &directory,

@@ -125,4 +125,25 @@ TEST(ContactRows, ResidualAndJacobianRowsOfTheComplementarity)
   EXPECT_EQ(indicator(1), 0.);
   EXPECT_EQ(indicator(2), 1.);
   EXPECT_EQ(indicator(3), 1.);
+
+  // The active set of the linearisation: the rows on the u1 = u2 branch of
+  // the generalised Jacobian, nodes 2 and 3 for both C-functions.
+  const VI::ComplementarityFunction fb(
+    VI::ComplementarityFunction::Type::fischer_burmeister);
+  std::vector<bool> active;
+  for (const auto *C : {&min, &fb})
+    {
+      const VI::ActiveSetChange first =
+        rows.linearised_active_set(*C, X, active, false);
+      EXPECT_EQ(first.active, 2u);
+      EXPECT_EQ(first.switched, 0u);
+      EXPECT_EQ(active, (std::vector<bool>{false, true, true}));
+    }
+  // Node 2 leaves the contact set (negative multiplier): one switch.
+  X(3 * 2 + 2) = -1.;
+  X.compress(VectorOperation::insert);
+  const VI::ActiveSetChange next =
+    rows.linearised_active_set(min, X, active, true);
+  EXPECT_EQ(next.active, 1u);
+  EXPECT_EQ(next.switched, 1u);
 }

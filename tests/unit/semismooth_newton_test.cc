@@ -232,3 +232,44 @@ TEST(SemismoothNewton, ProblemStoppingCriterionEndsTheIteration)
   EXPECT_EQ(report.iterations, 2u);
   EXPECT_GT(report.final_residual.complementarity, 0.);
 }
+
+
+TEST(SemismoothNewton, ActiveSetsOfTheLinearisationsAreReported)
+{
+  // Newton-min is the primal-dual active set method: the active set of its
+  // last linearisation is the contact set of the solution, and each step
+  // reports its set and how many nodes switched since the previous one.
+  ObstacleProblem problem(40, ComplementarityFunction());
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  data.tolerance           = 1e-13;
+  auto              newton = problem.make_newton(data);
+  std::vector<bool> active;
+  unsigned int      calls = 0;
+  newton.active_set       = [&](const Vector<double> &X, const bool first) {
+    EXPECT_EQ(first, calls++ == 0);
+    VI::ActiveSetChange change;
+    std::vector<bool>   now(problem.n);
+    for (unsigned int i = 0; i < problem.n; ++i)
+      {
+        now[i] = X(i) - problem.psi(i) <= X(problem.n + i);
+        change.active += now[i];
+        change.switched += !first && now[i] != active[i];
+      }
+    active = now;
+    return change;
+  };
+  Vector<double> X(80);
+  const auto     report = newton.solve(X);
+  expect_solution(problem, X);
+  ASSERT_EQ(report.steps.size(), calls);
+  ASSERT_GE(calls, 2u);
+  EXPECT_EQ(report.steps[0].active_set.active, 0u); // from X = 0: no contact
+  EXPECT_EQ(report.steps[1].active_set.switched,
+            report.steps[1].active_set.active);
+  unsigned int n_contact = 0;
+  for (unsigned int i = 0; i < problem.n; ++i)
+    n_contact += X(i) - problem.psi(i) < 1e-12;
+  for (const VI::NewtonStep &step : report.steps)
+    EXPECT_TRUE(step.has_active_set);
+  EXPECT_EQ(report.steps.back().active_set.active, n_contact);
+}

@@ -42,3 +42,37 @@ TEST(Json, WritesNestedObjectsInInsertionOrder)
             "}");
   EXPECT_EQ(summary.size(), 8u);
 }
+
+
+TEST(Json, NewtonStepsCarryTheActiveSetsWhereKnown)
+{
+  VI::NewtonReport report;
+  for (unsigned int k = 1; k <= 2; ++k)
+    {
+      VI::NewtonStep step;
+      step.iteration         = k;
+      step.linear_iterations = 10 * k;
+      step.has_active_set    = true;
+      step.active_set        = {100 - k, k == 1 ? 0 : 7};
+      report.steps.push_back(step);
+    }
+  VI::NewtonStep without;
+  without.iteration = 3;
+  report.steps.push_back(without);
+
+  std::ostringstream out;
+  VI::newton_steps(report).write(out);
+  const std::string text = out.str();
+  EXPECT_NE(text.find("\"active_rows\": 99\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"active_rows\": 98,"), std::string::npos) << text;
+  // The first linearisation has nothing to switch from.
+  EXPECT_EQ(text.find("\"switched_rows\": 0"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"switched_rows\": 7"), std::string::npos) << text;
+  // A step without an active set says nothing about it.
+  EXPECT_EQ(text.rfind("\"active_rows\""), text.find("\"active_rows\": 98,"))
+    << text;
+  EXPECT_NE(VI::describe(report.steps[1])
+              .find("20 linear iterations, 98 active rows (7 switched)"),
+            std::string::npos)
+    << VI::describe(report.steps[1]);
+}

@@ -6,6 +6,7 @@
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <vi/complementarity.h>
+#include <vi/semismooth_newton.h>
 
 #include <vector>
 
@@ -82,6 +83,22 @@ namespace VI
                 const dealii::TrilinosWrappers::MPI::Vector &X,
                 const std::vector<double>                   &stiffness_weight,
                 const std::vector<double> &multiplier_weight) const;
+
+    /**
+     * The active set of the linearisation at X: the rows whose element of
+     * the generalised Jacobian mainly enforces u1 = u2, |dC/da| >= |dC/db|
+     * (as in row_weights(); for the min-function the nodes with a_i <= b_i),
+     * one flag per node of nodes(). Semismooth Newton-min is the primal-dual
+     * active set method, and these sets are its iterates. `active` holds the
+     * previous linearisation's flags if `compare`, and is overwritten.
+     * Returns the global numbers of active and, if `compare`, switched rows
+     * (the SemismoothNewton::active_set callback of the contact problems).
+     */
+    ActiveSetChange
+    linearised_active_set(const ComplementarityFunction               &C,
+                          const dealii::TrilinosWrappers::MPI::Vector &X,
+                          std::vector<bool>                           &active,
+                          const bool compare) const;
 
     /**
      * indicator_i = 1 at the nodes in contact (a_i <= b_i: the min-function

@@ -22,6 +22,20 @@ namespace VI
   };
 
 
+  /**
+   * The active set of one linearisation: the complementarity rows whose
+   * element of the generalised Jacobian enforces the constraint (for the
+   * min-function, semismooth Newton is the primal-dual active set method,
+   * and these sets are its iterates), and how many rows changed branch
+   * since the previous linearisation.
+   */
+  struct ActiveSetChange
+  {
+    unsigned long long active   = 0;
+    unsigned long long switched = 0; ///< 0 at the first linearisation
+  };
+
+
   /// What one semismooth Newton step did.
   struct NewtonStep
   {
@@ -29,7 +43,20 @@ namespace VI
     ResidualNorms residual          = {}; ///< after the step
     double        step_length       = 1.; ///< < 1 when the line search cut it
     unsigned int  linear_iterations = 0;
+    /// of the step's linearisation, if the problem reports it (active_set)
+    bool            has_active_set = false;
+    ActiveSetChange active_set     = {};
   };
+
+
+  /**
+   * One line of progress output for a step: "residuals <equations>
+   * (equations), <complementarity> (complementarity)", then the iterations
+   * of the linear solver (named by `linear_solver`, if any), the step length
+   * if cut, and the active set if known.
+   */
+  std::string
+  describe(const NewtonStep &step, const std::string &linear_solver = "linear");
 
 
   struct NewtonReport
@@ -93,6 +120,13 @@ namespace VI
      */
     std::function<unsigned int(const VectorType &rhs, VectorType &dX)>
       solve_with_jacobian;
+
+    /**
+     * Optional: the active set of the Jacobian of the last setup_jacobian()
+     * call, compared with the previous one unless `first` (see
+     * ActiveSetChange); reported with each step.
+     */
+    std::function<ActiveSetChange(const VectorType &X, bool first)> active_set;
 
     /// Optional: called after every accepted step (progress output).
     std::function<void(const NewtonStep &)> monitor;

@@ -3,6 +3,8 @@
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
 
+#include <vi/semismooth_newton.h>
+
 #include <cstdint>
 #include <ostream>
 #include <string>
@@ -81,6 +83,15 @@ namespace VI
   make_summary(const std::string        &program,
                const MPI_Comm            comm,
                dealii::ParameterHandler &prm);
+
+  /**
+   * The "newton_steps" list of a cycle or time step: per step k its
+   * linear_iterations, residual_equations, residual_complementarity,
+   * step_length and, where the problem reports its active sets,
+   * active_rows and (from k = 2 on) switched_rows.
+   */
+  Json
+  newton_steps(const NewtonReport &report);
 
   /// Write `summary` to directory/summary.json on rank 0.
   void
