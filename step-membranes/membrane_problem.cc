@@ -697,8 +697,17 @@ namespace StepMembranes
                 << std::setprecision(2) << step_estimate->eta_disc
                 << ", eta_lin " << step_estimate->eta_lin << ", eta_alg "
                 << step_estimate->eta_alg << std::defaultfloat << std::endl;
+        // The algebraic criterion is repeated: a step shortened by the line
+        // search (Fischer-Burmeister) is not the iterate at which GMRES
+        // stopped, and its residual holds (1 - t) R(X^(k-1)); such an
+        // iterate may have eta_lin = 0 (feasible, lambda_h = 0) with any
+        // algebraic error. For full steps it holds already.
         return p.strategy == "adaptive" &&
-               step_estimate->eta_lin <= p.gamma_lin * step_estimate->eta_disc;
+               step_estimate->eta_lin <=
+                 p.gamma_lin * step_estimate->eta_disc &&
+               step_estimate->eta_alg <=
+                 p.gamma_alg *
+                   std::max(step_estimate->eta_disc, step_estimate->eta_lin);
       };
 
     newton_report = newton.solve(solution);

@@ -704,9 +704,16 @@ namespace StepParabolic
                 << std::setprecision(2) << step_estimate->eta_disc
                 << ", eta_lin " << step_estimate->eta_lin << ", eta_alg "
                 << step_estimate->eta_alg << std::defaultfloat << std::endl;
+        // The algebraic criterion is repeated: a step shortened by the line
+        // search (Fischer-Burmeister) is not the iterate at which GMRES
+        // stopped, and its residual holds (1 - t) R(X^(k-1)). For full
+        // steps it holds already.
         return p.strategy == "adaptive" &&
                step_estimate->eta_lin_controlled <=
-                 p.gamma_lin * step_estimate->eta_disc;
+                 p.gamma_lin * step_estimate->eta_disc &&
+               step_estimate->eta_alg <=
+                 p.gamma_alg * std::max(step_estimate->eta_disc,
+                                        step_estimate->eta_lin_controlled);
       };
 
     newton_report = newton.solve(solution);
