@@ -84,12 +84,17 @@ namespace VI
         const auto g =
           C.generalized_gradient(x[n_fields * k] - x[n_fields * k + 1],
                                  x[n_fields * k + 2]);
-        alpha[k]         = g[0];
-        beta[k]          = g[1];
+        alpha[k] = g[0];
+        beta[k]  = g[1];
+        // A node is tied where beta vanishes (Newton-min's nodes in contact)
+        // and also where D alpha / beta exceeds the penalty (Fischer-
+        // Burmeister near contact): there d3 = (r3 - alpha w) / beta would
+        // divide the error of w by a small beta, while the first row gives
+        // d3 from d1 alone.
         const double cap = data.tie_penalty * mu_r * diagonal[k];
-        tied[k]          = std::abs(beta[k]) <= 1e-12 * std::abs(alpha[k]);
-        penalty[k] =
-          tied[k] ? cap : std::min(coupling[k] * alpha[k] / beta[k], cap);
+        tied[k]          = std::abs(beta[k]) <= 1e-12 * std::abs(alpha[k]) ||
+                  coupling[k] * alpha[k] / beta[k] >= cap;
+        penalty[k] = tied[k] ? cap : coupling[k] * alpha[k] / beta[k];
         gap_matrix.add(owned.nth_index_in_set(k),
                        owned.nth_index_in_set(k),
                        penalty[k]);
