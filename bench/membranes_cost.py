@@ -13,8 +13,10 @@ machine; the absolute times are not.
 
 Writes doc/data/cost.{csv,md} and doc/data/cost.png.
 Usage, from the repository root after ./demo.sh or ./test.sh:
-  bench/membranes_cost.py [--quick]
+  bench/membranes_cost.py [--quick] [--c-function=fischer-burmeister]
 --quick stops at about 5e4 unknowns per field (a smoke test of the script).
+--c-function chooses the C-function of Newton (default min); for another
+one the files are doc/data/cost-<name>.{csv,md,png}.
 The full study takes about 5 minutes and 10 GB of memory.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
@@ -29,6 +31,9 @@ from vi_bench import DATA, ROOT, estimator_seconds, program, run as run_program,
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
 QUICK = "--quick" in sys.argv
+C_FUNCTION = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--c-function=")),
+                  "min")
+STEM = "cost" if C_FUNCTION == "min" else f"cost-{C_FUNCTION}"
 # 12288 cells and up to three refinements: 2.4e6 unknowns (peak memory
 # 8.3 GB on one process, 4.8 GB per process on two).
 CYCLES = {1: 2, 2: 2} if QUICK else {1: 4, 2: 4}
@@ -37,13 +42,14 @@ CYCLES = {1: 2, 2: 2} if QUICK else {1: 4, 2: 4}
 def run(np):
     settings = {"Mesh/Initial refinements": 5, "Mesh/Cycles": CYCLES[np],
                 "Nonlinear solver/Strategy": "adaptive",
+                "Nonlinear solver/C-function": C_FUNCTION,
                 "Nonlinear solver/Nested iteration": "true",
                 "Linear solver/Preconditioner": "amg",
                 "Estimators/At every check": "false",
                 "Benchmark/Reference Poisson solve": "true",
                 "Output/Write VTU": "false"}
     summary = run_program(PROGRAM, "estimators-disk-p1.prm", settings,
-                          os.path.join(OUT, f"np{np}"), np)
+                          os.path.join(OUT, f"{STEM}-np{np}"), np)
     print(f"  np = {np}: done", flush=True)
     return summary["cycles"]
 
@@ -77,16 +83,16 @@ def main():
     header = ["np", "DoFs per field", "unknowns", "Newton", "GMRES", "Poisson CG",
               "contact solve (s)", "estimators (s)", "2 Poisson (s)", "ratio",
               "ratio without estimators", "estimators / rest", "growth exponent",
-              "speed-up"]
+              "speed-up", "effectivity"]
     formats = [("np", "{}"), ("dofs_per_field", "{}"), ("unknowns", "{}"),
                ("newton", "{}"), ("gmres", "{}"), ("poisson_cg", "{}"),
                ("solve_seconds", "{:.2f}"), ("estimator_seconds", "{:.2f}"),
                ("poisson_seconds", "{:.2f}"), ("ratio", "{:.1f}"),
                ("ratio_without_estimators", "{:.1f}"), ("estimator_fraction", "{:.2f}"),
-               ("growth", "{:.2f}"), ("speedup", "{:.2f}")]
-    write_table("cost", rows, header, formats)
+               ("growth", "{:.2f}"), ("speedup", "{:.2f}"), ("effectivity", "{:.3f}")]
+    write_table(STEM, rows, header, formats)
 
-    dat = os.path.join(OUT, "cost.dat")
+    dat = os.path.join(OUT, f"{STEM}.dat")
     with open(dat, "w") as f:
         for np in (1, 2):
             f.write(f"# np = {np}: DoFs per field, contact solve, estimators, 2 Poisson\n")
@@ -98,13 +104,13 @@ def main():
     first = rows[0]
     script = f"""
 set terminal pngcairo size 900,600 font ',11'
-set output '{os.path.join(DATA, 'cost.png')}'
+set output '{os.path.join(DATA, STEM + '.png')}'
 set logscale xy
 set grid
 set key left top
 set xlabel 'unknowns per field'
 set ylabel 'wall time (s)'
-set title 'Contact solve (adaptive inexact Newton, GMRES + AMG) against two Poisson solves (CG + AMG)'
+set title 'Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG) against two Poisson solves (CG + AMG)'
 plot '{dat}' index 0 using 1:2 with linespoints lw 2 pt 7 lc 1 title 'contact solve, np = 1', \\
      '{dat}' index 0 using 1:3 with linespoints lw 1 pt 6 lc 1 dt 2 title 'of which estimators, np = 1', \\
      '{dat}' index 0 using 1:4 with linespoints lw 2 pt 5 lc 2 title '2 Poisson solves, np = 1', \\
@@ -113,7 +119,7 @@ plot '{dat}' index 0 using 1:2 with linespoints lw 2 pt 7 lc 1 title 'contact so
      {first['solve_seconds']}*x/{first['dofs_per_field']} with lines lc rgb 'gray' dt 3 title 'linear growth'
 """
     subprocess.run(["gnuplot"], input=script.encode(), check=True)
-    print(f"wrote {os.path.join(DATA, 'cost')}.{{csv,md,png}}")
+    print(f"wrote {os.path.join(DATA, STEM)}.{{csv,md,png}}")
 
 
 if __name__ == "__main__":
