@@ -702,12 +702,10 @@ namespace StepMembranes
         // stopped, and its residual holds (1 - t) R(X^(k-1)); such an
         // iterate may have eta_lin = 0 (feasible, lambda_h = 0) with any
         // algebraic error. For full steps it holds already.
+        const VI::ContactEstimate &e = *step_estimate;
         return p.strategy == "adaptive" &&
-               step_estimate->eta_lin <=
-                 p.gamma_lin * step_estimate->eta_disc &&
-               step_estimate->eta_alg <=
-                 p.gamma_alg *
-                   std::max(step_estimate->eta_disc, step_estimate->eta_lin);
+               p.linearisation_error_small(e.eta_disc, e.eta_lin) &&
+               p.algebraic_error_small(e.eta_disc, e.eta_lin, e.eta_alg);
       };
 
     newton_report = newton.solve(solution);
@@ -755,7 +753,7 @@ namespace StepMembranes
     // the adaptive strategy accepts the first iterate whose algebraic
     // estimator is small enough.
     const auto criterion = [&](const VI::ContactEstimate &e) {
-      return e.eta_alg <= nonlinear.gamma_alg * std::max(e.eta_disc, e.eta_lin);
+      return nonlinear.algebraic_error_small(e.eta_disc, e.eta_lin, e.eta_alg);
     };
     std::optional<Iterate> previous;
     Iterate                current;

@@ -708,12 +708,12 @@ namespace StepParabolic
         // search (Fischer-Burmeister) is not the iterate at which GMRES
         // stopped, and its residual holds (1 - t) R(X^(k-1)). For full
         // steps it holds already.
+        const StepEstimate &e = *step_estimate;
         return p.strategy == "adaptive" &&
-               step_estimate->eta_lin_controlled <=
-                 p.gamma_lin * step_estimate->eta_disc &&
-               step_estimate->eta_alg <=
-                 p.gamma_alg * std::max(step_estimate->eta_disc,
-                                        step_estimate->eta_lin_controlled);
+               p.linearisation_error_small(e.eta_disc, e.eta_lin_controlled) &&
+               p.algebraic_error_small(e.eta_disc,
+                                       e.eta_lin_controlled,
+                                       e.eta_alg);
       };
 
     newton_report = newton.solve(solution);
@@ -751,8 +751,9 @@ namespace StepParabolic
     settings.relative_tolerance = VI::linear_tolerance(nonlinear, linear);
 
     const auto criterion = [&](const StepEstimate &e) {
-      return e.eta_alg <=
-             nonlinear.gamma_alg * std::max(e.eta_disc, e.eta_lin_controlled);
+      return nonlinear.algebraic_error_small(e.eta_disc,
+                                             e.eta_lin_controlled,
+                                             e.eta_alg);
     };
     std::optional<Iterate> previous;
     Iterate                current;

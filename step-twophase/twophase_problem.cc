@@ -315,8 +315,8 @@ namespace StepTwoPhase
         // The algebraic criterion is repeated because a step shortened by
         // the line search is not the iterate at which GMRES stopped: its
         // linearised residual contains (1 - t) R(X^{k-1}).
-        return eta.lin <= p.gamma_lin * eta.disc &&
-               eta.alg <= p.gamma_alg * std::max(eta.disc, eta.lin) &&
+        return p.linearisation_error_small(eta.disc, eta.lin) &&
+               p.algebraic_error_small(eta.disc, eta.lin, eta.alg) &&
                is_admissible(X);
       };
 
@@ -514,8 +514,9 @@ namespace StepTwoPhase
           }
         trial += linearization_point;
         const EstimatorValues eta = estimators->estimate(trial);
-        return eta.alg <= parameters.nonlinear_solver.gamma_alg *
-                            std::max(eta.disc, eta.lin);
+        return parameters.nonlinear_solver.algebraic_error_small(eta.disc,
+                                                                 eta.lin,
+                                                                 eta.alg);
       };
 
     dX = 0.;

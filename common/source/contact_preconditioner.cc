@@ -92,9 +92,15 @@ namespace VI
         // divide the error of w by a small beta, while the first row gives
         // d3 from d1 alone.
         const double cap = data.tie_penalty * mu_r * diagonal[k];
-        tied[k]          = std::abs(beta[k]) <= 1e-12 * std::abs(alpha[k]) ||
-                  coupling[k] * alpha[k] / beta[k] >= cap;
-        penalty[k] = tied[k] ? cap : coupling[k] * alpha[k] / beta[k];
+        if (std::abs(beta[k]) <= 1e-12 * std::abs(alpha[k]))
+          tied[k] = true;
+        else
+          {
+            penalty[k] = coupling[k] * alpha[k] / beta[k];
+            tied[k]    = penalty[k] >= cap;
+          }
+        if (tied[k])
+          penalty[k] = cap;
         gap_matrix.add(owned.nth_index_in_set(k),
                        owned.nth_index_in_set(k),
                        penalty[k]);

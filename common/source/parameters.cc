@@ -1,6 +1,7 @@
 #include <vi/errors.h>
 #include <vi/parameters.h>
 
+#include <algorithm>
 #include <sstream>
 
 namespace VI
@@ -307,6 +308,24 @@ namespace VI
       require_positive(forcing_term, "Nonlinear solver/Forcing term");
     }
     prm.leave_subsection();
+  }
+
+
+  bool
+  NonlinearSolverParameters::algebraic_error_small(const double eta_disc,
+                                                   const double eta_lin,
+                                                   const double eta_alg) const
+  {
+    return eta_alg <= gamma_alg * std::max(eta_disc, eta_lin);
+  }
+
+
+  bool
+  NonlinearSolverParameters::linearisation_error_small(
+    const double eta_disc,
+    const double eta_lin) const
+  {
+    return eta_lin <= gamma_lin * eta_disc;
   }
 
 

@@ -83,6 +83,18 @@ namespace VI
     bool         nested_iteration = true;
     std::string  initial_guess    = "zero";
 
+    /// The stopping tests of the adaptive strategy [DMV20]: the algebraic
+    /// error is small enough when eta_alg <= gamma_alg max(eta_disc,
+    /// eta_lin) (stops GMRES), the linearisation error when
+    /// eta_lin <= gamma_lin eta_disc (stops Newton).
+    bool
+    algebraic_error_small(const double eta_disc,
+                          const double eta_lin,
+                          const double eta_alg) const;
+    bool
+    linearisation_error_small(const double eta_disc,
+                              const double eta_lin) const;
+
     /// `strategies`: the accepted values of "Strategy", e.g. "exact" or
     /// "exact|inexact|adaptive".
     static void
