@@ -129,6 +129,12 @@ namespace StepMembranes
       throw VI::InputError("Nonlinear solver/Strategy = adaptive stops the "
                            "solvers with the estimators: set "
                            "Estimators/Enabled = true");
+    if (estimators.undershoot_bound != "friedrichs" &&
+        discretization.method != "fem")
+      throw VI::InputError(
+        "Estimators/Undershoot bound = " + estimators.undershoot_bound +
+        " is implemented for Discretization/Method = fem: "
+        "set it to friedrichs for the dG methods");
   }
 
 
@@ -312,6 +318,16 @@ namespace StepMembranes
                                     dof_handler,
                                     u1_constraints,
                                     flux_reconstruction->get_quadrature());
+          }
+        dual_norm.reset();
+        if (parameters.estimators.undershoot_bound == "equilibrated")
+          {
+            dual_norm =
+              std::make_unique<VI::DualNormBound<dim>>(*mapping,
+                                                       *flux_reconstruction,
+                                                       VI::friedrichs_constant(
+                                                         geometry));
+            dual_norm->reinit(triangulation);
           }
         vertex_dofs.assign(triangulation.n_vertices(),
                            numbers::invalid_dof_index);
@@ -1250,6 +1266,7 @@ namespace StepMembranes
     in.r2_ahead            = &ahead.r2;
     in.sigma1_ahead        = &ahead.sigma1;
     in.sigma2_ahead        = &ahead.sigma2;
+    in.dual_norm           = dual_norm.get();
     if (cell_multiplier)
       {
         in.cell_multiplier          = cell_multiplier.get();

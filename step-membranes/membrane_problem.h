@@ -20,6 +20,7 @@
 #include <vi/complementarity.h>
 #include <vi/contact_preconditioner.h>
 #include <vi/contact_rows.h>
+#include <vi/dual_norm.h>
 #include <vi/estimators.h>
 #include <vi/flux_reconstruction.h>
 #include <vi/geometry.h>
@@ -265,6 +266,10 @@ namespace StepMembranes
     /// The multiplier of the estimate on the contact cells (p >= 2 and
     /// `Estimators/Multiplier = contact cells`; null otherwise).
     std::unique_ptr<VI::CellMultiplier<dim>> cell_multiplier;
+    /// The equilibrated bound of the undershoots' dual norm, if asked for
+    /// (Estimators/Undershoot bound); after flux_reconstruction, which it
+    /// refers to.
+    std::unique_ptr<VI::DualNormBound<dim>> dual_norm;
     /// The nodes in contact at the linearisation point of the current
     /// Newton step: the contact cells of every iterate of the step, so that
     /// an iterate and its look-ahead share the map from moments to lambda~.

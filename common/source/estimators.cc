@@ -3,6 +3,7 @@
 #include <deal.II/fe/fe_values.h>
 
 #include <vi/cell_multiplier.h>
+#include <vi/dual_norm.h>
 #include <vi/estimators.h>
 #include <vi/piola_divergence.h>
 
@@ -184,6 +185,14 @@ namespace VI
     std::array<double, n_sums> sums{};
     const double               c_mu = std::sqrt(1. / in.mu1 + 1. / in.mu2);
     const double               C    = in.friedrichs_constant * c_mu;
+    // The cell means m_K of the multiplier's undershoots (of lambda_h and of
+    // lambda~), for the dual norm bound.
+    std::vector<double> means, means_disc;
+    if (in.dual_norm)
+      {
+        means.assign(tria.n_active_cells(), 0.);
+        means_disc.assign(tria.n_active_cells(), 0.);
+      }
 
     for (const auto &potential_cell : in.potential->active_cell_iterators())
       {
@@ -382,6 +391,11 @@ namespace VI
         cell[multiplier_local_disc] =
           poincare_squared * split_disc.oscillation_squared;
         cell[multiplier_mean_disc] = split_disc.mean_squared;
+        if (in.dual_norm)
+          {
+            means[potential_cell->active_cell_index()]      = split.mean;
+            means_disc[potential_cell->active_cell_index()] = split_disc.mean;
+          }
 
         // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
         // is in the cone; s - u_h vanishes once Newton has converged.
@@ -446,11 +460,18 @@ namespace VI
     e.nonc_1      = std::sqrt(total[nonc_total]);
     e.nonc_1_disc = std::sqrt(total[nonc_disc]);
     e.nonc_1_lin  = std::sqrt(total[nonc_lin]);
-    // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w|||.
+    // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w|||, or
+    // (m, w1 - w2) <= ||m||_{-1} c_mu |||w||| with the equilibrated bound.
+    const auto mean_term = [&](const double               mean_squared,
+                               const std::vector<double> &cell_means) {
+      if (in.dual_norm && mean_squared > 0.)
+        return c_mu * in.dual_norm->bound(cell_means);
+      return C * std::sqrt(mean_squared);
+    };
     e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
-               C * std::sqrt(total[multiplier_mean]);
+               mean_term(total[multiplier_mean], means);
     e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
-                    C * std::sqrt(total[multiplier_mean_disc]);
+                    mean_term(total[multiplier_mean_disc], means_disc);
     // lambda_h = lambda~ once Newton has converged.
     e.nonc_2_lin                 = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
     const double lambda_positive = std::sqrt(total[positive]);
@@ -512,6 +533,7 @@ namespace VI
     MultiplierSplit split;
     split.cone_factor  = integral > 0 ? integral / positive_integral : 0.;
     const double mean  = std::min(integral, 0.) / measure;
+    split.mean         = mean;
     split.mean_squared = mean * mean * measure;
     for (unsigned int q = 0; q < lambda.size(); ++q)
       {

@@ -440,6 +440,17 @@ namespace VI
         "'conforming' is the finite element function M^(-1) m, which "
         "spreads a jump of the multiplier into the cells outside the "
         "contact set (doc/estimators.md).");
+      prm.declare_entry(
+        "Undershoot bound",
+        "friedrichs",
+        Selection("friedrichs|equilibrated"),
+        "How the estimate bounds (m, w1 - w2), m the cell means of the "
+        "undershoots lambda_h < 0 of a Newton iterate (FEM): 'friedrichs' by "
+        "C_F |m| |grad(w1 - w2)|, free but pessimistic by a factor of order "
+        "(h / width of the band where m lives)^(1/2); 'equilibrated' by a "
+        "guaranteed bound of the dual norm |m|_{-1} (a Poisson solve and a "
+        "flux reconstruction per estimate of an iterate with undershoots; "
+        "doc/estimators.md).");
     }
     prm.leave_subsection();
   }
@@ -450,9 +461,10 @@ namespace VI
   {
     prm.enter_subsection("Estimators");
     {
-      enabled     = prm.get_bool("Enabled");
-      every_check = prm.get_bool("At every check");
-      multiplier  = prm.get("Multiplier");
+      enabled          = prm.get_bool("Enabled");
+      every_check      = prm.get_bool("At every check");
+      multiplier       = prm.get("Multiplier");
+      undershoot_bound = prm.get("Undershoot bound");
     }
     prm.leave_subsection();
   }

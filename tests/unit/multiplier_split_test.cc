@@ -82,6 +82,7 @@ TEST(MultiplierSplit, NegativeMeanGoesToTheGlobalTerm)
   const Sample s     = sample(0., 3.); // mean 1 - 3/2 = -1/2
   const auto   split = VI::split_multiplier(s.lambda, s.JxW);
   EXPECT_EQ(split.cone_factor, 0.);
+  EXPECT_NEAR(split.mean, -0.5, 1e-14);
   EXPECT_NEAR(split.mean_squared, 0.25, 1e-14);
   // delta = lambda, and |lambda - m|^2 = 9 |y - 1/2|^2 = 9 / 12.
   EXPECT_NEAR(split.oscillation_squared, 0.75, 1e-14);

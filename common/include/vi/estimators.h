@@ -15,6 +15,8 @@ namespace VI
 {
   template <int dim>
   class CellMultiplier;
+  template <int dim>
+  class DualNormBound;
 
   /**
    * A posteriori error estimate of an iterate of the two-membrane problem
@@ -146,6 +148,12 @@ namespace VI
     /// d_t u_ahead - d_t u, goes into the remainder.
     const Vector *dt_u1 = nullptr, *dt_u2 = nullptr;
     const Vector *dt_u1_ahead = nullptr, *dt_u2_ahead = nullptr;
+
+    /// Optional: the sum over the cells of (m_K, w1 - w2)_K (the cell means
+    /// of the multiplier's undershoots, MultiplierSplit) is bounded by
+    /// ||m||_{-1} |grad(w1 - w2)| with this equilibrated bound of the dual
+    /// norm instead of C_F |m| |grad(w1 - w2)| (null: Friedrichs).
+    const DualNormBound<dim> *dual_norm = nullptr;
   };
 
 
@@ -166,6 +174,7 @@ namespace VI
   {
     double cone_factor         = 0; ///< c_K
     double oscillation_squared = 0; ///< |delta - m_K|_K^2
+    double mean                = 0; ///< m_K (<= 0)
     double mean_squared        = 0; ///< m_K^2 |K|
   };
 

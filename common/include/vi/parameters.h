@@ -139,6 +139,8 @@ namespace VI
     bool every_check = true;
     /// "contact cells" (CellMultiplier) or "conforming" (M^(-1) m).
     std::string multiplier = "contact cells";
+    /// "friedrichs" or "equilibrated" (DualNormBound).
+    std::string undershoot_bound = "friedrichs";
 
     static void
     declare(dealii::ParameterHandler &prm);
