@@ -129,12 +129,10 @@ namespace StepMembranes
       throw VI::InputError("Nonlinear solver/Strategy = adaptive stops the "
                            "solvers with the estimators: set "
                            "Estimators/Enabled = true");
-    if (estimators.undershoot_bound != "friedrichs" &&
-        discretization.method != "fem")
-      throw VI::InputError(
-        "Estimators/Undershoot bound = " + estimators.undershoot_bound +
-        " is implemented for Discretization/Method = fem: "
-        "set it to friedrichs for the dG methods");
+    if (estimators.equilibrated_dual_norms() && discretization.method != "fem")
+      throw VI::InputError("Estimators/Equilibrated dual norms is "
+                           "implemented for Discretization/Method = fem: "
+                           "leave it empty for the dG methods");
   }
 
 
@@ -320,7 +318,7 @@ namespace StepMembranes
                                     flux_reconstruction->get_quadrature());
           }
         dual_norm.reset();
-        if (parameters.estimators.undershoot_bound == "equilibrated")
+        if (parameters.estimators.equilibrated_dual_norms())
           {
             dual_norm =
               std::make_unique<VI::DualNormBound<dim>>(*mapping,
@@ -1239,34 +1237,36 @@ namespace StepMembranes
   {
     TimerOutput::Scope             t(timer, "estimators: evaluation");
     VI::ContactEstimatorInput<dim> in;
-    in.mapping             = mapping.get();
-    in.potential           = &dof_handler;
-    in.flux                = &flux_reconstruction->get_dof_handler();
-    in.quadrature          = &flux_reconstruction->get_quadrature();
-    in.mu1                 = data.mu1;
-    in.mu2                 = data.mu2;
-    in.f1                  = data.f1.get();
-    in.f2                  = data.f2.get();
-    in.f1_values           = &load_values[0];
-    in.f2_values           = &load_values[1];
-    in.g1                  = data.g1.get();
-    in.g2                  = data.g2.get();
-    in.friedrichs_constant = VI::friedrichs_constant(geometry);
-    in.mass_lumped         = fe.degree == 1;
-    in.u1                  = &it.u1;
-    in.u2                  = &it.u2;
-    in.s1                  = &it.s1;
-    in.s2                  = &it.s2;
-    in.lambda              = &it.lambda;
-    in.lambda_nonnegative  = &it.lambda_nonnegative;
-    in.sigma1_disc         = &it.sigma1;
-    in.sigma2_disc         = &it.sigma2;
-    in.lambda_ahead        = &ahead.lambda;
-    in.r1_ahead            = &ahead.r1;
-    in.r2_ahead            = &ahead.r2;
-    in.sigma1_ahead        = &ahead.sigma1;
-    in.sigma2_ahead        = &ahead.sigma2;
-    in.dual_norm           = dual_norm.get();
+    in.mapping               = mapping.get();
+    in.potential             = &dof_handler;
+    in.flux                  = &flux_reconstruction->get_dof_handler();
+    in.quadrature            = &flux_reconstruction->get_quadrature();
+    in.mu1                   = data.mu1;
+    in.mu2                   = data.mu2;
+    in.f1                    = data.f1.get();
+    in.f2                    = data.f2.get();
+    in.f1_values             = &load_values[0];
+    in.f2_values             = &load_values[1];
+    in.g1                    = data.g1.get();
+    in.g2                    = data.g2.get();
+    in.friedrichs_constant   = VI::friedrichs_constant(geometry);
+    in.mass_lumped           = fe.degree == 1;
+    in.u1                    = &it.u1;
+    in.u2                    = &it.u2;
+    in.s1                    = &it.s1;
+    in.s2                    = &it.s2;
+    in.lambda                = &it.lambda;
+    in.lambda_nonnegative    = &it.lambda_nonnegative;
+    in.sigma1_disc           = &it.sigma1;
+    in.sigma2_disc           = &it.sigma2;
+    in.lambda_ahead          = &ahead.lambda;
+    in.r1_ahead              = &ahead.r1;
+    in.r2_ahead              = &ahead.r2;
+    in.sigma1_ahead          = &ahead.sigma1;
+    in.sigma2_ahead          = &ahead.sigma2;
+    in.dual_norm             = dual_norm.get();
+    in.dual_norm_undershoots = parameters.estimators.dual_norm_undershoots;
+    in.dual_norm_remainder   = parameters.estimators.dual_norm_remainder;
     if (cell_multiplier)
       {
         in.cell_multiplier          = cell_multiplier.get();

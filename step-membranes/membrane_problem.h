@@ -267,8 +267,8 @@ namespace StepMembranes
     /// `Estimators/Multiplier = contact cells`; null otherwise).
     std::unique_ptr<VI::CellMultiplier<dim>> cell_multiplier;
     /// The equilibrated bound of the undershoots' dual norm, if asked for
-    /// (Estimators/Undershoot bound); after flux_reconstruction, which it
-    /// refers to.
+    /// (Estimators/Equilibrated dual norms); after flux_reconstruction, which
+    /// it refers to.
     std::unique_ptr<VI::DualNormBound<dim>> dual_norm;
     /// The nodes in contact at the linearisation point of the current
     /// Newton step: the contact cells of every iterate of the step, so that

@@ -254,10 +254,9 @@ namespace StepParabolic
     require(strategy != "adaptive" || estimators.enabled,
             "Nonlinear solver/Strategy = adaptive stops the solvers with the "
             "estimators: set Estimators/Enabled = true");
-    require(estimators.undershoot_bound == "friedrichs",
-            "Estimators/Undershoot bound = " + estimators.undershoot_bound +
-              " is implemented for step-membranes (fem): set it to "
-              "friedrichs for step-parabolic");
+    require(!estimators.equilibrated_dual_norms(),
+            "Estimators/Equilibrated dual norms is implemented for "
+            "step-membranes (fem): leave it empty for step-parabolic");
     require(linear_solver.solver != "gmres" ||
               linear_solver.preconditioner != "amg" ||
               problem.mu1 == problem.mu2,

@@ -109,6 +109,29 @@ namespace VI
   double
   DualNormBound<dim>::bound(const std::vector<double> &m) const
   {
+    return equilibrate(
+      [&](const unsigned int cell, const unsigned int) { return m[cell]; });
+  }
+
+
+  template <int dim>
+  double
+  DualNormBound<dim>::bound_at_points(const std::vector<double> &values) const
+  {
+    const unsigned int n_q = reconstruction.get_quadrature().size();
+    return equilibrate([&](const unsigned int cell, const unsigned int q) {
+      return values[cell * n_q + q];
+    });
+  }
+
+
+  // m(cell, q): the source at point q of the reconstruction's quadrature on
+  // the cell of that active index.
+  template <int dim>
+  template <typename Source>
+  double
+  DualNormBound<dim>::equilibrate(const Source &m) const
+  {
     const MPI_Comm         comm       = dof_handler.get_communicator();
     const IndexSet        &owned      = dof_handler.locally_owned_dofs();
     const Quadrature<dim> &quadrature = reconstruction.get_quadrature();
@@ -124,16 +147,17 @@ namespace VI
     std::vector<types::global_dof_index> dofs(n);
     double                               m_squared = 0;
     for (const auto &cell : dof_handler.active_cell_iterators())
-      if (cell->is_locally_owned() && m[cell->active_cell_index()] != 0.)
+      if (cell->is_locally_owned())
         {
-          const double m_K = m[cell->active_cell_index()];
+          const unsigned int K = cell->active_cell_index();
           values.reinit(cell);
           cell_load = 0;
           for (const unsigned int q : values.quadrature_point_indices())
             {
-              m_squared += m_K * m_K * values.JxW(q);
+              const double m_q = m(K, q);
+              m_squared += m_q * m_q * values.JxW(q);
               for (unsigned int i = 0; i < n; ++i)
-                cell_load(i) += m_K * values.shape_value(i, q) * values.JxW(q);
+                cell_load(i) += m_q * values.shape_value(i, q) * values.JxW(q);
             }
           cell->get_dof_indices(dofs);
           constraints.distribute_local_to_global(cell_load, dofs, load);
@@ -174,7 +198,8 @@ namespace VI
     z_ghosted = z;
     c_ghosted = c;
 
-    // rho: equilibrates m (+ c_h) with the flux grad z_h.
+    // rho: equilibrates m (+ c_h) with the flux grad z_h (div rho = m + c_h
+    // exactly where m is in Q_p on every cell).
     typename FluxReconstruction<dim>::Sources sources;
     sources.n_fields    = 1;
     sources.cell_values = [&](const auto &cell, auto &flux, auto &source) {
@@ -185,9 +210,8 @@ namespace VI
         &dof_handler);
       values.reinit(dof_cell);
       values.get_function_gradients(z_ghosted, flux[0]);
-      std::fill(source[0].begin(),
-                source[0].end(),
-                m[cell->active_cell_index()]);
+      for (unsigned int q = 0; q < source[0].size(); ++q)
+        source[0][q] = m(cell->active_cell_index(), q);
     };
     sources.vertex_source = [&](const unsigned int vertex, const unsigned int) {
       const auto i = vertex_dofs[vertex];

@@ -11,6 +11,7 @@ namespace VI
   using dealii::Patterns::Bool;
   using dealii::Patterns::Double;
   using dealii::Patterns::Integer;
+  using dealii::Patterns::MultipleSelection;
   using dealii::Patterns::Selection;
 
   namespace
@@ -441,16 +442,18 @@ namespace VI
         "spreads a jump of the multiplier into the cells outside the "
         "contact set (doc/estimators.md).");
       prm.declare_entry(
-        "Undershoot bound",
-        "friedrichs",
-        Selection("friedrichs|equilibrated"),
-        "How the estimate bounds (m, w1 - w2), m the cell means of the "
-        "undershoots lambda_h < 0 of a Newton iterate (FEM): 'friedrichs' by "
-        "C_F |m| |grad(w1 - w2)|, free but pessimistic by a factor of order "
-        "(h / width of the band where m lives)^(1/2); 'equilibrated' by a "
-        "guaranteed bound of the dual norm |m|_{-1} (a Poisson solve and a "
-        "flux reconstruction per estimate of an iterate with undershoots; "
-        "doc/estimators.md).");
+        "Equilibrated dual norms",
+        "",
+        MultipleSelection("undershoots|remainder"),
+        "Terms of the estimate (FEM in step-membranes) whose dual norm "
+        "||m||_{-1} = sup (m, v) / |grad v| over H^1_0 is bounded by "
+        "equilibration (a Poisson solve and a flux reconstruction of one "
+        "field per term and estimate) instead of by C_F |m| (Friedrichs), "
+        "which is pessimistic for m concentrated on a band or oscillating "
+        "(doc/estimators.md): 'undershoots', the cell means of the "
+        "undershoots lambda_h < 0 of a Newton iterate; 'remainder', the "
+        "residuals rho_alpha that the look-ahead leaves (the algebraic "
+        "remainder). Empty: Friedrichs for both.");
     }
     prm.leave_subsection();
   }
@@ -461,10 +464,17 @@ namespace VI
   {
     prm.enter_subsection("Estimators");
     {
-      enabled          = prm.get_bool("Enabled");
-      every_check      = prm.get_bool("At every check");
-      multiplier       = prm.get("Multiplier");
-      undershoot_bound = prm.get("Undershoot bound");
+      enabled               = prm.get_bool("Enabled");
+      every_check           = prm.get_bool("At every check");
+      multiplier            = prm.get("Multiplier");
+      const auto dual_norms = dealii::Utilities::split_string_list(
+        prm.get("Equilibrated dual norms"));
+      const auto has = [&](const std::string &term) {
+        return std::find(dual_norms.begin(), dual_norms.end(), term) !=
+               dual_norms.end();
+      };
+      dual_norm_undershoots = has("undershoots");
+      dual_norm_remainder   = has("remainder");
     }
     prm.leave_subsection();
   }

@@ -20,7 +20,8 @@ namespace VI
    *
    *   ||m||_{-1} = sup over v in H^1_0(Omega) of (m, v) / ||grad v||
    *
-   * of a cellwise constant function m, by equilibration: z_h in Q1 with
+   * of a function m in Q_p on every cell (cellwise constant, or a finite
+   * element function of degree p), by equilibration: z_h in Q1 with
    * zero boundary values solves (grad z_h, grad v_h) = (m, v_h) (CG + AMG),
    * and the flux reconstruction of the problem equilibrates the source m
    * with the flux grad z_h, each vertex a carrying the constant c_a = -r_a /
@@ -63,7 +64,20 @@ namespace VI
     double
     bound(const std::vector<double> &m) const;
 
+    /**
+     * The same for m given at the points of the reconstruction's quadrature,
+     * values[K n_q + q] on the cell of active index K, m in Q_p on every
+     * cell (e.g. a finite element function of the problem's degree), so
+     * that the equilibration is exact.
+     */
+    double
+    bound_at_points(const std::vector<double> &values) const;
+
   private:
+    template <typename Source>
+    double
+    equilibrate(const Source &m) const;
+
     const dealii::Mapping<dim>       &mapping;
     const FluxReconstruction<dim>    &reconstruction;
     const double                      friedrichs_constant;

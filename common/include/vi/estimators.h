@@ -149,11 +149,14 @@ namespace VI
     const Vector *dt_u1 = nullptr, *dt_u2 = nullptr;
     const Vector *dt_u1_ahead = nullptr, *dt_u2_ahead = nullptr;
 
-    /// Optional: the sum over the cells of (m_K, w1 - w2)_K (the cell means
-    /// of the multiplier's undershoots, MultiplierSplit) is bounded by
-    /// ||m||_{-1} |grad(w1 - w2)| with this equilibrated bound of the dual
-    /// norm instead of C_F |m| |grad(w1 - w2)| (null: Friedrichs).
+    /// Optional: dual norms bounded by equilibration (DualNormBound)
+    /// instead of Friedrichs' inequality |v| <= C_F |grad v|: for the cell
+    /// means m of the multiplier's undershoots (MultiplierSplit),
+    /// (m, w1 - w2) <= ||m||_{-1} |grad(w1 - w2)|, and for the look-ahead's
+    /// remainders rho_alpha, (rho_alpha, w_alpha) <= ||rho_alpha||_{-1}
+    /// |grad w_alpha|. Each bound is the smaller of the two.
     const DualNormBound<dim> *dual_norm = nullptr;
+    bool dual_norm_undershoots = false, dual_norm_remainder = false;
   };
 
 

@@ -139,8 +139,14 @@ namespace VI
     bool every_check = true;
     /// "contact cells" (CellMultiplier) or "conforming" (M^(-1) m).
     std::string multiplier = "contact cells";
-    /// "friedrichs" or "equilibrated" (DualNormBound).
-    std::string undershoot_bound = "friedrichs";
+    /// Dual norms bounded by equilibration (DualNormBound): of the cell
+    /// means of the multiplier's undershoots, of the algebraic remainder.
+    bool dual_norm_undershoots = false, dual_norm_remainder = false;
+    bool
+    equilibrated_dual_norms() const
+    {
+      return dual_norm_undershoots || dual_norm_remainder;
+    }
 
     static void
     declare(dealii::ParameterHandler &prm);
