@@ -16,6 +16,7 @@
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/errors.h>
+#include <vi/linear_solvers.h>
 
 #include <map>
 
@@ -92,13 +93,9 @@ namespace StepMembranes
     matrix.compress(VectorOperation::add);
     rhs.compress(VectorOperation::add);
 
-    TrilinosWrappers::PreconditionAMG::AdditionalData settings;
-    settings.elliptic              = true;
-    settings.higher_order_elements = dof_handler.get_fe().degree > 1;
-    settings.smoother_sweeps       = 2;
-    settings.aggregation_threshold = 0.02;
     TrilinosWrappers::PreconditionAMG amg;
-    amg.initialize(matrix, settings);
+    amg.initialize(matrix,
+                   VI::elliptic_amg_settings(dof_handler.get_fe().degree > 1));
 
     SolverControl                           control(1000, 1e-8 * rhs.l2_norm());
     SolverCG<TrilinosWrappers::MPI::Vector> cg(control);

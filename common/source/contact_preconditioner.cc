@@ -1,4 +1,5 @@
 #include <vi/contact_preconditioner.h>
+#include <vi/linear_solvers.h>
 #include <vi/nodal_fields.h>
 
 #include <algorithm>
@@ -13,21 +14,6 @@ namespace VI
       : data(data)
   {
   }
-
-
-  namespace
-  {
-    TrilinosWrappers::PreconditionAMG::AdditionalData
-    amg_settings(const bool higher_order_elements)
-    {
-      TrilinosWrappers::PreconditionAMG::AdditionalData settings;
-      settings.elliptic              = true;
-      settings.higher_order_elements = higher_order_elements;
-      settings.smoother_sweeps       = 2;
-      settings.aggregation_threshold = 0.02;
-      return settings;
-    }
-  } // namespace
 
 
   void
@@ -59,7 +45,7 @@ namespace VI
       v->reinit(owned, comm);
 
     // The mean is contact-free: one AMG hierarchy for all Newton steps.
-    amg_mean.initialize(S, amg_settings(data.higher_order_elements));
+    amg_mean.initialize(S, elliptic_amg_settings(data.higher_order_elements));
   }
 
 
@@ -106,7 +92,8 @@ namespace VI
                        penalty[k]);
       }
     gap_matrix.compress(VectorOperation::add);
-    amg_gap.initialize(gap_matrix, amg_settings(data.higher_order_elements));
+    amg_gap.initialize(gap_matrix,
+                       elliptic_amg_settings(data.higher_order_elements));
   }
 
 

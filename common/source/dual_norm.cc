@@ -10,6 +10,7 @@
 
 #include <vi/dual_norm.h>
 #include <vi/errors.h>
+#include <vi/linear_solvers.h>
 
 #include <algorithm>
 #include <cmath>
@@ -91,11 +92,7 @@ namespace VI
     laplacian.compress(VectorOperation::add);
     hat_integrals.compress(VectorOperation::add);
 
-    TrilinosWrappers::PreconditionAMG::AdditionalData settings;
-    settings.elliptic              = true;
-    settings.smoother_sweeps       = 2;
-    settings.aggregation_threshold = 0.02;
-    amg.initialize(laplacian, settings);
+    amg.initialize(laplacian, elliptic_amg_settings(false));
 
     vertex_dofs.assign(triangulation.n_vertices(), numbers::invalid_dof_index);
     for (const auto &cell : dof_handler.active_cell_iterators())

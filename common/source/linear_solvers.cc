@@ -249,4 +249,16 @@ namespace VI
                           ": the solve failed");
     return 0;
   }
+
+
+  TrilinosWrappers::PreconditionAMG::AdditionalData
+  elliptic_amg_settings(const bool higher_order_elements)
+  {
+    TrilinosWrappers::PreconditionAMG::AdditionalData settings;
+    settings.elliptic              = true;
+    settings.higher_order_elements = higher_order_elements;
+    settings.smoother_sweeps       = 2;
+    settings.aggregation_threshold = 0.02;
+    return settings;
+  }
 } // namespace VI

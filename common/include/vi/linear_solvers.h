@@ -1,5 +1,6 @@
 #pragma once
 
+#include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
@@ -119,4 +120,14 @@ namespace VI
     std::unique_ptr<Amesos_BaseSolver>            direct;
     int                                           mumps_extra_workspace = 100;
   };
+
+
+  /**
+   * The suite's Trilinos ML settings for the Laplacians of the membranes
+   * (elliptic, two smoother sweeps, aggregation threshold 0.02): used by the
+   * contact preconditioner, the reference Poisson solve of the cost
+   * benchmark and DualNormBound.
+   */
+  dealii::TrilinosWrappers::PreconditionAMG::AdditionalData
+  elliptic_amg_settings(const bool higher_order_elements);
 } // namespace VI
