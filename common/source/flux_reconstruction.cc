@@ -103,6 +103,15 @@ namespace VI
   // Piola signs determine the divergence block B, whose basis the layout
   // holds. A layout depends on the connectivity, the hanging faces and the
   // signs only: a few serve a whole mesh, curved or not.
+  //
+  // With the cells' metrics G_c = J_c^T J_c / det J_c (J_c the mean
+  // Jacobian of the patch's cell c), the patch energy is A = sum_c E_c^T
+  // S_c (sum_m G_c,m M^_m) S_c E_c, E_c the expansion into the cell's
+  // dofs, S_c its signs, M^_m the reference products. So Z^T A Z and
+  // Z^T A B^+ are the sums of G_c,m P_c,m and G_c,m Q_c,m with
+  // P_c,m = (S_c E_c Z)^T M^_m (S_c E_c Z) (packed lower triangle) and
+  // Q_c,m = (S_c E_c Z)^T M^_m (S_c E_c B^+) (n_free x n_q by rows), which
+  // the layout keeps in `energy`, block (c n_metric + m).
   template <int dim>
   struct FluxReconstruction<dim>::PatchLayout
   {
@@ -110,11 +119,24 @@ namespace VI
     std::vector<unsigned int>                    sigma_start;
     std::vector<std::pair<unsigned int, double>> sigma_entries;
     std::shared_ptr<const DivergenceBasis>       basis;
+    std::vector<double>                          energy;
+
+    unsigned int
+    n_packed() const
+    {
+      return basis->n_free * (basis->n_free + 1) / 2;
+    }
+
+    unsigned int
+    energy_block() const
+    {
+      return n_packed() + basis->n_free * basis->n_q;
+    }
   };
 
 
   // A patch's energy on the divergence-free fluxes, once per mesh and patch
-  // shape: the Cholesky factor L of Z^T A Z and C = Z^T A B^+, in
+  // metrics: the Cholesky factor L of Z^T A Z and C = Z^T A B^+, in
   // factors (C by rows, n_free x n_q, then the rows of L, packed).
   template <int dim>
   struct FluxReconstruction<dim>::LocalSolver
@@ -217,6 +239,23 @@ namespace VI
           weighted_flux_reference[(q * n_tau + i) * dim + d] =
             fe_flux.shape_value_component(i, quadrature.point(q), d) *
             quadrature.weight(q);
+    // int tau^_i^a tau^_j^b on the reference cell (exact: the rule has at
+    // least p + 3 points per direction), symmetrised for a < b
+    metric_reference.assign(n_metric * n_tau * n_tau, 0.);
+    for (unsigned int q = 0; q < quadrature.size(); ++q)
+      {
+        const double *tau   = &weighted_flux_reference[q * n_tau * dim];
+        const double  scale = 1. / quadrature.weight(q);
+        unsigned int  m     = 0;
+        for (unsigned int a = 0; a < dim; ++a)
+          for (unsigned int b = a; b < dim; ++b, ++m)
+            for (unsigned int i = 0; i < n_tau; ++i)
+              for (unsigned int j = 0; j < n_tau; ++j)
+                metric_reference[(m * n_tau + i) * n_tau + j] +=
+                  (tau[i * dim + a] * tau[j * dim + b] +
+                   (a < b ? tau[i * dim + b] * tau[j * dim + a] : 0.)) *
+                  scale;
+      }
     for (unsigned int q = 0; q < quadrature.size(); ++q)
       for (unsigned int k = 0; k < n_q; ++k)
         {
@@ -246,31 +285,28 @@ namespace VI
 
 
   // What a patch needs to know of one of its cells, computed by the cell's
-  // owner: the shape data of the patch key (center, diameter, mapped
-  // points, line orientations), how its Raviart-Thomas dofs expand across
-  // hanging faces (the constraint's entries, or the dof itself), the
-  // integrals (phi_v, q_k)_K of the Q1 shape functions phi_v against Q_p,
-  // and, for a patch solved on another rank, the cell matrices. The rank
-  // that solves a patch needs nothing else of a cell, so it need not see it.
+  // owner: its center (which orders the cells of a patch), how its
+  // Raviart-Thomas dofs expand across hanging faces (the constraint's
+  // entries, or the dof itself), the Piola signs of those dofs, its metric
+  // J^T J / det J and the integrals (phi_v, q_k)_K of the Q1 shape functions
+  // phi_v against Q_p. The rank that solves a patch needs nothing else of a
+  // cell, so it need not see it.
   template <int dim>
   struct FluxReconstruction<dim>::CellData
   {
     double                    center[dim] = {};
-    double                    diameter    = 0;
-    std::vector<double>       points;
-    std::vector<int>          orientations;
     std::vector<unsigned int> expansion_start; ///< per local dof, and the end
     std::vector<std::pair<types::global_dof_index, double>> expansion;
+    std::vector<std::int8_t>                                signs;
+    std::vector<double>                                     metric;
     std::vector<double> vertex_mass; ///< [v n_q + k]
-    std::vector<double> matrices;    ///< of cell_matrices(), if sent
     CellIterator        cell;        ///< on the owner only
 
     template <class Archive>
     void
     serialize(Archive &ar, const unsigned int)
     {
-      ar &center &diameter &points &orientations &expansion_start &expansion
-        &vertex_mass &matrices;
+      ar &center &expansion_start &expansion &signs &metric &vertex_mass;
     }
   };
 
@@ -305,28 +341,6 @@ namespace VI
     {
       ar &cells &patch &cell &hat;
     }
-  };
-
-
-  // The cell matrices computed so far (by active cell index), and the
-  // FEValues that compute them, set up once per mesh.
-  template <int dim>
-  struct FluxReconstruction<dim>::CellMatrixCache
-  {
-    CellMatrixCache(const FluxReconstruction<dim> &reconstruction,
-                    const unsigned int             n_active_cells)
-        : geometry(reconstruction.mapping,
-                   reconstruction.fe_hat,
-                   reconstruction.quadrature,
-                   update_jacobians | update_JxW_values)
-        , entries(n_active_cells)
-    {
-    }
-
-    /// J and JxW at the quadrature points (the Piola transform of the
-    /// reference functions needs nothing else, given the signs)
-    FEValues<dim>                    geometry;
-    std::vector<std::vector<double>> entries;
   };
 
 
@@ -369,20 +383,16 @@ namespace VI
     constexpr unsigned int n_v   = GeometryInfo<dim>::vertices_per_cell;
     const unsigned int     n_tau = fe_flux.n_dofs_per_cell();
     const unsigned int     n_q   = fe_divergence.n_dofs_per_cell();
-    CellMatrixCache        cache(*this, tria.n_active_cells());
-    // (Mapped points from the Q1 element: in deal.II 9.4 an FEValues of a
+    // (The Jacobians from the Q1 element: in deal.II 9.4 an FEValues of a
     // Raviart-Thomas element that asks for mapping data only trips over the
     // face sign changes of unstructured meshes, deal.II PR 15963.)
-    FEValues<dim>                        shape_values(mapping,
-                               fe_hat,
-                               QGauss<dim>(2),
-                               update_quadrature_points);
     FEValues<dim>                        hat_values(mapping,
                              fe_hat,
                              quadrature,
-                             update_values | update_JxW_values);
+                             update_values | update_jacobians |
+                               update_JxW_values);
     std::vector<types::global_dof_index> rt_dofs(n_tau);
-    // The Piola signs, for the cell matrices and the right-hand sides of
+    // The Piola signs, for the patch layouts and the right-hand sides of
     // reconstruct(). (A Gauss rule of p + 2 points per direction has a
     // point where a given nonzero function of RT_p does not vanish, so the
     // signs can be read off.)
@@ -393,6 +403,7 @@ namespace VI
                               PiolaDivergence<dim>::update_flags());
     PiolaDivergence<dim> signs(fe_flux, sign_points);
     piola_signs.assign(std::size_t(tria.n_active_cells()) * n_tau, 0);
+    cell_metric.assign(std::size_t(tria.n_active_cells()) * n_metric, 0.);
 
     // The data and shares of the owned cells, psi_j on a cell being the Q1
     // function with value 1 at the vertex of j and the constraint weights
@@ -435,13 +446,6 @@ namespace VI
           data.cell = cell;
           for (unsigned int d = 0; d < dim; ++d)
             data.center[d] = cell->center()[d];
-          data.diameter = cell->diameter();
-          shape_values.reinit(cell);
-          for (const auto &x : shape_values.get_quadrature_points())
-            for (unsigned int d = 0; d < dim; ++d)
-              data.points.push_back(x[d]);
-          for (const unsigned int l : cell->line_indices())
-            data.orientations.push_back(cell->line_orientation(l));
           typename DoFHandler<dim>::active_cell_iterator dof_cell(&tria,
                                                                   cell->level(),
                                                                   cell->index(),
@@ -449,9 +453,11 @@ namespace VI
           dof_cell->get_dof_indices(rt_dofs);
           sign_values.reinit(dof_cell);
           signs.reinit(sign_values);
+          std::int8_t *const cell_signs =
+            &piola_signs[cell->active_cell_index() * n_tau];
           for (unsigned int i = 0; i < n_tau; ++i)
-            piola_signs[cell->active_cell_index() * n_tau + i] =
-              signs.sign(i) > 0 ? 1 : -1;
+            cell_signs[i] = signs.sign(i) > 0 ? 1 : -1;
+          data.signs.assign(cell_signs, cell_signs + n_tau);
           for (unsigned int k = 0; k < n_tau; ++k)
             {
               data.expansion_start.push_back(data.expansion.size());
@@ -465,12 +471,27 @@ namespace VI
           data.expansion_start.push_back(data.expansion.size());
           hat_values.reinit(cell);
           data.vertex_mass.assign(n_v * n_q, 0.);
+          Tensor<2, dim> mean_jacobian;
           for (const unsigned int q : hat_values.quadrature_point_indices())
-            for (unsigned int v = 0; v < n_v; ++v)
-              for (unsigned int k = 0; k < n_q; ++k)
-                data.vertex_mass[v * n_q + k] += hat_values.shape_value(v, q) *
-                                                 q_reference[q * n_q + k] *
-                                                 hat_values.JxW(q);
+            {
+              for (unsigned int v = 0; v < n_v; ++v)
+                for (unsigned int k = 0; k < n_q; ++k)
+                  data.vertex_mass[v * n_q + k] +=
+                    hat_values.shape_value(v, q) * q_reference[q * n_q + k] *
+                    hat_values.JxW(q);
+              mean_jacobian +=
+                quadrature.weight(q) * Tensor<2, dim>(hat_values.jacobian(q));
+            }
+          // G = J^T J / det J of the mean Jacobian (the jacobian of a
+          // bilinear cell at its center)
+          const Tensor<2, dim> G = transpose(mean_jacobian) * mean_jacobian /
+                                   determinant(mean_jacobian);
+          double *const metric =
+            &cell_metric[cell->active_cell_index() * n_metric];
+          for (unsigned int a = 0, m = 0; a < dim; ++a)
+            for (unsigned int b = a; b < dim; ++b, ++m)
+              metric[m] = G[a][b];
+          data.metric.assign(metric, metric + n_metric);
 
           for (const auto &[j, values] : psi)
             mine.add(j, mine.cells.size(), values.data());
@@ -478,7 +499,7 @@ namespace VI
         }
 
     // The shares of patches solved elsewhere go to their ranks, with the
-    // data (and the matrices) of their cells; the others stay.
+    // data of their cells; the others stay.
     // (IndexSet::add_index inserts into a sorted list: add sorted ranges.)
     const auto index_set = [](const types::global_dof_index        size,
                               std::vector<types::global_dof_index> indices) {
@@ -511,10 +532,7 @@ namespace VI
         const auto sent = sent_cell.emplace(std::make_pair(owner, mine.cell[i]),
                                             to.cells.size());
         if (sent.second)
-          {
-            to.cells.push_back(data);
-            to.cells.back().matrices = cell_matrices(data.cell, cache);
-          }
+          to.cells.push_back(data);
         to.add(mine.patch[i], sent.first->second, hat);
         Membership membership{owner, n_sent[owner]++, 0, {}};
         std::copy_n(hat, n_v, membership.hat.begin());
@@ -539,14 +557,13 @@ namespace VI
       }
     std::sort(shares_here.begin(), shares_here.end());
 
-    // A cell's matrices and data are released after the last of its
+    // A cell's data are released after the last of its
     // patches solved here (or after sending, if it has none): what is held
     // is the front of the patch loop, not the mesh.
     std::vector<unsigned int> pending(mine.cells.size(), 0);
     for (const unsigned int i : solved_here)
       ++pending[mine.cell[i]];
     const auto release = [&](CellData &data) {
-      std::vector<double>().swap(cache.entries[data.cell->active_cell_index()]);
       const CellIterator cell = data.cell;
       data                    = CellData();
       data.cell               = cell;
@@ -555,13 +572,13 @@ namespace VI
       if (pending[c] == 0)
         release(mine.cells[c]);
 
-    // Patch matrices shared between patches of the same normalised shape,
-    // layouts between patches of the same connectivity.
+    // Layouts shared between patches of the same connectivity and signs,
+    // solvers between patches of the same layout and metrics.
     std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
                                          solvers;
     Layouts                              layouts;
-    bool                                 share_matrices = true;
-    constexpr unsigned int               sharing_trial  = 1000;
+    bool                                 share_solvers = true;
+    constexpr unsigned int               sharing_trial = 1000;
     std::map<unsigned int, unsigned int> n_received;
     patch_dofs.clear();
     hat_masses.clear();
@@ -580,50 +597,15 @@ namespace VI
         return polar < other.polar;
       }
     };
-    std::vector<Member>                      members;
-    std::vector<types::global_dof_index>     free;
-    std::vector<unsigned int>                numbers;
-    std::vector<bool>                        is_free(n_tau);
-    std::vector<std::int64_t>                key, layout_key;
-    std::vector<const std::vector<double> *> matrices;
-    PatchLayout                              layout; // of the current patch
+    std::vector<Member>                  members;
+    std::vector<types::global_dof_index> free;
+    std::vector<unsigned int>            numbers;
+    std::vector<bool>                    is_free(n_tau);
+    std::vector<std::int64_t>            key, layout_key;
+    std::vector<const std::int8_t *>     signs_of_cells;
+    std::vector<const double *>          metrics;
+    PatchLayout                          layout; // of the current patch
 
-    // The shape of a patch, normalised by its size: quadrature points
-    // relative to a, line orientations, psi_a, free fluxes.
-    const auto shape_key =
-      [&](const std::vector<Member> &members,
-          const Point<dim>          &x_a) -> const std::vector<std::int64_t> & {
-      double h = 0;
-      for (const Member &member : members)
-        h = std::max(h, member.data->diameter);
-      // (boundary patches differ from interior ones in their free fluxes)
-      key.assign({std::int64_t(members.size())});
-      for (unsigned int c = 0; c < members.size(); ++c)
-        {
-          const CellData &data = *members[c].data;
-          for (unsigned int i = 0; i < data.points.size(); ++i)
-            key.push_back(
-              std::llround((data.points[i] - x_a[i % dim]) / h * 1e9));
-          key.insert(key.end(),
-                     data.orientations.begin(),
-                     data.orientations.end());
-          for (unsigned int v = 0; v < n_v; ++v)
-            key.push_back(std::llround(members[c].hat[v] * 1e9));
-          for (unsigned int k = 0; k < n_tau; ++k)
-            {
-              key.push_back(-1);
-              for (unsigned int e = layout.sigma_start[c * (n_tau + 1) + k];
-                   e < layout.sigma_start[c * (n_tau + 1) + k + 1];
-                   ++e)
-                {
-                  key.push_back(layout.sigma_entries[e].first);
-                  key.push_back(
-                    std::llround(layout.sigma_entries[e].second * 1e9));
-                }
-            }
-        }
-      return key;
-    };
     for (auto first = shares_here.begin(); first != shares_here.end();)
       {
         const types::global_dof_index j    = std::get<0>(*first);
@@ -731,29 +713,42 @@ namespace VI
           }
         layout.n_sigma = patch_dofs.size() - patch.dofs_start;
 
-        // On curved or perturbed meshes no two patches share a shape: once
-        // the first patches show that, shape keys are no longer built (nor
-        // stored).
-        if (share_matrices && patches.size() == sharing_trial &&
+        signs_of_cells.clear();
+        metrics.clear();
+        for (const Member &member : members)
+          {
+            signs_of_cells.push_back(member.data->signs.data());
+            metrics.push_back(member.data->metric.data());
+          }
+        const std::shared_ptr<const PatchLayout> patch_layout =
+          shared_layout(layout, signs_of_cells, layouts, layout_key);
+
+        // On curved or perturbed meshes no two patches have the same
+        // metrics: once the first patches show that, solvers are no longer
+        // looked up (the metrics are invariant under scaling, so on
+        // uniformly refined meshes a few solvers serve every level).
+        if (share_solvers && patches.size() == sharing_trial &&
             n_local_solvers > patches.size() / 2)
           {
-            share_matrices = false;
+            share_solvers = false;
             solvers.clear();
           }
-        std::shared_ptr<const LocalSolver> unshared;
-        auto                              &solver =
-          share_matrices ? solvers[shape_key(members, x_a)] : unshared;
-        if (!solver)
+        std::shared_ptr<const LocalSolver>  unshared;
+        std::shared_ptr<const LocalSolver> *solver = &unshared;
+        if (share_solvers)
           {
-            matrices.clear();
-            for (const Member &member : members)
-              matrices.push_back(member.from == rank ?
-                                   &cell_matrices(member.data->cell, cache) :
-                                   &member.data->matrices);
-            solver = make_local_solver(layout, matrices, layouts, layout_key);
+            key.assign({reinterpret_cast<std::intptr_t>(patch_layout.get())});
+            for (const double *metric : metrics)
+              for (unsigned int m = 0; m < n_metric; ++m)
+                key.push_back(std::llround(metric[m] * 1e9));
+            solver = &solvers[key];
+          }
+        if (!*solver)
+          {
+            *solver = make_local_solver(patch_layout, metrics);
             ++n_local_solvers;
           }
-        patch.solver = solver;
+        patch.solver = *solver;
 
         // Where the right-hand sides of the cells come from.
         const unsigned int patch_number = patches.size();
@@ -789,68 +784,22 @@ namespace VI
   }
 
 
+  // The layout of the patch's connectivity and Piola signs, which
+  // determine B: new ones get the divergence basis of B and the energy
+  // products P_c,m and Q_c,m (see PatchLayout).
   template <int dim>
-  const std::vector<double> &
-  FluxReconstruction<dim>::cell_matrices(const CellIterator &cell,
-                                         CellMatrixCache    &cache) const
-  {
-    auto &entry = cache.entries[cell->active_cell_index()];
-    if (!entry.empty())
-      return entry;
-    const unsigned int n_tau = fe_flux.n_dofs_per_cell();
-    // mass (n_tau x n_tau), then the signs s_i (which, with the reference
-    // moments, give the divergence block (div tau_i, q_k)_K = s_i
-    // (div^ tau^_i, q^_k))
-    entry.assign(n_tau * n_tau + n_tau, 0.);
-    double *const mass = entry.data();
-
-    // (tau_i, tau_j)_K = s_i s_j sum_q (J tau^_i w_q) . (J tau^_j w_q) /
-    // JxW_q, by the Piola transform tau_i = s_i J tau^_i / det J
-    FEValues<dim> &geometry = cache.geometry;
-    geometry.reinit(cell);
-    const std::int8_t *signs = &piola_signs[cell->active_cell_index() * n_tau];
-    std::vector<Tensor<1, dim>> tau(n_tau);
-    for (const unsigned int q : geometry.quadrature_point_indices())
-      {
-        const auto   &J         = geometry.jacobian(q);
-        const double *reference = &weighted_flux_reference[q * n_tau * dim];
-        for (unsigned int i = 0; i < n_tau; ++i)
-          for (unsigned int d = 0; d < dim; ++d)
-            {
-              double value = 0;
-              for (unsigned int e = 0; e < dim; ++e)
-                value += J[d][e] * reference[i * dim + e];
-              tau[i][d] = signs[i] * value;
-            }
-        const double scale = 1. / geometry.JxW(q);
-        for (unsigned int i = 0; i < n_tau; ++i)
-          for (unsigned int j = 0; j < n_tau; ++j)
-            mass[i * n_tau + j] += tau[i] * tau[j] * scale;
-      }
-    std::copy_n(signs, n_tau, mass + n_tau * n_tau);
-    return entry;
-  }
-
-
-  // The patch matrices A (the RT mass matrix) and B (B_{q, tau} = (div tau,
-  // q)), then the layout with the divergence basis of B (shared by the
-  // patches with the same connectivity and signs) and the energy on its
-  // kernel.
-  template <int dim>
-  std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
-  FluxReconstruction<dim>::make_local_solver(
-    const PatchLayout                              &layout,
-    const std::vector<const std::vector<double> *> &cell_matrices,
-    Layouts                                        &layouts,
-    std::vector<std::int64_t>                      &key) const
+  std::shared_ptr<const typename FluxReconstruction<dim>::PatchLayout>
+  FluxReconstruction<dim>::shared_layout(
+    const PatchLayout                      &layout,
+    const std::vector<const std::int8_t *> &signs,
+    Layouts                                &layouts,
+    std::vector<std::int64_t>              &key) const
   {
     const unsigned int n_tau   = fe_flux.n_dofs_per_cell(),
                        n_q_K   = fe_divergence.n_dofs_per_cell();
     const unsigned int n_sigma = layout.n_sigma;
     const unsigned int n_q     = layout.n_cells * n_q_K;
-    // The layout: the connectivity and the Piola signs of the cells, which
-    // determine B.
-    const auto &entries = layout.sigma_entries;
+    const auto        &entries = layout.sigma_entries;
     key.assign({layout.n_cells, n_sigma});
     key.insert(key.end(), layout.sigma_start.begin(), layout.sigma_start.end());
     for (const auto &[I, w] : entries)
@@ -859,97 +808,131 @@ namespace VI
         key.push_back(std::llround(w * 1e9));
       }
     for (unsigned int c = 0; c < layout.n_cells; ++c)
-      {
-        const double *signs = cell_matrices[c]->data() + n_tau * n_tau;
-        for (unsigned int i = 0; i < n_tau; ++i)
-          key.push_back(signs[i] > 0 ? 1 : -1);
-      }
-    auto &shared_layout = layouts[key];
-    if (!shared_layout)
-      {
-        std::vector<double> B(n_q * n_sigma, 0.);
-        for (unsigned int c = 0; c < layout.n_cells; ++c)
-          {
-            const double *signs = cell_matrices[c]->data() + n_tau * n_tau;
-            const auto   *start = &layout.sigma_start[c * (n_tau + 1)];
-            for (unsigned int i = 0; i < n_tau; ++i)
-              for (unsigned int e = start[i]; e < start[i + 1]; ++e)
-                for (unsigned int k = 0; k < n_q_K; ++k)
-                  B[(c * n_q_K + k) * n_sigma + entries[e].first] +=
-                    entries[e].second *
-                    (signs[i] * divergence_reference[k * n_tau + i]);
-          }
-        auto new_layout = std::make_shared<PatchLayout>(layout);
-        new_layout->basis =
-          std::make_shared<const DivergenceBasis>(n_sigma, n_q, B);
-        shared_layout = new_layout;
-      }
+      key.insert(key.end(), signs[c], signs[c] + n_tau);
+    auto &shared = layouts[key];
+    if (shared)
+      return shared;
 
-    std::vector<double> A(n_sigma * n_sigma, 0.);
+    std::vector<double> B(n_q * n_sigma, 0.);
     for (unsigned int c = 0; c < layout.n_cells; ++c)
       {
-        const double *mass  = cell_matrices[c]->data();
-        const auto   *start = &layout.sigma_start[c * (n_tau + 1)];
+        const auto *start = &layout.sigma_start[c * (n_tau + 1)];
+        for (unsigned int i = 0; i < n_tau; ++i)
+          for (unsigned int e = start[i]; e < start[i + 1]; ++e)
+            for (unsigned int k = 0; k < n_q_K; ++k)
+              B[(c * n_q_K + k) * n_sigma + entries[e].first] +=
+                entries[e].second *
+                (signs[c][i] * divergence_reference[k * n_tau + i]);
+      }
+    auto new_layout = std::make_shared<PatchLayout>(layout);
+    new_layout->basis =
+      std::make_shared<const DivergenceBasis>(n_sigma, n_q, B);
+    const DivergenceBasis &basis    = *new_layout->basis;
+    const unsigned int     d        = basis.n_free;
+    const unsigned int     n_packed = new_layout->n_packed();
+    const unsigned int     n_block  = new_layout->energy_block();
+    new_layout->energy.assign(std::size_t(layout.n_cells) * n_metric * n_block,
+                              0.);
+
+    // Per cell: SZ = S_c E_c Z (n_tau x d) and SB = S_c E_c B^+ (n_tau x
+    // n_q), by rows; then per metric entry T = M^_m SZ and the products.
+    std::vector<double> SZ(n_tau * d), SB(n_tau * n_q), T(n_tau * d);
+    for (unsigned int c = 0; c < layout.n_cells; ++c)
+      {
+        std::fill(SZ.begin(), SZ.end(), 0.);
+        std::fill(SB.begin(), SB.end(), 0.);
+        const auto *start = &layout.sigma_start[c * (n_tau + 1)];
         for (unsigned int i = 0; i < n_tau; ++i)
           for (unsigned int e = start[i]; e < start[i + 1]; ++e)
             {
-              const auto [I, w_i] = entries[e];
-              for (unsigned int j = 0; j < n_tau; ++j)
-                for (unsigned int f = start[j]; f < start[j + 1]; ++f)
-                  A[I * n_sigma + entries[f].first] +=
-                    w_i * entries[f].second * mass[i * n_tau + j];
+              const auto   I = entries[e].first;
+              const double w = entries[e].second * signs[c][i];
+              for (unsigned int j = 0; j < d; ++j)
+                SZ[i * d + j] += w * basis.kernel[j * n_sigma + I];
+              for (unsigned int k = 0; k < n_q; ++k)
+                SB[i * n_q + k] += w * basis.pseudo_inverse[k * n_sigma + I];
             }
+        for (unsigned int m = 0; m < n_metric; ++m)
+          {
+            const double *M = &metric_reference[m * n_tau * n_tau];
+            std::fill(T.begin(), T.end(), 0.);
+            for (unsigned int i = 0; i < n_tau; ++i)
+              for (unsigned int l = 0; l < n_tau; ++l)
+                if (const double M_il = M[i * n_tau + l]; M_il != 0.)
+                  for (unsigned int j = 0; j < d; ++j)
+                    T[i * d + j] += M_il * SZ[l * d + j];
+            double *const P =
+              &new_layout->energy[(std::size_t(c) * n_metric + m) * n_block];
+            double *const Q = P + n_packed;
+            for (unsigned int i = 0; i < n_tau; ++i)
+              for (unsigned int j = 0; j < d; ++j)
+                {
+                  const double t = T[i * d + j];
+                  for (unsigned int l = 0; l <= j; ++l)
+                    P[j * (j + 1) / 2 + l] += t * SZ[i * d + l];
+                  for (unsigned int k = 0; k < n_q; ++k)
+                    Q[j * n_q + k] += t * SB[i * n_q + k];
+                }
+          }
       }
+    shared = new_layout;
+    return shared;
+  }
 
-    auto solver                  = std::make_shared<LocalSolver>();
-    solver->layout               = shared_layout;
-    const DivergenceBasis &basis = *shared_layout->basis;
-    const unsigned int     d     = basis.n_free;
-    const double          *Z     = basis.kernel.data();
-    // W = Z^T A (A is symmetric), C = W B^+, then Z^T A Z = W Z = L L^T.
-    std::vector<double> W(d * n_sigma, 0.);
-    for (unsigned int j = 0; j < d; ++j)
-      for (unsigned int l = 0; l < n_sigma; ++l)
-        {
-          const double z = Z[j * n_sigma + l];
-          if (z != 0.)
-            for (unsigned int i = 0; i < n_sigma; ++i)
-              W[j * n_sigma + i] += z * A[l * n_sigma + i];
-        }
-    solver->factors.assign(d * n_q + d * (d + 1) / 2, 0.);
+
+  // The patch energy on the divergence-free fluxes from the cells'
+  // metrics: Z^T A Z = sum G_c,m P_c,m = L L^T and C = sum G_c,m Q_c,m.
+  template <int dim>
+  std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
+  FluxReconstruction<dim>::make_local_solver(
+    const std::shared_ptr<const PatchLayout> &layout,
+    const std::vector<const double *>        &metrics) const
+  {
+    const DivergenceBasis &basis    = *layout->basis;
+    const unsigned int     d        = basis.n_free;
+    const unsigned int     n_q      = basis.n_q;
+    const unsigned int     n_packed = layout->n_packed();
+    const unsigned int     n_block  = layout->energy_block();
+    auto                   solver   = std::make_shared<LocalSolver>();
+    solver->layout                  = layout;
+    solver->factors.assign(d * n_q + n_packed, 0.);
     double *const C = solver->factors.data();
     double *const L = C + d * n_q;
-    for (unsigned int j = 0; j < d; ++j)
-      for (unsigned int k = 0; k < n_q; ++k)
+    for (unsigned int c = 0; c < layout->n_cells; ++c)
+      for (unsigned int m = 0; m < n_metric; ++m)
         {
-          const double *column = &basis.pseudo_inverse[k * n_sigma];
-          double        value  = 0;
-          for (unsigned int i = 0; i < n_sigma; ++i)
-            value += W[j * n_sigma + i] * column[i];
-          C[j * n_q + k] = value;
+          const double  G = metrics[c][m];
+          const double *P =
+            &layout->energy[(std::size_t(c) * n_metric + m) * n_block];
+          const double *Q = P + n_packed;
+          for (unsigned int i = 0; i < n_packed; ++i)
+            L[i] += G * P[i];
+          for (unsigned int i = 0; i < d * n_q; ++i)
+            C[i] += G * Q[i];
         }
+    // Cholesky in place, row by row of the packed lower triangle.
     for (unsigned int j = 0; j < d; ++j)
-      for (unsigned int m = 0; m <= j; ++m)
-        {
-          double value = 0;
-          for (unsigned int i = 0; i < n_sigma; ++i)
-            value += W[j * n_sigma + i] * Z[m * n_sigma + i];
-          double *const row_j = L + j * (j + 1) / 2;
-          double *const row_m = L + m * (m + 1) / 2;
-          for (unsigned int r = 0; r < m; ++r)
-            value -= row_j[r] * row_m[r];
-          if (m < j)
-            row_j[m] = value / row_m[m];
-          else
-            {
-              AssertThrow(value > 0.,
-                          ExcMessage("Flux reconstruction: the mass matrix "
-                                     "of a patch is not positive definite "
-                                     "on its divergence-free fluxes (a "
-                                     "degenerate cell?)."));
-              row_j[j] = std::sqrt(value);
-            }
-        }
+      {
+        double *const row_j = L + j * (j + 1) / 2;
+        for (unsigned int m = 0; m <= j; ++m)
+          {
+            const double *const row_m = L + m * (m + 1) / 2;
+            double              value = row_j[m];
+            for (unsigned int r = 0; r < m; ++r)
+              value -= row_j[r] * row_m[r];
+            if (m < j)
+              row_j[m] = value / row_m[m];
+            else
+              {
+                AssertThrow(value > 0.,
+                            ExcMessage("Flux reconstruction: the energy of a "
+                                       "patch is not positive definite on "
+                                       "its divergence-free fluxes (a "
+                                       "degenerate cell?)."));
+                row_j[j] = std::sqrt(value);
+              }
+          }
+      }
     return solver;
   }
 
@@ -1022,10 +1005,14 @@ namespace VI
     std::vector<double> cell_rhs, flux_moments(n_fields * n_tau);
 
     // One pass over the owned cells: each cell computes its part of the
-    // right-hand sides of the patches it belongs to. With the Piola
-    // transform tau_j = s_j J tau^_j / det J, (psi F, tau_j)_K is the sum
-    // over the quadrature points of psi s_j (J^T F) . tau^_j w_q: no
-    // Raviart-Thomas values on the cell are needed, only J and the signs.
+    // right-hand sides of the patches it belongs to. In the metric G of
+    // the cell, (psi F, tau_j) is int psi (G F^) . (s_j tau^_j) over the
+    // reference cell, with the Piola pull-back F^ = adj(J) F = det J J^-1 F
+    // (so that F in RT_p gives the product of the patch energy): the sum
+    // over the quadrature points of psi s_j (G adj(J) F) . tau^_j w_q,
+    // which on parallelograms is the L2 product psi s_j (J^T F) . tau^_j
+    // w_q. No Raviart-Thomas values on the cell are needed, only J, G and
+    // the signs.
     for (const auto &cell :
          dof_handler.get_triangulation().active_cell_iterators())
       {
@@ -1037,13 +1024,24 @@ namespace VI
         hat_values.reinit(cell);
         sources.cell_values(cell, flux, source);
         cell_rhs.assign(parts.size() * record, 0.);
+        Tensor<2, dim> G;
+        {
+          const double *metric =
+            &cell_metric[cell->active_cell_index() * n_metric];
+          for (unsigned int a = 0, m = 0; a < dim; ++a)
+            for (unsigned int b = a; b < dim; ++b, ++m)
+              G[a][b] = G[b][a] = metric[m];
+        }
 
         for (const unsigned int q : hat_values.quadrature_point_indices())
           {
-            const double  dx        = hat_values.JxW(q);
-            const auto   &J         = hat_values.jacobian(q);
+            const double         dx = hat_values.JxW(q);
+            const Tensor<2, dim> J(hat_values.jacobian(q));
+            // the metric's product with the Piola pull-back adj(J) F of F:
+            // G adj(J) = J^T on parallelograms
+            const Tensor<2, dim> pull = G * (determinant(J) * invert(J));
             const double *reference = &weighted_flux_reference[q * n_tau * dim];
-            // (J^T F_f) . tau^_j w_q, without the signs
+            // (G adj(J) F_f) . tau^_j w_q, without the signs
             for (unsigned int f = 0; f < n_fields; ++f)
               {
                 double mapped[dim];
@@ -1051,7 +1049,7 @@ namespace VI
                   {
                     mapped[e] = 0;
                     for (unsigned int d = 0; d < dim; ++d)
-                      mapped[e] += J[d][e] * flux[f][q][d];
+                      mapped[e] += pull[e][d] * flux[f][q][d];
                   }
                 for (unsigned int j = 0; j < n_tau; ++j)
                   {

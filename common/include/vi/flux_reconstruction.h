@@ -46,13 +46,25 @@ namespace VI
    * of the patch (a kernel basis of the divergence block, which does not
    * depend on the geometry beyond signs, computed once per distinct block)
    * plus a particular flux: sigma^a is the same, the mean-value condition
-   * and gamma^a are not needed (see the .cc file). The patch matrices depend
-   * only on the geometry and are invariant under scaling, so they are
-   * prepared once per mesh and shared by all patches of the same shape (on
-   * uniformly refined meshes a handful for the whole hierarchy; on curved
-   * meshes, where no two patches are alike, the search stops after the
-   * first thousand); the divergence block does not depend on the geometry
-   * at all (Piola transform), so sharing keeps the equilibration exact.
+   * and gamma^a are not needed (see the .cc file).
+   *
+   * The energy that selects sigma^a among the equilibrated fluxes is that
+   * of the parallelogram with the cell's mean Jacobian J: (tau_i, tau_j)
+   * is replaced by s_i s_j int (J tau^_i) . (J tau^_j) / det J on the
+   * reference cell, and the right-hand side -(psi_a F, tau) by the same
+   * product with the Piola pull-back of psi_a F, so that a flux of RT_p is
+   * reproduced exactly. On parallelograms this is the L2 product; on other
+   * cells it is a close, equivalent one. The equilibration, which is all
+   * the guaranteed bound needs of sigma, does not depend on it (the
+   * divergence block is topological), and the estimators measure sigma in
+   * the true L2 norm; what the choice buys is that the patch energies are
+   * linear combinations of a few products prepared once per patch layout
+   * (dim (dim + 1) / 2 numbers per cell: the entries of J^T J / det J),
+   * instead of cell mass matrices integrated on every cell. They are invariant
+   * under scaling and shared by the patches of equal metrics (on uniformly
+   * refined meshes a handful for the whole hierarchy; on curved meshes,
+   * where no two patches are alike, the search stops after the first
+   * thousand).
    *
    * On meshes with hanging nodes psi_a is the conforming hat function of a
    * regular vertex a (the hanging vertices, whose values are constrained,
@@ -149,7 +161,6 @@ namespace VI
     using Layouts =
       std::map<std::vector<std::int64_t>, std::shared_ptr<const PatchLayout>>;
     struct Shares;
-    struct CellMatrixCache;
 
     /// A vertex patch solved here: its unknowns sigma^a are the Raviart-Thomas
     /// dofs patch_dofs[dofs_start ...] (as many as the layout of its solver
@@ -175,19 +186,21 @@ namespace VI
       std::array<double, dealii::GeometryInfo<dim>::vertices_per_cell> hat;
     };
 
-    /// Flattened (tau_j, tau_i)_K, then the Piola signs s_i.
-    const std::vector<double> &
-    cell_matrices(const CellIterator &cell, CellMatrixCache &cache) const;
+    /// The layout shared by the patches of the connectivity of `layout`
+    /// and the Piola signs of its cells, with its divergence basis and its
+    /// energy products (looked up in, or added to, `layouts`; `key` is
+    /// scratch space).
+    std::shared_ptr<const PatchLayout>
+    shared_layout(const PatchLayout                      &layout,
+                  const std::vector<const std::int8_t *> &signs,
+                  Layouts                                &layouts,
+                  std::vector<std::int64_t>              &key) const;
 
-    /// The solver of a patch with the given layout (only its connectivity
-    /// is read) and cell matrices; the layout is looked up in (or added to)
-    /// `layouts`, with `key` as scratch space.
+    /// The solver of a patch with the given shared layout and the metrics
+    /// J^T J / det J of its cells (dim (dim + 1) / 2 numbers each).
     std::shared_ptr<const LocalSolver>
-    make_local_solver(
-      const PatchLayout                              &layout,
-      const std::vector<const std::vector<double> *> &cell_matrices,
-      Layouts                                        &layouts,
-      std::vector<std::int64_t>                      &key) const;
+    make_local_solver(const std::shared_ptr<const PatchLayout> &layout,
+                      const std::vector<const double *>        &metrics) const;
 
     /// Add one cell's right-hand sides (all fields; layout of reconstruct())
     /// to those of patch p, column-major from rhs on.
@@ -210,9 +223,16 @@ namespace VI
     /// tau^_i at the quadrature points [(q n_tau + i) dim + d], times the
     /// weight w_q
     std::vector<double> weighted_flux_reference;
+    /// Number of entries of a symmetric dim x dim metric (a <= b), and the
+    /// reference products int tau^_i^a tau^_j^b (+ the transposed product
+    /// for a < b), [(m n_tau + i) n_tau + j] for the m-th pair (a, b)
+    static constexpr unsigned int n_metric = dim * (dim + 1) / 2;
+    std::vector<double>           metric_reference;
     /// The Piola signs s_i of the owned cells' Raviart-Thomas functions
-    /// [active cell index n_tau + i]
+    /// [active cell index n_tau + i], and the cells' metrics G = J^T J /
+    /// det J of their mean Jacobian [active cell index n_metric + m]
     std::vector<std::int8_t>          piola_signs;
+    std::vector<double>               cell_metric;
     dealii::DoFHandler<dim>           dof_handler;
     dealii::AffineConstraints<double> hanging_constraints; ///< of RT_p
     dealii::IndexSet                  owned_dofs, relevant_dofs;
