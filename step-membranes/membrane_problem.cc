@@ -1241,6 +1241,7 @@ namespace StepMembranes
     in.potential             = &dof_handler;
     in.flux                  = &flux_reconstruction->get_dof_handler();
     in.quadrature            = &flux_reconstruction->get_quadrature();
+    in.flux_signs            = &flux_reconstruction->get_piola_signs();
     in.mu1                   = data.mu1;
     in.mu2                   = data.mu2;
     in.f1                    = data.f1.get();

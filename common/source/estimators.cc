@@ -87,20 +87,23 @@ namespace VI
 
     const Quadrature<dim> &quadrature = *in.quadrature;
     const unsigned int     n_q        = quadrature.size();
-    FEValues<dim>          potential_values(*in.mapping,
-                                   in.potential->get_fe(),
-                                   quadrature,
-                                   update_values | update_gradients |
-                                     update_quadrature_points |
-                                     update_inverse_jacobians |
-                                     update_JxW_values);
-    FEValues<dim>          flux_values(*in.mapping,
+    FEValues<dim>          potential_values(
+      *in.mapping,
+      in.potential->get_fe(),
+      quadrature,
+      update_values | update_gradients | update_quadrature_points |
+        update_inverse_jacobians | update_JxW_values |
+        (in.flux_signs ? update_jacobians : update_default));
+    // (not evaluated when the Piola signs are given: the fluxes then come
+    // from reference values and the Jacobians of potential_values)
+    FEValues<dim>        flux_values(*in.mapping,
                               in.flux->get_fe(),
                               quadrature,
                               PiolaDivergence<dim>::update_flags());
-    PiolaDivergence<dim>   divergence(in.flux->get_fe(), quadrature);
-    std::vector<double> sigma_coefficients(in.flux->get_fe().n_dofs_per_cell()),
-      potential_coefficients;
+    PiolaDivergence<dim> divergence(in.flux->get_fe(), quadrature);
+    const unsigned int   n_tau = in.flux->get_fe().n_dofs_per_cell();
+    std::vector<double>  sigma_coefficients(n_tau), potential_coefficients,
+      unused_divergences;
     const FEValuesExtractors::Vector sigma(0);
 
     // Values at the quadrature points.
@@ -208,8 +211,37 @@ namespace VI
         typename DoFHandler<dim>::active_cell_iterator flux_cell(
           &tria, potential_cell->level(), potential_cell->index(), in.flux);
         potential_values.reinit(potential_cell);
-        flux_values.reinit(flux_cell);
-        divergence.reinit(flux_values);
+        if (in.flux_signs)
+          divergence.reinit(potential_values,
+                            ArrayView<const std::int8_t>(
+                              in.flux_signs->data() +
+                                potential_cell->active_cell_index() * n_tau,
+                              n_tau));
+        else
+          {
+            flux_values.reinit(flux_cell);
+            divergence.reinit(flux_values);
+          }
+        // values and divergences of a flux vector at the quadrature points
+        const auto flux_at_points = [&](const TrilinosWrappers::MPI::Vector &v,
+                                        std::vector<Tensor<1, dim>> &values,
+                                        std::vector<double> &divergences) {
+          if (in.flux_signs)
+            {
+              flux_cell->get_dof_values(v,
+                                        sigma_coefficients.begin(),
+                                        sigma_coefficients.end());
+              divergence.function_values_and_divergences(
+                make_array_view(sigma_coefficients), values, divergences);
+            }
+          else
+            divergence.function_values_and_divergences(flux_values,
+                                                       flux_cell,
+                                                       v,
+                                                       sigma_coefficients,
+                                                       values,
+                                                       divergences);
+        };
         for (unsigned int a = 0; a < 2; ++a)
           {
             values_and_gradients(potential_values,
@@ -225,14 +257,13 @@ namespace VI
                                  s[a],
                                  grad_s[a]);
             potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
-            divergence.function_values_and_divergences(flux_values,
-                                                       flux_cell,
-                                                       *ahead_vectors[a],
-                                                       sigma_coefficients,
-                                                       sigma_ahead[a],
-                                                       div_ahead[a]);
+            flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
             if (own_look_ahead)
               sigma_disc[a] = sigma_ahead[a];
+            else if (in.flux_signs)
+              flux_at_points(*disc_vectors[a],
+                             sigma_disc[a],
+                             unused_divergences);
             else
               flux_values[sigma].get_function_values(*disc_vectors[a],
                                                      sigma_disc[a]);

@@ -1197,6 +1197,14 @@ namespace VI
 
 
   template <int dim>
+  const std::vector<std::int8_t> &
+  FluxReconstruction<dim>::get_piola_signs() const
+  {
+    return piola_signs;
+  }
+
+
+  template <int dim>
   const IndexSet &
   FluxReconstruction<dim>::locally_relevant_dofs() const
   {

@@ -10,6 +10,8 @@ namespace VI
   PiolaDivergence<dim>::PiolaDivergence(const FiniteElement<dim> &fe,
                                         const Quadrature<dim>    &quadrature)
       : reference(quadrature.size(), fe.n_dofs_per_cell())
+      , reference_values(quadrature.size(), fe.n_dofs_per_cell())
+      , piola(quadrature.size())
       , weights(quadrature.get_weights())
       , probe(fe.n_dofs_per_cell(), 0)
       , probe_value(fe.n_dofs_per_cell())
@@ -32,7 +34,8 @@ namespace VI
                 value[d] = fe.shape_value_component(i, x, d);
                 divergence += fe.shape_grad_component(i, x, d)[d];
               }
-            reference(q, i) = divergence;
+            reference(q, i)        = divergence;
+            reference_values(q, i) = value;
             if (value.norm() > largest)
               {
                 largest        = value.norm();
@@ -70,6 +73,49 @@ namespace VI
             product += mapped * values.shape_value_component(i, q, d);
           }
         signs[i] = product >= 0 ? 1. : -1.;
+      }
+  }
+
+
+  template <int dim>
+  void
+  PiolaDivergence<dim>::reinit(const FEValuesBase<dim>            &geometry,
+                               const ArrayView<const std::int8_t> &cell_signs)
+  {
+    AssertDimension(geometry.n_quadrature_points, scale.size());
+    AssertDimension(cell_signs.size(), signs.size());
+    for (unsigned int q = 0; q < scale.size(); ++q)
+      {
+        scale[q] = weights[q] / geometry.JxW(q);
+        piola[q] = scale[q] * Tensor<2, dim>(geometry.jacobian(q));
+      }
+    for (unsigned int i = 0; i < signs.size(); ++i)
+      signs[i] = cell_signs[i];
+  }
+
+
+  template <int dim>
+  void
+  PiolaDivergence<dim>::function_values_and_divergences(
+    const ArrayView<const double> &coefficients,
+    std::vector<Tensor<1, dim>>   &function_values,
+    std::vector<double>           &divergences) const
+  {
+    AssertDimension(coefficients.size(), signs.size());
+    function_values.resize(scale.size());
+    divergences.resize(scale.size());
+    for (unsigned int q = 0; q < scale.size(); ++q)
+      {
+        Tensor<1, dim> value;
+        double         divergence = 0;
+        for (unsigned int i = 0; i < signs.size(); ++i)
+          {
+            const double c = signs[i] * coefficients[i];
+            value += c * reference_values(q, i);
+            divergence += c * reference(q, i);
+          }
+        function_values[q] = piola[q] * value;
+        divergences[q]     = divergence * scale[q];
       }
   }
 

@@ -7,6 +7,7 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
 
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -98,6 +99,12 @@ namespace VI
     const dealii::DoFHandler<dim> *potential  = nullptr;
     const dealii::DoFHandler<dim> *flux       = nullptr;
     const dealii::Quadrature<dim> *quadrature = nullptr;
+    /// Optional: the Piola signs of the flux element's functions on the
+    /// locally owned cells, [active cell index * dofs per cell + i] (as
+    /// FluxReconstruction::get_piola_signs() gives them); the fluxes are
+    /// then evaluated from reference values and the Jacobians of the
+    /// potential's FEValues, without a Raviart-Thomas FEValues per cell.
+    const std::vector<std::int8_t> *flux_signs = nullptr;
 
     double                       mu1 = 1, mu2 = 1;
     const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;

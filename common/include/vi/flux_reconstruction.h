@@ -146,6 +146,12 @@ namespace VI
     const dealii::IndexSet &
     locally_owned_dofs() const;
 
+    /// The Piola signs s_i of the Raviart-Thomas functions of the locally
+    /// owned cells, [active cell index * dofs per cell + i] (see
+    /// PiolaDivergence).
+    const std::vector<std::int8_t> &
+    get_piola_signs() const;
+
     const dealii::IndexSet &
     locally_relevant_dofs() const;
 

@@ -8,6 +8,7 @@
 #include <deal.II/fe/fe_update_flags.h>
 #include <deal.II/fe/fe_values.h>
 
+#include <cstdint>
 #include <vector>
 
 namespace VI
@@ -26,6 +27,12 @@ namespace VI
    * which on curved cells need the derivatives of the Jacobian; here the
    * reference divergences are tabulated once and a cell needs only the
    * values FEValues computes anyway, from which the signs s_i are read.
+   *
+   * Where the signs are known (FluxReconstruction reads them once per
+   * mesh), the values need no Raviart-Thomas FEValues either: tau_i(x_q) =
+   * s_i J_q tau^_i(x^_q) / det J_q from the tabulated reference values and
+   * the Jacobians of any FEValues on the same quadrature (reinit() with the
+   * signs, then function_values_and_divergences() with the coefficients).
    */
   template <int dim>
   class PiolaDivergence
@@ -46,6 +53,14 @@ namespace VI
     /// quadrature of the constructor, with update_flags()).
     void
     reinit(const dealii::FEValuesBase<dim> &values);
+
+    /// The cell of `geometry` (any FEValues on the quadrature of the
+    /// constructor with update_jacobians and update_JxW_values) with the
+    /// given signs s_i, for function_values_and_divergences() from
+    /// coefficients.
+    void
+    reinit(const dealii::FEValuesBase<dim>            &geometry,
+           const dealii::ArrayView<const std::int8_t> &cell_signs);
 
     /// s_i of the current cell.
     double
@@ -94,9 +109,21 @@ namespace VI
       function_divergences(dealii::make_array_view(coefficients), divergences);
     }
 
+    /// Values and divergences of sum_i c_i tau_i at the quadrature points of
+    /// the current cell, which must have been set by reinit() with signs.
+    void
+    function_values_and_divergences(
+      const dealii::ArrayView<const double> &coefficients,
+      std::vector<dealii::Tensor<1, dim>>   &function_values,
+      std::vector<double>                   &divergences) const;
+
   private:
     dealii::Table<2, double> reference; ///< [q][i]
-    std::vector<double>      weights;
+    /// tau^_i(x^_q), [q][i], and J_q / det J_q of the current cell (after
+    /// reinit() with signs)
+    dealii::Table<2, dealii::Tensor<1, dim>> reference_values;
+    std::vector<dealii::Tensor<2, dim>>      piola;
+    std::vector<double>                      weights;
     /// for each i, a quadrature point where tau^_i is largest, and its value
     std::vector<unsigned int>           probe;
     std::vector<dealii::Tensor<1, dim>> probe_value;
