@@ -580,7 +580,8 @@ namespace VI
     bool                                 share_solvers = true;
     constexpr unsigned int               sharing_trial = 1000;
     std::map<unsigned int, unsigned int> n_received;
-    patch_dofs.clear();
+    // the global dofs of the patch unknowns, as they are numbered
+    std::vector<types::global_dof_index> patch_dofs;
     hat_masses.clear();
 
     // Per patch: its cells (data, psi_a, where the share came from) in a
@@ -776,10 +777,20 @@ namespace VI
       AssertThrow(n_received[from] == shares.patch.size(),
                   ExcMessage("Flux reconstruction: a cell share sent to this "
                              "process belongs to no patch solved here."));
-    patch_dofs.shrink_to_fit();
     hat_masses.shrink_to_fit();
+    // The dofs a patch solved here writes: the relevant ones and, with
+    // hanging nodes in parallel, a few beyond; the patch unknowns as
+    // positions in that set.
+    std::vector<types::global_dof_index> beyond;
+    for (const types::global_dof_index g : patch_dofs)
+      if (!relevant_dofs.is_element(g))
+        beyond.push_back(g);
     writable_dofs = relevant_dofs;
-    writable_dofs.add_indices(index_set(dof_handler.n_dofs(), patch_dofs));
+    writable_dofs.add_indices(index_set(dof_handler.n_dofs(), beyond));
+    writable_dofs.compress();
+    patch_positions.resize(patch_dofs.size());
+    for (std::size_t i = 0; i < patch_dofs.size(); ++i)
+      patch_positions[i] = writable_dofs.index_within_set(patch_dofs[i]);
     hats.clear();
   }
 
@@ -1002,7 +1013,9 @@ namespace VI
       n_fields, std::vector<Tensor<1, dim>>(quadrature.size()));
     std::vector<std::vector<double>> source(
       n_fields, std::vector<double>(quadrature.size()));
-    std::vector<double> cell_rhs, flux_moments(n_fields * n_tau);
+    constexpr unsigned int n_v = GeometryInfo<dim>::vertices_per_cell;
+    std::vector<double>    cell_rhs, flux_moments(n_fields * n_tau),
+      vertex_rhs(n_v * record);
 
     // One pass over the owned cells: each cell computes its part of the
     // right-hand sides of the patches it belongs to. In the metric G of
@@ -1023,7 +1036,6 @@ namespace VI
           continue;
         hat_values.reinit(cell);
         sources.cell_values(cell, flux, source);
-        cell_rhs.assign(parts.size() * record, 0.);
         Tensor<2, dim> G;
         {
           const double *metric =
@@ -1033,6 +1045,11 @@ namespace VI
               G[a][b] = G[b][a] = metric[m];
         }
 
+        // The right-hand sides of the cell's Q1 shape functions phi_v,
+        // vertex_rhs[v record ...]; psi_a on the cell is the combination
+        // with the weights of its membership (one phi_v, or constraint
+        // weights at hanging vertices).
+        std::fill(vertex_rhs.begin(), vertex_rhs.end(), 0.);
         for (const unsigned int q : hat_values.quadrature_point_indices())
           {
             const double         dx = hat_values.JxW(q);
@@ -1059,30 +1076,35 @@ namespace VI
                     flux_moments[f * n_tau + j] = value;
                   }
               }
-            for (unsigned int m = 0; m < parts.size(); ++m)
+            const double *q_k = &q_reference[q * n_q];
+            for (unsigned int v = 0; v < n_v; ++v)
               {
-                double         psi = 0;
-                Tensor<1, dim> grad_psi;
-                for (unsigned int v = 0; v < parts[m].hat.size(); ++v)
-                  if (parts[m].hat[v] != 0.)
-                    {
-                      psi += parts[m].hat[v] * hat_values.shape_value(v, q);
-                      grad_psi += parts[m].hat[v] * hat_values.shape_grad(v, q);
-                    }
-                double *values = cell_rhs.data() + m * record;
+                const double          phi      = hat_values.shape_value(v, q);
+                const Tensor<1, dim> &grad_phi = hat_values.shape_grad(v, q);
+                double               *values   = &vertex_rhs[v * record];
                 for (unsigned int f = 0; f < n_fields;
                      ++f, values += n_tau + n_q)
                   {
                     const double *moments = &flux_moments[f * n_tau];
                     for (unsigned int j = 0; j < n_tau; ++j)
-                      values[j] -= psi * moments[j];
+                      values[j] -= phi * moments[j];
                     const double g =
-                      (source[f][q] * psi - flux[f][q] * grad_psi) * dx;
+                      (source[f][q] * phi - flux[f][q] * grad_phi) * dx;
                     for (unsigned int k = 0; k < n_q; ++k)
-                      values[n_tau + k] += g * q_reference[q * n_q + k];
+                      values[n_tau + k] += g * q_k[k];
                   }
               }
           }
+        cell_rhs.assign(parts.size() * record, 0.);
+        for (unsigned int m = 0; m < parts.size(); ++m)
+          for (unsigned int v = 0; v < n_v; ++v)
+            if (const double w = parts[m].hat[v]; w != 0.)
+              {
+                const double *from = &vertex_rhs[v * record];
+                double       *to   = &cell_rhs[m * record];
+                for (unsigned int i = 0; i < record; ++i)
+                  to[i] += w * from[i];
+              }
         const std::int8_t *signs =
           &piola_signs[cell->active_cell_index() * n_tau];
         for (unsigned int m = 0; m < parts.size(); ++m)
@@ -1142,9 +1164,10 @@ namespace VI
             }
         }
 
-    std::vector<TrilinosWrappers::MPI::Vector> accumulated(n_fields);
-    for (auto &v : accumulated)
-      v.reinit(owned_dofs, writable_dofs, comm, /*vector_writable=*/true);
+    // The patch fluxes summed at the positions of writable_dofs, then
+    // added into distributed vectors (each writable dof once).
+    std::vector<std::vector<double>> sums(
+      n_fields, std::vector<double>(writable_dofs.n_elements(), 0.));
     std::vector<double> work;
     for (unsigned int p = 0; p < patches.size(); ++p)
       {
@@ -1153,18 +1176,26 @@ namespace VI
         const LocalSolver &solver   = *patches[p].solver;
         double            *solution = rhs.data() + rhs_start[p];
         solver.solve(solution, n_fields, work);
-        const unsigned int n_sigma = solver.layout->n_sigma;
+        const unsigned int  n_sigma   = solver.layout->n_sigma;
+        const unsigned int *positions = &patch_positions[patches[p].dofs_start];
         for (unsigned int f = 0; f < n_fields; ++f)
-          accumulated[f].add(n_sigma,
-                             patch_dofs.data() + patches[p].dofs_start,
-                             solution + std::size_t(f) * solver.n());
+          {
+            const double *column = solution + std::size_t(f) * solver.n();
+            for (unsigned int i = 0; i < n_sigma; ++i)
+              sums[f][positions[i]] += column[i];
+          }
       }
+    std::vector<types::global_dof_index> writable;
+    writable_dofs.fill_index_vector(writable);
     // The fluxes on the fine side of hanging faces from the coarse side.
-    TrilinosWrappers::MPI::Vector owned(owned_dofs, comm);
+    TrilinosWrappers::MPI::Vector owned(owned_dofs, comm), accumulated;
+    accumulated.reinit(owned_dofs, writable_dofs, comm, /*writable=*/true);
     for (unsigned int f = 0; f < n_fields; ++f)
       {
-        accumulated[f].compress(VectorOperation::add);
-        owned = accumulated[f];
+        accumulated = 0;
+        accumulated.add(writable, sums[f]);
+        accumulated.compress(VectorOperation::add);
+        owned = accumulated;
         hanging_constraints.distribute(owned);
         sigma[f]->reinit(owned_dofs, relevant_dofs, comm);
         *sigma[f] = owned;

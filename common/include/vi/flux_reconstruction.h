@@ -169,8 +169,9 @@ namespace VI
     struct Shares;
 
     /// A vertex patch solved here: its unknowns sigma^a are the Raviart-Thomas
-    /// dofs patch_dofs[dofs_start ...] (as many as the layout of its solver
-    /// says), and (psi_a, q_k)_K of its cells are hat_masses[hat_mass_start
+    /// dofs patch_positions[dofs_start ...] (as many as the layout of its
+    /// solver says), and (psi_a, q_k)_K of its cells are
+    /// hat_masses[hat_mass_start
     /// ...], cell by cell.
     struct Patch
     {
@@ -243,9 +244,10 @@ namespace VI
     dealii::AffineConstraints<double> hanging_constraints; ///< of RT_p
     dealii::IndexSet                  owned_dofs, relevant_dofs;
     std::vector<Patch>                patches;
-    /// The unknowns of all patches, and their cells' (psi_a, q_k)_K.
-    std::vector<dealii::types::global_dof_index> patch_dofs;
-    std::vector<double>                          hat_masses;
+    /// The unknowns of all patches, as positions in writable_dofs, and their
+    /// cells' (psi_a, q_k)_K.
+    std::vector<unsigned int> patch_positions;
+    std::vector<double>       hat_masses;
     /// For every active cell (owned ones only): its parts in patches.
     std::vector<std::vector<Membership>> memberships;
     /// Right-hand sides sent to each rank per reconstruction, and for those
