@@ -338,7 +338,8 @@ namespace StepMembranes
 
         // The loads at the quadrature points of the estimators, once per
         // mesh (a parsed expression costs more than the rest of a cell's
-        // work in an estimate).
+        // work in an estimate); the assembly reads them too (the same
+        // points: see `quadrature`).
         TimerOutput::Scope     loads(timer, "estimators: loads");
         const Quadrature<dim> &points = flux_reconstruction->get_quadrature();
         FEValues<dim> where(*mapping, fe, points, update_quadrature_points);
@@ -408,10 +409,16 @@ namespace StepMembranes
         v = 0;
       cell->get_dof_indices(copy.local_dof_indices[0]);
 
+      // the loads tabulated for the estimators at the same points, if any
+      const std::size_t first = cell->active_cell_index() * quadrature.size();
+      const bool        tabulated = load_values[0].size() ==
+                             triangulation.n_active_cells() * quadrature.size();
       for (const unsigned int q : fe_values.quadrature_point_indices())
         {
-          const double f1 = data.f1->value(points[q]);
-          const double f2 = data.f2->value(points[q]);
+          const double f1 =
+            tabulated ? load_values[0][first + q] : data.f1->value(points[q]);
+          const double f2 =
+            tabulated ? load_values[1][first + q] : data.f2->value(points[q]);
           const double dx = fe_values.JxW(q);
           for (const unsigned int i : fe_values.dof_indices())
             {
