@@ -392,16 +392,9 @@ namespace VI
                              update_values | update_jacobians |
                                update_JxW_values);
     std::vector<types::global_dof_index> rt_dofs(n_tau);
-    // The Piola signs, for the patch layouts and the right-hand sides of
-    // reconstruct(). (A Gauss rule of p + 2 points per direction has a
-    // point where a given nonzero function of RT_p does not vanish, so the
-    // signs can be read off.)
-    const QGauss<dim>    sign_points(degree + 2);
-    FEValues<dim>        sign_values(mapping,
-                              fe_flux,
-                              sign_points,
-                              PiolaDivergence<dim>::update_flags());
-    PiolaDivergence<dim> signs(fe_flux, sign_points);
+    // The Piola signs, for the patch layouts, the right-hand sides of
+    // reconstruct() and the estimators, from the mesh (no Raviart-Thomas
+    // FEValues, see PiolaDivergence::topological_signs).
     piola_signs.assign(std::size_t(tria.n_active_cells()) * n_tau, 0);
     cell_metric.assign(std::size_t(tria.n_active_cells()) * n_metric, 0.);
 
@@ -451,12 +444,10 @@ namespace VI
                                                                   cell->index(),
                                                                   &dof_handler);
           dof_cell->get_dof_indices(rt_dofs);
-          sign_values.reinit(dof_cell);
-          signs.reinit(sign_values);
           std::int8_t *const cell_signs =
             &piola_signs[cell->active_cell_index() * n_tau];
-          for (unsigned int i = 0; i < n_tau; ++i)
-            cell_signs[i] = signs.sign(i) > 0 ? 1 : -1;
+          PiolaDivergence<dim>::topological_signs(
+            cell, fe_flux, ArrayView<std::int8_t>(cell_signs, n_tau));
           data.signs.assign(cell_signs, cell_signs + n_tau);
           for (unsigned int k = 0; k < n_tau; ++k)
             {

@@ -1,6 +1,10 @@
+#include <deal.II/grid/cell_id.h>
+#include <deal.II/grid/tria.h>
+
 #include <vi/piola_divergence.h>
 
 #include <cmath>
+#include <optional>
 
 namespace VI
 {
@@ -117,6 +121,29 @@ namespace VI
         function_values[q] = piola[q] * value;
         divergences[q]     = divergence * scale[q];
       }
+  }
+
+
+  template <int dim>
+  void
+  PiolaDivergence<dim>::topological_signs(
+    const typename Triangulation<dim>::cell_iterator &cell,
+    const FiniteElement<dim>                         &fe,
+    const ArrayView<std::int8_t>                     &cell_signs)
+  {
+    static_assert(dim == 2, "the sign rule is that of deal.II in 2d");
+    AssertDimension(cell_signs.size(), fe.n_dofs_per_cell());
+    std::fill(cell_signs.begin(), cell_signs.end(), 1);
+    std::optional<CellId> id;
+    for (const unsigned int f : cell->face_indices())
+      if (!cell->at_boundary(f) && (cell->neighbor_face_no(f) + f) % 2 == 0)
+        {
+          if (!id)
+            id = cell->id();
+          if (*id < cell->neighbor(f)->id())
+            for (unsigned int j = 0; j < fe.n_dofs_per_face(f); ++j)
+              cell_signs[fe.face_to_cell_index(j, f)] = -1;
+        }
   }
 
 

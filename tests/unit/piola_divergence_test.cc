@@ -113,3 +113,83 @@ TEST(PiolaDivergence, AgreesWithFEValuesForRT2)
 {
   compare_with_fevalues(2);
 }
+
+
+// The signs from the mesh alone (PiolaDivergence::topological_signs) are
+// those FEValues applies, and the values from the reference functions with
+// those signs and the Jacobians of another element's FEValues are FEValues'
+// values: on the curved, distorted disk and on a mesh with hanging nodes
+// (coarser and finer neighbours), for RT_1 and RT_2.
+TEST(PiolaDivergence, SignsFromTheMeshAndValuesFromTheReference)
+{
+  for (const bool hanging : {false, true})
+    for (const unsigned int degree : {1u, 2u})
+      {
+        Triangulation<2> tria;
+        GridGenerator::hyper_ball(tria);
+        tria.refine_global(2);
+        GridTools::distort_random(0.2, tria, /*keep_boundary=*/true, 7);
+        if (hanging)
+          for (unsigned int step = 0; step < 2; ++step)
+            {
+              for (const auto &cell : tria.active_cell_iterators())
+                if (cell->center()[0] > 0.1)
+                  cell->set_refine_flag();
+              tria.execute_coarsening_and_refinement();
+            }
+        const MappingQ<2>         mapping(2);
+        const FE_RaviartThomas<2> fe(degree);
+        const FE_DGQ<2>           fe_geometry(1);
+        const QGauss<2>           quadrature(degree + 3);
+        DoFHandler<2>             dof_handler(tria);
+        dof_handler.distribute_dofs(fe);
+        FEValues<2>            values(mapping,
+                           fe,
+                           quadrature,
+                           VI::PiolaDivergence<2>::update_flags());
+        FEValues<2>            geometry(mapping,
+                             fe_geometry,
+                             quadrature,
+                             update_jacobians | update_JxW_values);
+        VI::PiolaDivergence<2> from_values(fe, quadrature),
+          from_reference(fe, quadrature);
+        const FEValuesExtractors::Vector flux(0);
+        std::vector<std::int8_t>         signs(fe.n_dofs_per_cell());
+        std::vector<double>              coefficients(fe.n_dofs_per_cell());
+        std::vector<Tensor<1, 2>>        expected(quadrature.size()), computed;
+        std::vector<double>              divergences;
+        unsigned int                     n_negative = 0, n_differ = 0;
+        double                           difference = 0, largest = 0;
+        for (const auto &cell : dof_handler.active_cell_iterators())
+          {
+            values.reinit(cell);
+            from_values.reinit(values);
+            VI::PiolaDivergence<2>::topological_signs(cell,
+                                                      fe,
+                                                      make_array_view(signs));
+            for (unsigned int i = 0; i < signs.size(); ++i)
+              {
+                n_negative += signs[i] < 0;
+                n_differ += signs[i] != from_values.sign(i);
+              }
+            geometry.reinit(cell);
+            from_reference.reinit(geometry, make_array_view(signs));
+            for (unsigned int i = 0; i < coefficients.size(); ++i)
+              coefficients[i] = std::sin(2. + i + cell->active_cell_index());
+            values[flux].get_function_values_from_local_dof_values(coefficients,
+                                                                   expected);
+            from_reference.function_values_and_divergences(
+              make_array_view(coefficients), computed, divergences);
+            for (unsigned int q = 0; q < quadrature.size(); ++q)
+              {
+                largest = std::max(largest, expected[q].norm());
+                difference =
+                  std::max(difference, (expected[q] - computed[q]).norm());
+              }
+          }
+        EXPECT_GT(n_negative, 0u) << "the mesh should exercise both signs";
+        EXPECT_EQ(n_differ, 0u)
+          << "p = " << degree << (hanging ? ", hanging nodes" : "");
+        EXPECT_LT(difference, 1e-10 * largest);
+      }
+}

@@ -54,6 +54,19 @@ namespace VI
     void
     reinit(const dealii::FEValuesBase<dim> &values);
 
+    /// The signs s_i of the Raviart-Thomas element `fe` on `cell` from the
+    /// mesh alone, by the rule of deal.II 9.4 in 2d: the functions of an
+    /// interior face f are flipped when the neighbour sees the face with the
+    /// same parity of its number (nn + f even) and the cell precedes the
+    /// neighbour in CellId order. The unit test checks it against the signs
+    /// read off FEValues on curved, distorted and locally refined meshes, so
+    /// that a change of deal.II's convention is caught.
+    static void
+    topological_signs(
+      const typename dealii::Triangulation<dim>::cell_iterator &cell,
+      const dealii::FiniteElement<dim>                         &fe,
+      const dealii::ArrayView<std::int8_t>                     &cell_signs);
+
     /// The cell of `geometry` (any FEValues on the quadrature of the
     /// constructor with update_jacobians and update_JxW_values) with the
     /// given signs s_i, for function_values_and_divergences() from
