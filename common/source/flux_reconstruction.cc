@@ -17,6 +17,7 @@
 #include <boost/serialization/vector.hpp>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <tuple>
 
@@ -403,7 +404,9 @@ namespace VI
     // at the hanging vertices that depend on j.
     Shares mine;
     mine.cells.reserve(tria.n_active_cells());
-    std::map<types::global_dof_index, unsigned int> vertex_of;
+    // the vertex of each unconstrained hat, by its position in relevant_hats
+    std::vector<unsigned int> vertex_of(relevant_hats.n_elements(),
+                                        numbers::invalid_unsigned_int);
     std::vector<std::pair<types::global_dof_index, std::array<double, n_v>>>
       psi;
     for (const auto &hat_cell : hats.active_cell_iterators())
@@ -430,7 +433,8 @@ namespace VI
               else
                 {
                   add(i, 1.);
-                  vertex_of[i] = hat_cell->vertex_index(v);
+                  vertex_of[relevant_hats.index_within_set(i)] =
+                    hat_cell->vertex_index(v);
                 }
             }
 
@@ -565,7 +569,9 @@ namespace VI
 
     // Layouts shared between patches of the same connectivity and signs,
     // solvers between patches of the same layout and metrics.
-    std::map<std::vector<std::int64_t>, std::shared_ptr<const LocalSolver>>
+    std::unordered_map<std::vector<std::int64_t>,
+                       std::shared_ptr<const LocalSolver>,
+                       KeyHash>
                                          solvers;
     Layouts                              layouts;
     bool                                 share_solvers = true;
@@ -589,14 +595,30 @@ namespace VI
         return polar < other.polar;
       }
     };
-    std::vector<Member>                  members;
-    std::vector<types::global_dof_index> free;
-    std::vector<unsigned int>            numbers;
-    std::vector<bool>                    is_free(n_tau);
-    std::vector<std::int64_t>            key, layout_key;
-    std::vector<const std::int8_t *>     signs_of_cells;
-    std::vector<const double *>          metrics;
-    PatchLayout                          layout; // of the current patch
+    std::vector<Member> members;
+    // Per Raviart-Thomas dof (by slot(): its position in relevant_dofs, or
+    // after them for the few dofs of patches beyond), its number in the
+    // current patch; not_free where it is not an unknown of the patch.
+    constexpr unsigned int    not_free   = numbers::invalid_unsigned_int;
+    constexpr unsigned int    unnumbered = not_free - 1;
+    std::vector<unsigned int> number(relevant_dofs.n_elements(), not_free);
+    std::vector<std::size_t>  touched;
+    std::map<types::global_dof_index, std::size_t> beyond_relevant;
+    const auto slot = [&](const types::global_dof_index g) -> std::size_t {
+      if (relevant_dofs.is_element(g))
+        return relevant_dofs.index_within_set(g);
+      const auto entry = beyond_relevant.emplace(g,
+                                                 relevant_dofs.n_elements() +
+                                                   beyond_relevant.size());
+      if (entry.second)
+        number.push_back(not_free);
+      return entry.first->second;
+    };
+    std::vector<bool>                is_free(n_tau);
+    std::vector<std::int64_t>        key, layout_key;
+    std::vector<const std::int8_t *> signs_of_cells;
+    std::vector<const double *>      metrics;
+    PatchLayout                      layout; // of the current patch
 
     for (auto first = shares_here.begin(); first != shares_here.end();)
       {
@@ -605,7 +627,7 @@ namespace VI
         while (last != shares_here.end() && std::get<0>(*last) == j)
           ++last;
 
-        const unsigned int a = vertex_of.at(j);
+        const unsigned int a = vertex_of[relevant_hats.index_within_set(j)];
         Patch              patch;
         patch.vertex          = a;
         patch.dofs_start      = patch_dofs.size();
@@ -636,7 +658,9 @@ namespace VI
         // The free fluxes: the dofs on faces where psi_a does not vanish
         // (the others carry sigma^a . n = 0), or their parents on the
         // coarse side of a hanging face; and the dofs inside the cells.
-        free.clear();
+        // They are marked in `number` (by their positions, see slot()),
+        // then numbered as first met in the cells' order.
+        touched.clear();
         for (const Member &member : members)
           {
             std::fill(is_free.begin(), is_free.end(), true);
@@ -658,19 +682,21 @@ namespace VI
                 for (unsigned int e = member.data->expansion_start[k];
                      e < member.data->expansion_start[k + 1];
                      ++e)
-                  free.push_back(member.data->expansion[e].first);
+                  {
+                    const std::size_t position =
+                      slot(member.data->expansion[e].first);
+                    if (number[position] == not_free)
+                      {
+                        number[position] = unnumbered;
+                        touched.push_back(position);
+                      }
+                  }
           }
-        std::sort(free.begin(), free.end());
-        free.erase(std::unique(free.begin(), free.end()), free.end());
-
         // sigma^a's unknowns are the free dofs, numbered as first met.
-        numbers.assign(free.size(), numbers::invalid_unsigned_int);
-        const auto number = [&](const types::global_dof_index g) {
-          const auto position = std::lower_bound(free.begin(), free.end(), g);
-          if (position == free.end() || *position != g)
-            return numbers::invalid_unsigned_int;
-          unsigned int &n = numbers[position - free.begin()];
-          if (n == numbers::invalid_unsigned_int)
+        const auto local_number = [&](const types::global_dof_index g) {
+          const std::size_t position = slot(g);
+          unsigned int     &n        = number[position];
+          if (n == unnumbered)
             {
               n = patch_dofs.size() - patch.dofs_start;
               patch_dofs.push_back(g);
@@ -690,8 +716,8 @@ namespace VI
                      ++e)
                   {
                     const auto &[g, w]   = member.data->expansion[e];
-                    const unsigned int I = number(g);
-                    if (I != numbers::invalid_unsigned_int)
+                    const unsigned int I = local_number(g);
+                    if (I != not_free)
                       layout.sigma_entries.emplace_back(I, w);
                   }
               }
@@ -704,6 +730,8 @@ namespace VI
                   member.hat[v] * member.data->vertex_mass[v * n_q + k];
           }
         layout.n_sigma = patch_dofs.size() - patch.dofs_start;
+        for (const std::size_t position : touched)
+          number[position] = not_free;
 
         signs_of_cells.clear();
         metrics.clear();
@@ -807,7 +835,11 @@ namespace VI
     for (const auto &[I, w] : entries)
       {
         key.push_back(I);
-        key.push_back(std::llround(w * 1e9));
+        // (the constraint weights are the element's: equal weights have
+        // equal bits)
+        std::int64_t bits;
+        std::memcpy(&bits, &w, sizeof bits);
+        key.push_back(bits);
       }
     for (unsigned int c = 0; c < layout.n_cells; ++c)
       key.insert(key.end(), signs[c], signs[c] + n_tau);

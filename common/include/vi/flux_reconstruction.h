@@ -17,6 +17,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 namespace VI
@@ -164,8 +165,21 @@ namespace VI
     struct PatchLayout;
     struct LocalSolver;
     struct CellData;
-    using Layouts =
-      std::map<std::vector<std::int64_t>, std::shared_ptr<const PatchLayout>>;
+    /// FNV-1a over the entries of a key.
+    struct KeyHash
+    {
+      std::size_t
+      operator()(const std::vector<std::int64_t> &key) const
+      {
+        std::uint64_t hash = 14695981039346656037ull;
+        for (const std::int64_t entry : key)
+          hash = (hash ^ static_cast<std::uint64_t>(entry)) * 1099511628211ull;
+        return hash;
+      }
+    };
+    using Layouts = std::unordered_map<std::vector<std::int64_t>,
+                                       std::shared_ptr<const PatchLayout>,
+                                       KeyHash>;
     struct Shares;
 
     /// A vertex patch solved here: its unknowns sigma^a are the Raviart-Thomas
