@@ -105,8 +105,13 @@ namespace VI
             // direction, theta'(X; dX) = -2 theta(X), hence the Armijo test.
             const double theta_0 = 0.5 * R.norm_sqr();
             trial.reinit(X, /*omit_zeroing_entries=*/true);
+            trial = X;
+            trial.add(1., dX);
+            const bool certified = accept_full_step && accept_full_step(trial);
+            if (certified)
+              norms = residual(trial, R);
             unsigned int cuts = 0;
-            for (;; ++cuts)
+            for (; !certified; ++cuts)
               {
                 trial = X;
                 trial.add(step_length, dX);

@@ -140,6 +140,16 @@ namespace VI
     std::function<bool(const VectorType &X, const NewtonStep &)>
       stopping_criterion;
 
+    /**
+     * Optional, with the line search: whether the full step `trial` = X +
+     * dX is taken without the Armijo test. The line search globalises the
+     * iteration; an iterate that the problem certifies as final (e.g. one
+     * whose a posteriori estimate meets the adaptive stopping criterion)
+     * needs no globalisation, and an inexact direction need not decrease
+     * the residual's merit function even where it ends the iteration.
+     */
+    std::function<bool(const VectorType &trial)> accept_full_step;
+
     /// Iterate from the initial guess X; on return X is the converged iterate.
     NewtonReport
     solve(VectorType &X) const;
