@@ -110,7 +110,7 @@ set grid
 set key left top
 set xlabel 'unknowns per field'
 set ylabel 'wall time (s)'
-set title 'Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG) against two Poisson solves (CG + AMG)'
+set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG)\\nagainst two Poisson solves (CG + AMG)"
 plot '{dat}' index 0 using 1:2 with linespoints lw 2 pt 7 lc 1 title 'contact solve, np = 1', \\
      '{dat}' index 0 using 1:3 with linespoints lw 1 pt 6 lc 1 dt 2 title 'of which estimators, np = 1', \\
      '{dat}' index 0 using 1:4 with linespoints lw 2 pt 5 lc 2 title '2 Poisson solves, np = 1', \\
