@@ -55,6 +55,27 @@ namespace
   };
 
 
+  /// The unit square with 8 x 8 cells, randomly distorted or not, and
+  /// with two more levels towards the corner (0, 0) or not (hanging nodes,
+  /// and patches with cells of three sizes).
+  void
+  make_mesh(Triangulation<2> &tria, const bool distorted, const bool hanging)
+  {
+    GridGenerator::hyper_cube(tria);
+    tria.refine_global(3);
+    if (distorted)
+      GridTools::distort_random(0.2, tria, true, 42);
+    if (hanging)
+      for (unsigned int step = 0; step < 2; ++step)
+        {
+          for (const auto &cell : tria.active_cell_iterators())
+            if (cell->center().norm() < 0.45)
+              cell->set_refine_flag();
+          tria.execute_coarsening_and_refinement();
+        }
+  }
+
+
   /**
    * For degree p: build u_h, the residual vector R_i = (f, psi_i) -
    * (grad u_h, grad psi_i) on interior nodes, its representation r_h
@@ -68,20 +89,7 @@ namespace
                        const bool         hanging)
   {
     Triangulation<2> tria;
-    GridGenerator::hyper_cube(tria);
-    tria.refine_global(3);
-    if (distorted)
-      GridTools::distort_random(0.2, tria, true, 42);
-    if (hanging)
-      // Two more levels towards the corner (0, 0): hanging nodes, and
-      // patches with cells of three sizes.
-      for (unsigned int step = 0; step < 2; ++step)
-        {
-          for (const auto &cell : tria.active_cell_iterators())
-            if (cell->center().norm() < 0.45)
-              cell->set_refine_flag();
-          tria.execute_coarsening_and_refinement();
-        }
+    make_mesh(tria, distorted, hanging);
     MappingQ<2>   mapping(1);
     FE_Q<2>       fe(degree);
     DoFHandler<2> dofs(tria);
@@ -300,18 +308,7 @@ TEST_P(FluxReconstructionTest, ReproducesAConstantFluxOnDistortedMeshes)
 {
   const auto [degree, distorted, hanging] = GetParam();
   Triangulation<2> tria;
-  GridGenerator::hyper_cube(tria);
-  tria.refine_global(3);
-  if (distorted)
-    GridTools::distort_random(0.25, tria, true, 7);
-  if (hanging)
-    for (unsigned int step = 0; step < 2; ++step)
-      {
-        for (const auto &cell : tria.active_cell_iterators())
-          if (cell->center().norm() < 0.45)
-            cell->set_refine_flag();
-        tria.execute_coarsening_and_refinement();
-      }
+  make_mesh(tria, distorted, hanging);
   MappingQ<2>   mapping(1);
   FE_Q<2>       fe(degree);
   DoFHandler<2> dofs(tria);
