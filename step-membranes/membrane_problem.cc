@@ -701,6 +701,12 @@ namespace StepMembranes
         pcout << "      k = " << std::setw(2) << step.iteration << ": "
               << VI::describe(step) << std::endl;
       };
+    // The adaptive Newton criterion on an estimate of the iterate taken.
+    const auto adaptive_stop = [&](const VI::ContactEstimate &e) {
+      return p.strategy == "adaptive" &&
+             p.linearisation_error_small(e.eta_disc, e.eta_lin) &&
+             p.algebraic_error_small(e.eta_disc, e.eta_lin, e.eta_alg);
+    };
     if (parameters.estimators.enabled)
       newton.stopping_criterion = [&](const Vector         &X,
                                       const VI::NewtonStep &step) {
@@ -723,10 +729,7 @@ namespace StepMembranes
         // stopped, and its residual holds (1 - t) R(X^(k-1)); such an
         // iterate may have eta_lin = 0 (feasible, lambda_h = 0) with any
         // algebraic error. For full steps it holds already.
-        const VI::ContactEstimate &e = *step_estimate;
-        return p.strategy == "adaptive" &&
-               p.linearisation_error_small(e.eta_disc, e.eta_lin) &&
-               p.algebraic_error_small(e.eta_disc, e.eta_lin, e.eta_alg);
+        return adaptive_stop(*step_estimate);
       };
 
     // With the line search (Fischer-Burmeister), the full step is taken
@@ -735,14 +738,9 @@ namespace StepMembranes
     // the Armijo test on the residual, which an inexact direction need not
     // pass, is not asked (on the nested disk meshes it cut such steps to
     // 1/32 and 1/4, three Newton steps and five estimates instead of one).
-    if (parameters.estimators.enabled && p.strategy == "adaptive")
+    if (parameters.estimators.enabled)
       newton.accept_full_step = [&](const Vector &) {
-        return step_estimate &&
-               p.linearisation_error_small(step_estimate->eta_disc,
-                                           step_estimate->eta_lin) &&
-               p.algebraic_error_small(step_estimate->eta_disc,
-                                       step_estimate->eta_lin,
-                                       step_estimate->eta_alg);
+        return step_estimate && adaptive_stop(*step_estimate);
       };
 
     newton_report = newton.solve(solution);

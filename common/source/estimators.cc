@@ -87,24 +87,21 @@ namespace VI
 
     const Quadrature<dim> &quadrature = *in.quadrature;
     const unsigned int     n_q        = quadrature.size();
-    FEValues<dim>          potential_values(
-      *in.mapping,
-      in.potential->get_fe(),
-      quadrature,
-      update_values | update_gradients | update_quadrature_points |
-        update_inverse_jacobians | update_JxW_values |
-        (in.flux_signs ? update_jacobians : update_default));
-    // (not evaluated when the Piola signs are given: the fluxes then come
-    // from reference values and the Jacobians of potential_values)
-    FEValues<dim>        flux_values(*in.mapping,
-                              in.flux->get_fe(),
-                              quadrature,
-                              PiolaDivergence<dim>::update_flags());
+    FEValues<dim>          potential_values(*in.mapping,
+                                   in.potential->get_fe(),
+                                   quadrature,
+                                   update_values | update_gradients |
+                                     update_quadrature_points |
+                                     update_inverse_jacobians |
+                                     update_jacobians | update_JxW_values);
+    // The fluxes from their reference values, signs and the Jacobians of
+    // potential_values.
+    Assert(in.flux_signs,
+           ExcMessage("The Piola signs of the fluxes are needed."));
     PiolaDivergence<dim> divergence(in.flux->get_fe(), quadrature);
     const unsigned int   n_tau = in.flux->get_fe().n_dofs_per_cell();
     std::vector<double>  sigma_coefficients(n_tau), potential_coefficients,
       unused_divergences;
-    const FEValuesExtractors::Vector sigma(0);
 
     // Values at the quadrature points.
     std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
@@ -211,36 +208,20 @@ namespace VI
         typename DoFHandler<dim>::active_cell_iterator flux_cell(
           &tria, potential_cell->level(), potential_cell->index(), in.flux);
         potential_values.reinit(potential_cell);
-        if (in.flux_signs)
-          divergence.reinit(potential_values,
-                            ArrayView<const std::int8_t>(
-                              in.flux_signs->data() +
-                                potential_cell->active_cell_index() * n_tau,
-                              n_tau));
-        else
-          {
-            flux_values.reinit(flux_cell);
-            divergence.reinit(flux_values);
-          }
+        divergence.reinit(potential_values,
+                          ArrayView<const std::int8_t>(
+                            in.flux_signs->data() +
+                              potential_cell->active_cell_index() * n_tau,
+                            n_tau));
         // values and divergences of a flux vector at the quadrature points
         const auto flux_at_points = [&](const TrilinosWrappers::MPI::Vector &v,
                                         std::vector<Tensor<1, dim>> &values,
                                         std::vector<double> &divergences) {
-          if (in.flux_signs)
-            {
-              flux_cell->get_dof_values(v,
-                                        sigma_coefficients.begin(),
-                                        sigma_coefficients.end());
-              divergence.function_values_and_divergences(
-                make_array_view(sigma_coefficients), values, divergences);
-            }
-          else
-            divergence.function_values_and_divergences(flux_values,
-                                                       flux_cell,
-                                                       v,
-                                                       sigma_coefficients,
-                                                       values,
-                                                       divergences);
+          flux_cell->get_dof_values(v,
+                                    sigma_coefficients.begin(),
+                                    sigma_coefficients.end());
+          divergence.function_values_and_divergences(
+            make_array_view(sigma_coefficients), values, divergences);
         };
         for (unsigned int a = 0; a < 2; ++a)
           {
@@ -260,13 +241,10 @@ namespace VI
             flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
             if (own_look_ahead)
               sigma_disc[a] = sigma_ahead[a];
-            else if (in.flux_signs)
+            else
               flux_at_points(*disc_vectors[a],
                              sigma_disc[a],
                              unused_divergences);
-            else
-              flux_values[sigma].get_function_values(*disc_vectors[a],
-                                                     sigma_disc[a]);
             if (dt_vectors[a])
               {
                 potential_values.get_function_values(*dt_vectors[a], dt_u[a]);

@@ -108,14 +108,11 @@ namespace VI
             trial = X;
             trial.add(1., dX);
             const bool certified = accept_full_step && accept_full_step(trial);
-            if (certified)
-              norms = residual(trial, R);
-            unsigned int cuts = 0;
-            for (; !certified; ++cuts)
+            for (unsigned int cuts = 0;; ++cuts)
               {
-                trial = X;
-                trial.add(step_length, dX);
-                norms                = residual(trial, R);
+                norms = residual(trial, R);
+                if (certified)
+                  break;
                 const double theta_t = 0.5 * R.norm_sqr();
                 if (std::isfinite(theta_t) &&
                     theta_t <=
@@ -127,6 +124,8 @@ namespace VI
                        std::to_string(cuts) + " step halvings at iteration " +
                        std::to_string(k));
                 step_length *= 0.5;
+                trial = X;
+                trial.add(step_length, dX);
               }
             X = trial;
           }

@@ -99,10 +99,10 @@ namespace VI
     const dealii::DoFHandler<dim> *potential  = nullptr;
     const dealii::DoFHandler<dim> *flux       = nullptr;
     const dealii::Quadrature<dim> *quadrature = nullptr;
-    /// Optional: the Piola signs of the flux element's functions on the
-    /// locally owned cells, [active cell index * dofs per cell + i] (as
-    /// FluxReconstruction::get_piola_signs() gives them); the fluxes are
-    /// then evaluated from reference values and the Jacobians of the
+    /// The Piola signs of the flux element's functions on the locally owned
+    /// cells, [active cell index * dofs per cell + i] (as
+    /// FluxReconstruction::get_piola_signs() gives them): the fluxes are
+    /// evaluated from reference values and the Jacobians of the
     /// potential's FEValues, without a Raviart-Thomas FEValues per cell.
     const std::vector<std::int8_t> *flux_signs = nullptr;
 

@@ -185,8 +185,7 @@ namespace VI
     /// A vertex patch solved here: its unknowns sigma^a are the Raviart-Thomas
     /// dofs patch_positions[dofs_start ...] (as many as the layout of its
     /// solver says), and (psi_a, q_k)_K of its cells are
-    /// hat_masses[hat_mass_start
-    /// ...], cell by cell.
+    /// hat_masses[hat_mass_start ...], cell by cell.
     struct Patch
     {
       unsigned int                       vertex;
