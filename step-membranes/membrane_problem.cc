@@ -1200,47 +1200,65 @@ namespace StepMembranes
     // The fluxes: sigma_alpha ~ -mu_alpha grad u_alpha,h, equilibrated with
     // f_alpha -/+ lambda_h - r_alpha,h; for p = 1 the multiplier and the
     // residual enter each patch as the constants of its vertex (lumping).
-    const bool          lumped = fe.degree == 1;
-    FEValues<dim>       values(*mapping,
-                         fe,
-                         flux_reconstruction->get_quadrature(),
-                         update_values | update_gradients);
-    std::vector<double> lambda_values(quadrature.size()),
-      r_values(quadrature.size());
+    const bool    lumped  = fe.degree == 1;
     const Vector *u[2]    = {&it.u1, &it.u2};
     const double  mu[2]   = {data.mu1, data.mu2};
     const double  sign[2] = {-1., 1.}; // (-1)^alpha
 
     typename VI::FluxReconstruction<dim>::Sources sources;
-    sources.n_fields    = 2;
-    sources.cell_values = [&](const auto &cell, auto &flux, auto &source) {
-      typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
-                                                              cell->level(),
-                                                              cell->index(),
-                                                              &dof_handler);
-      values.reinit(dof_cell);
-      if (cell_multiplier)
-        cell_multiplier->values(it.lambda_cells,
-                                cell->active_cell_index(),
-                                lambda_values);
-      else if (!lumped)
-        values.get_function_values(it.lambda, lambda_values);
-      for (unsigned int a = 0; a < 2; ++a)
+    sources.n_fields         = 2;
+    sources.make_cell_values = [&]() {
+      // per thread: FEValues of the potential and the multiplier's and
+      // residual's values
+      struct Scratch
+      {
+        Scratch(const Mapping<dim>       &mapping,
+                const FiniteElement<dim> &fe,
+                const Quadrature<dim>    &quadrature)
+            : values(mapping, fe, quadrature, update_values | update_gradients)
+            , lambda_values(quadrature.size())
+            , r_values(quadrature.size())
         {
-          values.get_function_gradients(*u[a], flux[a]);
-          for (auto &F : flux[a])
-            F *= mu[a];
-          std::copy_n(load_values[a].begin() +
-                        cell->active_cell_index() * source[a].size(),
-                      source[a].size(),
-                      source[a].begin());
-          if (!lumped)
-            {
-              values.get_function_values(*r[a], r_values);
-              for (unsigned int q = 0; q < source[a].size(); ++q)
-                source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
-            }
         }
+        FEValues<dim>       values;
+        std::vector<double> lambda_values, r_values;
+      };
+      const auto scratch =
+        std::make_shared<Scratch>(*mapping,
+                                  fe,
+                                  flux_reconstruction->get_quadrature());
+      return [&, scratch](const auto &cell, auto &flux, auto &source) {
+        typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
+                                                                cell->level(),
+                                                                cell->index(),
+                                                                &dof_handler);
+        FEValues<dim>                                 &values = scratch->values;
+        std::vector<double> &lambda_values = scratch->lambda_values;
+        std::vector<double> &r_values      = scratch->r_values;
+        values.reinit(dof_cell);
+        if (cell_multiplier)
+          cell_multiplier->values(it.lambda_cells,
+                                  cell->active_cell_index(),
+                                  lambda_values);
+        else if (!lumped)
+          values.get_function_values(it.lambda, lambda_values);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            values.get_function_gradients(*u[a], flux[a]);
+            for (auto &F : flux[a])
+              F *= mu[a];
+            std::copy_n(load_values[a].begin() +
+                          cell->active_cell_index() * source[a].size(),
+                        source[a].size(),
+                        source[a].begin());
+            if (!lumped)
+              {
+                values.get_function_values(*r[a], r_values);
+                for (unsigned int q = 0; q < source[a].size(); ++q)
+                  source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+              }
+          }
+      };
     };
     if (lumped)
       sources.vertex_source = [&](const unsigned int vertex,

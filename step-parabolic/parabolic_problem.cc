@@ -896,14 +896,7 @@ namespace StepParabolic
     // The mass term enters the source at the quadrature points, as in the
     // assembly, so that the patch problems stay compatible; for p = 1 the
     // multiplier and the residual enter as vertex constants (lumping).
-    const bool           lumped = fe.degree == 1;
-    FEValues<dim>        values(*mapping,
-                         fe,
-                         flux_reconstruction->get_quadrature(),
-                         update_values | update_gradients |
-                           update_quadrature_points);
-    const unsigned int   n_q = quadrature.size();
-    std::vector<double>  lambda_values(n_q), r_values(n_q), dt_values(n_q);
+    const bool           lumped  = fe.degree == 1;
     const Vector        *u[2]    = {&it.u1, &it.u2};
     const Vector        *dt_u[2] = {&it.dt_u1, &it.dt_u2};
     const Function<dim> *f[2]    = {data.f1.get(), data.f2.get()};
@@ -911,31 +904,60 @@ namespace StepParabolic
     const double         sign[2] = {-1., 1.}; // (-1)^alpha
 
     typename VI::FluxReconstruction<dim>::Sources sources;
-    sources.n_fields    = 2;
-    sources.cell_values = [&](const auto &cell, auto &flux, auto &source) {
-      typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
-                                                              cell->level(),
-                                                              cell->index(),
-                                                              &dof_handler);
-      values.reinit(dof_cell);
-      if (!lumped)
-        values.get_function_values(it.lambda, lambda_values);
-      for (unsigned int a = 0; a < 2; ++a)
+    sources.n_fields         = 2;
+    sources.make_cell_values = [&]() {
+      // per thread: FEValues of the potential and value arrays
+      struct Scratch
+      {
+        Scratch(const Mapping<dim>       &mapping,
+                const FiniteElement<dim> &fe,
+                const Quadrature<dim>    &quadrature)
+            : values(mapping,
+                     fe,
+                     quadrature,
+                     update_values | update_gradients |
+                       update_quadrature_points)
+            , lambda_values(quadrature.size())
+            , r_values(quadrature.size())
+            , dt_values(quadrature.size())
         {
-          values.get_function_gradients(*u[a], flux[a]);
-          for (auto &F : flux[a])
-            F *= mu[a];
-          f[a]->value_list(values.get_quadrature_points(), source[a]);
-          values.get_function_values(*dt_u[a], dt_values);
-          if (!lumped)
-            values.get_function_values(*r[a], r_values);
-          for (unsigned int q = 0; q < source[a].size(); ++q)
-            {
-              source[a][q] -= dt_values[q];
-              if (!lumped)
-                source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
-            }
         }
+        FEValues<dim>       values;
+        std::vector<double> lambda_values, r_values, dt_values;
+      };
+      const auto scratch =
+        std::make_shared<Scratch>(*mapping,
+                                  fe,
+                                  flux_reconstruction->get_quadrature());
+      return [&, scratch](const auto &cell, auto &flux, auto &source) {
+        typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
+                                                                cell->level(),
+                                                                cell->index(),
+                                                                &dof_handler);
+        FEValues<dim>                                 &values = scratch->values;
+        std::vector<double> &lambda_values = scratch->lambda_values;
+        std::vector<double> &r_values      = scratch->r_values;
+        std::vector<double> &dt_values     = scratch->dt_values;
+        values.reinit(dof_cell);
+        if (!lumped)
+          values.get_function_values(it.lambda, lambda_values);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            values.get_function_gradients(*u[a], flux[a]);
+            for (auto &F : flux[a])
+              F *= mu[a];
+            f[a]->value_list(values.get_quadrature_points(), source[a]);
+            values.get_function_values(*dt_u[a], dt_values);
+            if (!lumped)
+              values.get_function_values(*r[a], r_values);
+            for (unsigned int q = 0; q < source[a].size(); ++q)
+              {
+                source[a][q] -= dt_values[q];
+                if (!lumped)
+                  source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+              }
+          }
+      };
     };
     if (lumped)
       sources.vertex_source = [&](const unsigned int vertex,

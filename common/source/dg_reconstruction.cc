@@ -43,7 +43,14 @@ namespace VI
     dof_handler.distribute_dofs(fe);
     owned_dofs = dof_handler.locally_owned_dofs();
     DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_dofs);
-    cell_values = std::make_unique<FEValues<dim>>(
+  }
+
+
+  template <int dim>
+  std::unique_ptr<FEValues<dim>>
+  JumpLifting<dim>::make_cell_values() const
+  {
+    return std::make_unique<FEValues<dim>>(
       mapping, fe, cell_quadrature, update_values | update_inverse_jacobians);
   }
 
@@ -185,6 +192,7 @@ namespace VI
   void
   JumpLifting<dim>::values(const CellIterator          &cell,
                            const Vector                &lifting,
+                           FEValues<dim>               &cell_values,
                            std::vector<Tensor<1, dim>> &result) const
   {
     const typename DoFHandler<dim>::active_cell_iterator dof_cell(
@@ -192,14 +200,14 @@ namespace VI
       cell->level(),
       cell->index(),
       &dof_handler);
-    cell_values->reinit(dof_cell);
+    cell_values.reinit(dof_cell);
     std::vector<dealii::Vector<double>> reference(cell_quadrature.size(),
                                                   dealii::Vector<double>(dim));
-    cell_values->get_function_values(lifting, reference);
+    cell_values.get_function_values(lifting, reference);
     result.resize(cell_quadrature.size());
     for (unsigned int q = 0; q < cell_quadrature.size(); ++q)
       {
-        const auto &inverse = cell_values->inverse_jacobian(q);
+        const auto &inverse = cell_values.inverse_jacobian(q);
         result[q]           = Tensor<1, dim>();
         for (unsigned int d = 0; d < dim; ++d)
           for (unsigned int e = 0; e < dim; ++e)

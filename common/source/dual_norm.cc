@@ -198,17 +198,24 @@ namespace VI
     // rho: equilibrates m (+ c_h) with the flux grad z_h (div rho = m + c_h
     // exactly where m is in Q_p on every cell).
     typename FluxReconstruction<dim>::Sources sources;
-    sources.n_fields    = 1;
-    sources.cell_values = [&](const auto &cell, auto &flux, auto &source) {
-      typename DoFHandler<dim>::active_cell_iterator dof_cell(
-        &dof_handler.get_triangulation(),
-        cell->level(),
-        cell->index(),
-        &dof_handler);
-      values.reinit(dof_cell);
-      values.get_function_gradients(z_ghosted, flux[0]);
-      for (unsigned int q = 0; q < source[0].size(); ++q)
-        source[0][q] = m(cell->active_cell_index(), q);
+    sources.n_fields         = 1;
+    sources.make_cell_values = [&]() {
+      // per thread: FEValues of z_h
+      const auto z_values = std::make_shared<FEValues<dim>>(mapping,
+                                                            fe,
+                                                            quadrature,
+                                                            update_gradients);
+      return [&, z_values](const auto &cell, auto &flux, auto &source) {
+        typename DoFHandler<dim>::active_cell_iterator dof_cell(
+          &dof_handler.get_triangulation(),
+          cell->level(),
+          cell->index(),
+          &dof_handler);
+        z_values->reinit(dof_cell);
+        z_values->get_function_gradients(z_ghosted, flux[0]);
+        for (unsigned int q = 0; q < source[0].size(); ++q)
+          source[0][q] = m(cell->active_cell_index(), q);
+      };
     };
     sources.vertex_source = [&](const unsigned int vertex, const unsigned int) {
       const auto i = vertex_dofs[vertex];

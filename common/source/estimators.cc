@@ -1,6 +1,9 @@
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/multithread_info.h>
 #include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/work_stream.h>
 #include <deal.II/fe/fe_values.h>
+#include <deal.II/grid/filtered_iterator.h>
 
 #include <vi/cell_multiplier.h>
 #include <vi/dual_norm.h>
@@ -87,39 +90,12 @@ namespace VI
 
     const Quadrature<dim> &quadrature = *in.quadrature;
     const unsigned int     n_q        = quadrature.size();
-    FEValues<dim>          potential_values(*in.mapping,
-                                   in.potential->get_fe(),
-                                   quadrature,
-                                   update_values | update_gradients |
-                                     update_quadrature_points |
-                                     update_inverse_jacobians |
-                                     update_jacobians | update_JxW_values);
     // The fluxes from their reference values, signs and the Jacobians of
-    // potential_values.
+    // the potential's FEValues.
     Assert(in.flux_signs,
            ExcMessage("The Piola signs of the fluxes are needed."));
-    PiolaDivergence<dim> divergence(in.flux->get_fe(), quadrature);
-    const unsigned int   n_tau = in.flux->get_fe().n_dofs_per_cell();
-    std::vector<double>  sigma_coefficients(n_tau), potential_coefficients,
-      unused_divergences;
+    const unsigned int n_tau = in.flux->get_fe().n_dofs_per_cell();
 
-    // Values at the quadrature points.
-    std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
-      sigma_ahead[2];
-    std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], dt_u[2],
-      dt_u_ahead[2], f(n_q), lambda(n_q), lambda_nonnegative(n_q),
-      lambda_ahead(n_q);
-    for (unsigned int a = 0; a < 2; ++a)
-      {
-        for (auto *v :
-             {&grad_u[a], &grad_s[a], &sigma_disc[a], &sigma_ahead[a]})
-          v->resize(n_q);
-        for (auto *v : {&u[a], &s[a], &r_ahead[a], &div_ahead[a]})
-          v->resize(n_q);
-        // Zero for steady problems.
-        dt_u[a].assign(n_q, 0.);
-        dt_u_ahead[a].assign(n_q, 0.);
-      }
     const TrilinosWrappers::MPI::Vector *u_vectors[2]     = {in.u1, in.u2},
                                         *s_vectors[2]     = {in.s1, in.s2},
                                         *r_vectors[2]     = {in.r1_ahead,
@@ -138,42 +114,98 @@ namespace VI
            ExcMessage("Give all four time derivatives, or none."));
 
     // The lifting G of g - I_h g on the cells at the boundary (see the
-    // function comment below): the values of u_h, g and the mapping on the
-    // boundary faces, at the points that share the tangential coordinate of
-    // the (tensor-product Gauss) cell quadrature points.
+    // function comment below) needs the values of u_h, g and the mapping on
+    // the boundary faces, at the points that share the tangential
+    // coordinate of the (tensor-product Gauss) cell quadrature points.
     const bool         lifting = in.g1 && in.g2;
     const unsigned int n_1d    = std::lround(std::sqrt(double(n_q)));
-    const QGauss<1>    gauss_1d(n_1d);
-    std::vector<std::unique_ptr<FEValues<dim>>> face_values;
-    if (lifting)
+    AssertThrow(!lifting || (dim == 2 && n_1d * n_1d == n_q),
+                ExcMessage("The Dirichlet lifting needs a 2d "
+                           "tensor-product Gauss quadrature."));
+    const Function<dim> *g_functions[2] = {in.g1, in.g2};
+
+    // What one thread needs on a cell: FEValues and the values at the
+    // quadrature points (WorkStream copies it once per thread).
+    struct Scratch
+    {
+      Scratch(const ContactEstimatorInput<dim> &in, const bool lifting)
+          : in(in)
+          , lifting(lifting)
+          , potential_values(*in.mapping,
+                             in.potential->get_fe(),
+                             *in.quadrature,
+                             update_values | update_gradients |
+                               update_quadrature_points |
+                               update_inverse_jacobians | update_jacobians |
+                               update_JxW_values)
+          , divergence(in.flux->get_fe(), *in.quadrature)
+          , sigma_coefficients(in.flux->get_fe().n_dofs_per_cell())
       {
-        AssertThrow(dim == 2 && n_1d * n_1d == n_q,
-                    ExcMessage("The Dirichlet lifting needs a 2d "
-                               "tensor-product Gauss quadrature."));
-        for (unsigned int f = 0; f < GeometryInfo<dim>::faces_per_cell; ++f)
+        const unsigned int n_q = in.quadrature->size();
+        for (unsigned int a = 0; a < 2; ++a)
           {
-            std::vector<Point<dim>> points(n_1d);
-            for (unsigned int k = 0; k < n_1d; ++k)
+            for (auto *v : {&grad_u[a],
+                            &grad_s[a],
+                            &sigma_disc[a],
+                            &sigma_ahead[a],
+                            &grad_G[a]})
+              v->resize(n_q);
+            for (auto *v : {&u[a], &s[a], &r_ahead[a], &div_ahead[a], &G[a]})
+              v->resize(n_q);
+            // Zero for steady problems.
+            dt_u[a].assign(n_q, 0.);
+            dt_u_ahead[a].assign(n_q, 0.);
+          }
+        for (auto *v : {&f, &lambda, &lambda_nonnegative, &lambda_ahead})
+          v->resize(n_q);
+        if (lifting)
+          {
+            const unsigned int n_1d = std::lround(std::sqrt(double(n_q)));
+            const QGauss<1>    gauss_1d(n_1d);
+            face_u.resize(n_1d);
+            face_grad_u.resize(n_1d);
+            for (const unsigned int f : GeometryInfo<dim>::face_indices())
               {
-                points[k][f / 2]     = double(f % 2);
-                points[k][1 - f / 2] = gauss_1d.point(k)[0];
+                std::vector<Point<dim>> points(n_1d);
+                for (unsigned int k = 0; k < n_1d; ++k)
+                  {
+                    points[k][f / 2]     = double(f % 2);
+                    points[k][1 - f / 2] = gauss_1d.point(k)[0];
+                  }
+                face_values.emplace_back(std::make_unique<FEValues<dim>>(
+                  *in.mapping,
+                  in.potential->get_fe(),
+                  Quadrature<dim>(points, std::vector<double>(n_1d, 1.)),
+                  update_values | update_gradients | update_jacobians |
+                    update_quadrature_points));
               }
-            face_values.emplace_back(std::make_unique<FEValues<dim>>(
-              *in.mapping,
-              in.potential->get_fe(),
-              Quadrature<dim>(points, std::vector<double>(n_1d, 1.)),
-              update_values | update_gradients | update_jacobians |
-                update_quadrature_points));
           }
       }
-    const Function<dim>        *g_functions[2] = {in.g1, in.g2};
-    std::vector<double>         G[2], face_u(n_1d);
-    std::vector<Tensor<1, dim>> grad_G[2], face_grad_u(n_1d);
-    for (unsigned int a = 0; a < 2; ++a)
+
+      Scratch(const Scratch &other)
+          : Scratch(other.in, other.lifting)
       {
-        G[a].resize(n_q);
-        grad_G[a].resize(n_q);
       }
+
+      const ContactEstimatorInput<dim> &in;
+      const bool                        lifting;
+      FEValues<dim>                     potential_values;
+      PiolaDivergence<dim>              divergence;
+      std::vector<double> sigma_coefficients, potential_coefficients,
+        unused_divergences;
+      std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
+        sigma_ahead[2], grad_G[2], face_grad_u;
+      std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], dt_u[2],
+        dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative, lambda_ahead,
+        face_u;
+      std::vector<std::unique_ptr<FEValues<dim>>> face_values;
+    };
+    // The sums of one cell, added in the order of the cells (so that the
+    // estimate does not depend on the number of threads).
+    struct CellShare
+    {
+      std::array<double, n_sums> cell;
+    };
 
     // An iterate estimated with itself as look-ahead (sigma_alg = 0): its
     // fluxes and multiplier are read once.
@@ -201,264 +233,287 @@ namespace VI
       for (auto &values : remainders)
         values.assign(std::size_t(tria.n_active_cells()) * n_q, 0.);
 
-    for (const auto &potential_cell : in.potential->active_cell_iterators())
-      {
-        if (!potential_cell->is_locally_owned())
-          continue;
-        typename DoFHandler<dim>::active_cell_iterator flux_cell(
-          &tria, potential_cell->level(), potential_cell->index(), in.flux);
-        potential_values.reinit(potential_cell);
-        divergence.reinit(potential_values,
-                          ArrayView<const std::int8_t>(
-                            in.flux_signs->data() +
-                              potential_cell->active_cell_index() * n_tau,
-                            n_tau));
-        // values and divergences of a flux vector at the quadrature points
-        const auto flux_at_points = [&](const TrilinosWrappers::MPI::Vector &v,
-                                        std::vector<Tensor<1, dim>> &values,
-                                        std::vector<double> &divergences) {
-          flux_cell->get_dof_values(v,
-                                    sigma_coefficients.begin(),
-                                    sigma_coefficients.end());
-          divergence.function_values_and_divergences(
-            make_array_view(sigma_coefficients), values, divergences);
-        };
-        for (unsigned int a = 0; a < 2; ++a)
-          {
-            values_and_gradients(potential_values,
-                                 potential_cell,
-                                 *u_vectors[a],
-                                 potential_coefficients,
-                                 u[a],
-                                 grad_u[a]);
-            values_and_gradients(potential_values,
-                                 potential_cell,
-                                 *s_vectors[a],
-                                 potential_coefficients,
-                                 s[a],
-                                 grad_s[a]);
-            potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
-            flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
-            if (own_look_ahead)
-              sigma_disc[a] = sigma_ahead[a];
-            else
-              flux_at_points(*disc_vectors[a],
-                             sigma_disc[a],
-                             unused_divergences);
-            if (dt_vectors[a])
-              {
-                potential_values.get_function_values(*dt_vectors[a], dt_u[a]);
-                potential_values.get_function_values(*dt_ahead_vectors[a],
-                                                     dt_u_ahead[a]);
-              }
-          }
-        if (in.cell_multiplier)
-          {
-            const auto index = potential_cell->active_cell_index();
-            in.cell_multiplier->values(*in.lambda_cells, index, lambda);
-            in.cell_multiplier->values(*in.lambda_nonnegative_cells,
-                                       index,
-                                       lambda_nonnegative);
-            if (!own_look_ahead)
-              in.cell_multiplier->values(*in.lambda_ahead_cells,
-                                         index,
-                                         lambda_ahead);
-          }
-        else
-          {
-            potential_values.get_function_values(*in.lambda, lambda);
-            potential_values.get_function_values(*in.lambda_nonnegative,
-                                                 lambda_nonnegative);
-            if (!own_look_ahead)
-              potential_values.get_function_values(*in.lambda_ahead,
-                                                   lambda_ahead);
-          }
-        if (own_look_ahead)
-          lambda_ahead = lambda;
+    // Every cell writes its indicators (and means, remainders) at its own
+    // index, and hands its sums to the copier.
+    const auto worker = [&](const typename DoFHandler<dim>::active_cell_iterator
+                                      &potential_cell,
+                            Scratch   &scratch,
+                            CellShare &share) {
+      FEValues<dim>        &potential_values   = scratch.potential_values;
+      PiolaDivergence<dim> &divergence         = scratch.divergence;
+      std::vector<double>  &sigma_coefficients = scratch.sigma_coefficients;
+      std::vector<double>  &potential_coefficients =
+        scratch.potential_coefficients;
+      std::vector<double> &unused_divergences = scratch.unused_divergences;
+      auto                &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
+           &sigma_disc = scratch.sigma_disc, &sigma_ahead = scratch.sigma_ahead,
+           &grad_G = scratch.grad_G;
+      auto &u = scratch.u, &s = scratch.s, &r_ahead = scratch.r_ahead,
+           &div_ahead = scratch.div_ahead, &dt_u = scratch.dt_u,
+           &dt_u_ahead = scratch.dt_u_ahead, &G = scratch.G;
+      std::vector<double> &f = scratch.f, &lambda = scratch.lambda,
+                          &lambda_nonnegative  = scratch.lambda_nonnegative,
+                          &lambda_ahead        = scratch.lambda_ahead,
+                          &face_u              = scratch.face_u;
+      std::vector<Tensor<1, dim>> &face_grad_u = scratch.face_grad_u;
+      auto                        &face_values = scratch.face_values;
 
-        // G = sum over boundary faces F of delta_F(t) (1 - n) in the
-        // reference coordinates (t along F, n away from it), delta_F = g -
-        // u_h on F: zero on the other faces (delta vanishes at the vertices,
-        // where u_h interpolates g), so G is in H^1, and u_h + G = g on the
-        // boundary.
-        for (unsigned int a = 0; a < 2; ++a)
-          {
-            std::fill(G[a].begin(), G[a].end(), 0.);
-            std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
-          }
-        if (lifting && potential_cell->at_boundary())
-          for (const unsigned int f : potential_cell->face_indices())
-            if (potential_cell->face(f)->at_boundary())
-              {
-                FEValues<dim> &on_face = *face_values[f];
-                on_face.reinit(potential_cell);
-                const unsigned int normal = f / 2, tangent = 1 - normal;
-                for (unsigned int a = 0; a < 2; ++a)
-                  {
-                    on_face.get_function_values(*u_vectors[a], face_u);
-                    on_face.get_function_gradients(*u_vectors[a], face_grad_u);
-                    for (unsigned int q = 0; q < n_q; ++q)
-                      {
-                        // cell point (x0, x1) = (p_(q % n), p_(q / n))
-                        const unsigned int k =
-                          tangent == 0 ? q % n_1d : q / n_1d;
-                        const double xn =
-                          potential_values.get_quadrature().point(q)[normal];
-                        const double      weight = (f % 2) ? xn : 1. - xn;
-                        const Point<dim> &y      = on_face.quadrature_point(k);
-                        Tensor<1, dim>    along;
-                        for (unsigned int d = 0; d < dim; ++d)
-                          along[d] = on_face.jacobian(k)[d][tangent];
-                        const double delta =
-                          g_functions[a]->value(y) - face_u[k];
-                        const double delta_prime =
-                          (g_functions[a]->gradient(y) - face_grad_u[k]) *
-                          along;
-                        Tensor<1, dim> reference_gradient;
-                        reference_gradient[tangent] = delta_prime * weight;
-                        reference_gradient[normal]  = (f % 2) ? delta : -delta;
-                        G[a][q] += delta * weight;
-                        const auto &inverse =
-                          potential_values.inverse_jacobian(q);
-                        for (unsigned int d = 0; d < dim; ++d)
-                          for (unsigned int e = 0; e < dim; ++e)
-                            grad_G[a][q][d] +=
-                              inverse[e][d] * reference_gradient[e];
-                      }
-                  }
-              }
-        // From here on u_h stands for u_h + G, and s for s + G (s - u_h is
-        // unchanged).
-        for (unsigned int a = 0; a < 2; ++a)
-          for (unsigned int q = 0; q < n_q; ++q)
+      typename DoFHandler<dim>::active_cell_iterator flux_cell(
+        &tria, potential_cell->level(), potential_cell->index(), in.flux);
+      potential_values.reinit(potential_cell);
+      divergence.reinit(potential_values,
+                        ArrayView<const std::int8_t>(
+                          in.flux_signs->data() +
+                            potential_cell->active_cell_index() * n_tau,
+                          n_tau));
+      // values and divergences of a flux vector at the quadrature points
+      const auto flux_at_points = [&](const TrilinosWrappers::MPI::Vector &v,
+                                      std::vector<Tensor<1, dim>> &values,
+                                      std::vector<double> &divergences) {
+        flux_cell->get_dof_values(v,
+                                  sigma_coefficients.begin(),
+                                  sigma_coefficients.end());
+        divergence.function_values_and_divergences(
+          make_array_view(sigma_coefficients), values, divergences);
+      };
+      for (unsigned int a = 0; a < 2; ++a)
+        {
+          values_and_gradients(potential_values,
+                               potential_cell,
+                               *u_vectors[a],
+                               potential_coefficients,
+                               u[a],
+                               grad_u[a]);
+          values_and_gradients(potential_values,
+                               potential_cell,
+                               *s_vectors[a],
+                               potential_coefficients,
+                               s[a],
+                               grad_s[a]);
+          potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
+          flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
+          if (own_look_ahead)
+            sigma_disc[a] = sigma_ahead[a];
+          else
+            flux_at_points(*disc_vectors[a], sigma_disc[a], unused_divergences);
+          if (dt_vectors[a])
             {
-              u[a][q] += G[a][q];
-              grad_u[a][q] += grad_G[a][q];
-              s[a][q] += G[a][q];
-              grad_s[a][q] += grad_G[a][q];
+              potential_values.get_function_values(*dt_vectors[a], dt_u[a]);
+              potential_values.get_function_values(*dt_ahead_vectors[a],
+                                                   dt_u_ahead[a]);
             }
+        }
+      if (in.cell_multiplier)
+        {
+          const auto index = potential_cell->active_cell_index();
+          in.cell_multiplier->values(*in.lambda_cells, index, lambda);
+          in.cell_multiplier->values(*in.lambda_nonnegative_cells,
+                                     index,
+                                     lambda_nonnegative);
+          if (!own_look_ahead)
+            in.cell_multiplier->values(*in.lambda_ahead_cells,
+                                       index,
+                                       lambda_ahead);
+        }
+      else
+        {
+          potential_values.get_function_values(*in.lambda, lambda);
+          potential_values.get_function_values(*in.lambda_nonnegative,
+                                               lambda_nonnegative);
+          if (!own_look_ahead)
+            potential_values.get_function_values(*in.lambda_ahead,
+                                                 lambda_ahead);
+        }
+      if (own_look_ahead)
+        lambda_ahead = lambda;
 
-        const double h_K           = potential_cell->diameter();
-        const auto   index         = potential_cell->active_cell_index();
-        double       cell[n_sums]  = {};
-        double       flux_total[2] = {}, flux_disc[2] = {}, residual[2] = {},
-               algebraic = 0;
-
-        for (unsigned int a = 0; a < 2; ++a)
-          {
-            // (-1)^alpha for alpha = a + 1: the multiplier pulls membrane 1
-            // up and membrane 2 down.
-            const double sign = (a == 0) ? -1. : 1.;
-            if (load_values[a])
-              std::copy_n(load_values[a]->begin() + index * n_q,
-                          n_q,
-                          f.begin());
-            else
-              forces[a]->value_list(potential_values.get_quadrature_points(),
-                                    f);
-            for (unsigned int q = 0; q < n_q; ++q)
-              {
-                const double dx      = potential_values.JxW(q);
-                const double sqrt_mu = std::sqrt(mu[a]);
-                flux_total[a] +=
-                  (sqrt_mu * grad_u[a][q] + sigma_ahead[a][q] / sqrt_mu)
-                    .norm_square() *
-                  dx;
-                flux_disc[a] +=
-                  (sqrt_mu * grad_u[a][q] + sigma_disc[a][q] / sqrt_mu)
-                    .norm_square() *
-                  dx;
-                algebraic +=
-                  (sigma_ahead[a][q] - sigma_disc[a][q]).norm_square() / mu[a] *
-                  dx;
-                residual[a] +=
-                  std::pow(f[q] - dt_u_ahead[a][q] - sign * lambda_ahead[q] -
-                             r_ahead[a][q] - div_ahead[a][q],
-                           2) *
-                  dx;
-                const double rho = r_ahead[a][q] +
-                                   sign * (lambda_ahead[q] - lambda[q]) +
-                                   dt_u_ahead[a][q] - dt_u[a][q];
-                cell[remainder_1 + a] += rho * rho * dx;
-                if (remainder)
-                  remainders[a][potential_cell->active_cell_index() * n_q + q] =
-                    rho;
-              }
-            flux_total[a] = std::sqrt(flux_total[a]);
-            flux_disc[a]  = std::sqrt(flux_disc[a]);
-            residual[a] =
-              h_K / numbers::PI / std::sqrt(mu[a]) * std::sqrt(residual[a]);
-            cell[flux_residual_total] +=
-              std::pow(flux_total[a] + residual[a], 2);
-            cell[flux_residual_disc] += std::pow(flux_disc[a] + residual[a], 2);
-            cell[flux_disc_squared] += std::pow(flux_disc[a], 2);
-            cell[residual_squared] += std::pow(residual[a], 2);
-          }
-        cell[algebraic_squared] = algebraic;
-
-        // The multiplier: lambda_h = c_K lambda_h^pos + delta (and the same
-        // for the multiplier lambda~ of the nonnegative coefficients).
-        const std::vector<double> &JxW   = potential_values.get_JxW_values();
-        const MultiplierSplit      split = split_multiplier(lambda, JxW),
-                              split_disc =
-                                split_multiplier(lambda_nonnegative, JxW);
-        const double poincare_squared = std::pow(h_K / numbers::PI, 2);
-        cell[multiplier_local] = poincare_squared * split.oscillation_squared;
-        cell[multiplier_mean]  = split.mean_squared;
-        cell[multiplier_local_disc] =
-          poincare_squared * split_disc.oscillation_squared;
-        cell[multiplier_mean_disc] = split_disc.mean_squared;
-        if (undershoots)
-          {
-            means[potential_cell->active_cell_index()]      = split.mean;
-            means_disc[potential_cell->active_cell_index()] = split_disc.mean;
-          }
-
-        // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
-        // is in the cone; s - u_h vanishes once Newton has converged.
+      // G = sum over boundary faces F of delta_F(t) (1 - n) in the
+      // reference coordinates (t along F, n away from it), delta_F = g -
+      // u_h on F: zero on the other faces (delta vanishes at the vertices,
+      // where u_h interpolates g), so G is in H^1, and u_h + G = g on the
+      // boundary.
+      for (unsigned int a = 0; a < 2; ++a)
+        {
+          std::fill(G[a].begin(), G[a].end(), 0.);
+          std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
+        }
+      if (lifting && potential_cell->at_boundary())
+        for (const unsigned int f : potential_cell->face_indices())
+          if (potential_cell->face(f)->at_boundary())
+            {
+              FEValues<dim> &on_face = *face_values[f];
+              on_face.reinit(potential_cell);
+              const unsigned int normal = f / 2, tangent = 1 - normal;
+              for (unsigned int a = 0; a < 2; ++a)
+                {
+                  on_face.get_function_values(*u_vectors[a], face_u);
+                  on_face.get_function_gradients(*u_vectors[a], face_grad_u);
+                  for (unsigned int q = 0; q < n_q; ++q)
+                    {
+                      // cell point (x0, x1) = (p_(q % n), p_(q / n))
+                      const unsigned int k = tangent == 0 ? q % n_1d : q / n_1d;
+                      const double       xn =
+                        potential_values.get_quadrature().point(q)[normal];
+                      const double      weight = (f % 2) ? xn : 1. - xn;
+                      const Point<dim> &y      = on_face.quadrature_point(k);
+                      Tensor<1, dim>    along;
+                      for (unsigned int d = 0; d < dim; ++d)
+                        along[d] = on_face.jacobian(k)[d][tangent];
+                      const double delta = g_functions[a]->value(y) - face_u[k];
+                      const double delta_prime =
+                        (g_functions[a]->gradient(y) - face_grad_u[k]) * along;
+                      Tensor<1, dim> reference_gradient;
+                      reference_gradient[tangent] = delta_prime * weight;
+                      reference_gradient[normal]  = (f % 2) ? delta : -delta;
+                      G[a][q] += delta * weight;
+                      const auto &inverse =
+                        potential_values.inverse_jacobian(q);
+                      for (unsigned int d = 0; d < dim; ++d)
+                        for (unsigned int e = 0; e < dim; ++e)
+                          grad_G[a][q][d] +=
+                            inverse[e][d] * reference_gradient[e];
+                    }
+                }
+            }
+      // From here on u_h stands for u_h + G, and s for s + G (s - u_h is
+      // unchanged).
+      for (unsigned int a = 0; a < 2; ++a)
         for (unsigned int q = 0; q < n_q; ++q)
           {
-            const double         dx     = potential_values.JxW(q);
-            const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
-                                            grad_s[1][q] - grad_s[0][q] :
-                                            Tensor<1, dim>();
-            const Tensor<1, dim> d1     = grad_s[0][q] - grad_u[0][q],
-                                 d2     = grad_s[1][q] - grad_u[1][q];
-            cell[nonc_total] +=
-              (mu[0] * (d1 + theta * grad_w).norm_square() +
-               mu[1] * (d2 - (1 - theta) * grad_w).norm_square()) *
-              dx;
-            cell[nonc_lin] +=
-              (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
-            cell[nonc_disc] +=
-              (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
-              grad_w.norm_square() * dx;
-
-            const double positive_part = std::max(lambda[q], 0.);
-            const double gap           = u[0][q] - u[1][q];
-            cell[positive] += positive_part * positive_part * dx;
-            cell[contact_total] += 2. * positive_part * gap * dx;
-            cell[contact_cone] += 2. * split.cone_factor * positive_part *
-                                  std::max(s[0][q] - s[1][q], 0.) * dx;
-            cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
-                                        mu[1] * grad_G[1][q].norm_square()) *
-                                       dx;
-            cell[contact_linearised] += 2. * lambda[q] * gap * dx;
+            u[a][q] += G[a][q];
+            grad_u[a][q] += grad_G[a][q];
+            s[a][q] += G[a][q];
+            grad_s[a][q] += grad_G[a][q];
           }
 
-        for (unsigned int k = 0; k < n_sums; ++k)
-          sums[k] += cell[k];
-        estimate.cell_flux(index) =
-          std::pow(flux_total[0], 2) + std::pow(flux_total[1], 2);
-        estimate.cell_residual(index)      = cell[residual_squared];
-        estimate.cell_algebraic(index)     = cell[algebraic_squared];
-        estimate.cell_nonconformity(index) = cell[nonc_total];
-        estimate.cell_contact(index)       = cell[contact_cone];
-        estimate.cell_total(index) =
-          cell[flux_residual_total] + cell[nonc_total] +
-          c_mu * c_mu * cell[multiplier_local] + C * C * cell[multiplier_mean] +
-          cell[contact_cone] + cell[dirichlet_squared];
-      }
+      const double h_K   = potential_cell->diameter();
+      const auto   index = potential_cell->active_cell_index();
+      auto        &cell  = share.cell;
+      cell.fill(0.);
+      double flux_total[2] = {}, flux_disc[2] = {}, residual[2] = {},
+             algebraic = 0;
+
+      for (unsigned int a = 0; a < 2; ++a)
+        {
+          // (-1)^alpha for alpha = a + 1: the multiplier pulls membrane 1
+          // up and membrane 2 down.
+          const double sign = (a == 0) ? -1. : 1.;
+          if (load_values[a])
+            std::copy_n(load_values[a]->begin() + index * n_q, n_q, f.begin());
+          else
+            forces[a]->value_list(potential_values.get_quadrature_points(), f);
+          for (unsigned int q = 0; q < n_q; ++q)
+            {
+              const double dx      = potential_values.JxW(q);
+              const double sqrt_mu = std::sqrt(mu[a]);
+              flux_total[a] +=
+                (sqrt_mu * grad_u[a][q] + sigma_ahead[a][q] / sqrt_mu)
+                  .norm_square() *
+                dx;
+              flux_disc[a] +=
+                (sqrt_mu * grad_u[a][q] + sigma_disc[a][q] / sqrt_mu)
+                  .norm_square() *
+                dx;
+              algebraic +=
+                (sigma_ahead[a][q] - sigma_disc[a][q]).norm_square() / mu[a] *
+                dx;
+              residual[a] +=
+                std::pow(f[q] - dt_u_ahead[a][q] - sign * lambda_ahead[q] -
+                           r_ahead[a][q] - div_ahead[a][q],
+                         2) *
+                dx;
+              const double rho = r_ahead[a][q] +
+                                 sign * (lambda_ahead[q] - lambda[q]) +
+                                 dt_u_ahead[a][q] - dt_u[a][q];
+              cell[remainder_1 + a] += rho * rho * dx;
+              if (remainder)
+                remainders[a][potential_cell->active_cell_index() * n_q + q] =
+                  rho;
+            }
+          flux_total[a] = std::sqrt(flux_total[a]);
+          flux_disc[a]  = std::sqrt(flux_disc[a]);
+          residual[a] =
+            h_K / numbers::PI / std::sqrt(mu[a]) * std::sqrt(residual[a]);
+          cell[flux_residual_total] += std::pow(flux_total[a] + residual[a], 2);
+          cell[flux_residual_disc] += std::pow(flux_disc[a] + residual[a], 2);
+          cell[flux_disc_squared] += std::pow(flux_disc[a], 2);
+          cell[residual_squared] += std::pow(residual[a], 2);
+        }
+      cell[algebraic_squared] = algebraic;
+
+      // The multiplier: lambda_h = c_K lambda_h^pos + delta (and the same
+      // for the multiplier lambda~ of the nonnegative coefficients).
+      const std::vector<double> &JxW   = potential_values.get_JxW_values();
+      const MultiplierSplit      split = split_multiplier(lambda, JxW),
+                            split_disc =
+                              split_multiplier(lambda_nonnegative, JxW);
+      const double poincare_squared = std::pow(h_K / numbers::PI, 2);
+      cell[multiplier_local] = poincare_squared * split.oscillation_squared;
+      cell[multiplier_mean]  = split.mean_squared;
+      cell[multiplier_local_disc] =
+        poincare_squared * split_disc.oscillation_squared;
+      cell[multiplier_mean_disc] = split_disc.mean_squared;
+      if (undershoots)
+        {
+          means[potential_cell->active_cell_index()]      = split.mean;
+          means_disc[potential_cell->active_cell_index()] = split_disc.mean;
+        }
+
+      // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
+      // is in the cone; s - u_h vanishes once Newton has converged.
+      for (unsigned int q = 0; q < n_q; ++q)
+        {
+          const double         dx     = potential_values.JxW(q);
+          const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
+                                          grad_s[1][q] - grad_s[0][q] :
+                                          Tensor<1, dim>();
+          const Tensor<1, dim> d1     = grad_s[0][q] - grad_u[0][q],
+                               d2     = grad_s[1][q] - grad_u[1][q];
+          cell[nonc_total] +=
+            (mu[0] * (d1 + theta * grad_w).norm_square() +
+             mu[1] * (d2 - (1 - theta) * grad_w).norm_square()) *
+            dx;
+          cell[nonc_lin] +=
+            (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
+          cell[nonc_disc] +=
+            (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
+            grad_w.norm_square() * dx;
+
+          const double positive_part = std::max(lambda[q], 0.);
+          const double gap           = u[0][q] - u[1][q];
+          cell[positive] += positive_part * positive_part * dx;
+          cell[contact_total] += 2. * positive_part * gap * dx;
+          cell[contact_cone] += 2. * split.cone_factor * positive_part *
+                                std::max(s[0][q] - s[1][q], 0.) * dx;
+          cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
+                                      mu[1] * grad_G[1][q].norm_square()) *
+                                     dx;
+          cell[contact_linearised] += 2. * lambda[q] * gap * dx;
+        }
+
+      estimate.cell_flux(index) =
+        std::pow(flux_total[0], 2) + std::pow(flux_total[1], 2);
+      estimate.cell_residual(index)      = cell[residual_squared];
+      estimate.cell_algebraic(index)     = cell[algebraic_squared];
+      estimate.cell_nonconformity(index) = cell[nonc_total];
+      estimate.cell_contact(index)       = cell[contact_cone];
+      estimate.cell_total(index) =
+        cell[flux_residual_total] + cell[nonc_total] +
+        c_mu * c_mu * cell[multiplier_local] + C * C * cell[multiplier_mean] +
+        cell[contact_cone] + cell[dirichlet_squared];
+    };
+    const auto copier = [&](const CellShare &share) {
+      for (unsigned int k = 0; k < n_sums; ++k)
+        sums[k] += share.cell[k];
+    };
+    WorkStream::run(filter_iterators(in.potential->active_cell_iterators(),
+                                     IteratorFilters::LocallyOwnedCell()),
+                    worker,
+                    copier,
+                    Scratch(in, lifting),
+                    CellShare(),
+                    /*queue_length=*/2 * MultithreadInfo::n_threads(),
+                    /*chunk_size=*/32);
 
     const MPI_Comm             comm = in.potential->get_communicator();
     std::array<double, n_sums> total{};

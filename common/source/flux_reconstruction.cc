@@ -1,5 +1,8 @@
 #include <deal.II/base/geometry_info.h>
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/multithread_info.h>
+#include <deal.II/base/parallel.h>
+#include <deal.II/base/work_stream.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/grid_tools.h>
@@ -971,6 +974,168 @@ namespace VI
   }
 
 
+  // What one thread needs for the right-hand sides of a cell: the hat
+  // functions' values, its own evaluator of the data, and arrays.
+  template <int dim>
+  struct FluxReconstruction<dim>::CellScratch
+  {
+    CellScratch(const FluxReconstruction<dim> &reconstruction,
+                const Sources                 &sources)
+        : sources(sources)
+        , hat_values(reconstruction.mapping,
+                     reconstruction.fe_hat,
+                     reconstruction.quadrature,
+                     update_values | update_gradients | update_jacobians |
+                       update_JxW_values)
+        , cell_values(sources.make_cell_values())
+        , flux(sources.n_fields,
+               std::vector<Tensor<1, dim>>(reconstruction.quadrature.size()))
+        , source(sources.n_fields,
+                 std::vector<double>(reconstruction.quadrature.size()))
+    {
+    }
+
+    // WorkStream copies the scratch once per thread: a new FEValues and a
+    // new evaluator of the data.
+    CellScratch(const CellScratch &other)
+        : sources(other.sources)
+        , hat_values(other.hat_values.get_mapping(),
+                     other.hat_values.get_fe(),
+                     other.hat_values.get_quadrature(),
+                     other.hat_values.get_update_flags())
+        , cell_values(sources.make_cell_values())
+        , flux(other.flux)
+        , source(other.source)
+    {
+    }
+
+    const Sources                           &sources;
+    FEValues<dim>                            hat_values;
+    typename Sources::CellValues             cell_values;
+    std::vector<std::vector<Tensor<1, dim>>> flux;
+    std::vector<std::vector<double>>         source;
+    std::vector<double>                      flux_moments, vertex_rhs;
+  };
+
+
+  // The right-hand sides of one cell's parts in its patches, in the order
+  // of memberships[cell], record = (n_tau + n_q) n_fields numbers each.
+  template <int dim>
+  struct FluxReconstruction<dim>::CellShare
+  {
+    CellIterator        cell;
+    std::vector<double> rhs;
+  };
+
+
+  // In the metric G of the cell, (psi F, tau_j) is int psi (G F^) . (s_j
+  // tau^_j) over the reference cell, with the Piola pull-back F^ = adj(J) F
+  // = det J J^-1 F (so that F in RT_p gives the product of the patch
+  // energy): the sum over the quadrature points of psi s_j (G adj(J) F) .
+  // tau^_j w_q, which on parallelograms is the L2 product psi s_j (J^T F) .
+  // tau^_j w_q. No Raviart-Thomas values on the cell are needed, only J, G
+  // and the signs.
+  template <int dim>
+  void
+  FluxReconstruction<dim>::cell_share(const CellIterator &cell,
+                                      CellScratch        &scratch,
+                                      CellShare          &share) const
+  {
+    const unsigned int n_fields       = scratch.sources.n_fields;
+    const unsigned int n_tau          = fe_flux.n_dofs_per_cell(),
+                       n_q            = fe_divergence.n_dofs_per_cell();
+    const unsigned int     record     = (n_tau + n_q) * n_fields;
+    constexpr unsigned int n_v        = GeometryInfo<dim>::vertices_per_cell;
+    const auto            &parts      = memberships[cell->active_cell_index()];
+    FEValues<dim>         &hat_values = scratch.hat_values;
+    auto                  &flux       = scratch.flux;
+    auto                  &source     = scratch.source;
+    auto                  &flux_moments = scratch.flux_moments;
+    auto                  &vertex_rhs   = scratch.vertex_rhs;
+    flux_moments.resize(n_fields * n_tau);
+    vertex_rhs.assign(n_v * record, 0.);
+
+    hat_values.reinit(cell);
+    scratch.cell_values(cell, flux, source);
+    Tensor<2, dim> G;
+    {
+      const double *metric = &cell_metric[cell->active_cell_index() * n_metric];
+      for (unsigned int a = 0, m = 0; a < dim; ++a)
+        for (unsigned int b = a; b < dim; ++b, ++m)
+          G[a][b] = G[b][a] = metric[m];
+    }
+
+    // The right-hand sides of the cell's Q1 shape functions phi_v,
+    // vertex_rhs[v record ...]; psi_a on the cell is the combination with
+    // the weights of its membership (one phi_v, or constraint weights at
+    // hanging vertices).
+    for (const unsigned int q : hat_values.quadrature_point_indices())
+      {
+        const double         dx = hat_values.JxW(q);
+        const Tensor<2, dim> J(hat_values.jacobian(q));
+        // the metric's product with the Piola pull-back adj(J) F of F:
+        // G adj(J) = J^T on parallelograms
+        const Tensor<2, dim> pull = G * (determinant(J) * invert(J));
+        const double *reference   = &weighted_flux_reference[q * n_tau * dim];
+        // (G adj(J) F_f) . tau^_j w_q, without the signs
+        for (unsigned int f = 0; f < n_fields; ++f)
+          {
+            double mapped[dim];
+            for (unsigned int e = 0; e < dim; ++e)
+              {
+                mapped[e] = 0;
+                for (unsigned int d = 0; d < dim; ++d)
+                  mapped[e] += pull[e][d] * flux[f][q][d];
+              }
+            for (unsigned int j = 0; j < n_tau; ++j)
+              {
+                double value = 0;
+                for (unsigned int e = 0; e < dim; ++e)
+                  value += mapped[e] * reference[j * dim + e];
+                flux_moments[f * n_tau + j] = value;
+              }
+          }
+        const double *q_k = &q_reference[q * n_q];
+        for (unsigned int v = 0; v < n_v; ++v)
+          {
+            const double          phi      = hat_values.shape_value(v, q);
+            const Tensor<1, dim> &grad_phi = hat_values.shape_grad(v, q);
+            double               *values   = &vertex_rhs[v * record];
+            for (unsigned int f = 0; f < n_fields; ++f, values += n_tau + n_q)
+              {
+                const double *moments = &flux_moments[f * n_tau];
+                for (unsigned int j = 0; j < n_tau; ++j)
+                  values[j] -= phi * moments[j];
+                const double g =
+                  (source[f][q] * phi - flux[f][q] * grad_phi) * dx;
+                for (unsigned int k = 0; k < n_q; ++k)
+                  values[n_tau + k] += g * q_k[k];
+              }
+          }
+      }
+    share.cell = cell;
+    share.rhs.assign(parts.size() * record, 0.);
+    for (unsigned int m = 0; m < parts.size(); ++m)
+      for (unsigned int v = 0; v < n_v; ++v)
+        if (const double w = parts[m].hat[v]; w != 0.)
+          {
+            const double *from = &vertex_rhs[v * record];
+            double       *to   = &share.rhs[m * record];
+            for (unsigned int i = 0; i < record; ++i)
+              to[i] += w * from[i];
+          }
+    const std::int8_t *signs = &piola_signs[cell->active_cell_index() * n_tau];
+    for (unsigned int m = 0; m < parts.size(); ++m)
+      for (unsigned int f = 0; f < n_fields; ++f)
+        {
+          double *values = share.rhs.data() + m * record + f * (n_tau + n_q);
+          for (unsigned int j = 0; j < n_tau; ++j)
+            if (signs[j] < 0)
+              values[j] = -values[j];
+        }
+  }
+
+
   // values[f (n_tau + n_q) + j] = -(psi_a F_f, tau_j)_K and
   // values[f (n_tau + n_q) + n_tau + k] = (s_f psi_a - F_f . grad psi_a,
   // q_k)_K.
@@ -1027,130 +1192,43 @@ namespace VI
     for (const auto &[to, n] : n_sent)
       outgoing[to].assign(n * record, 0.);
 
-    FEValues<dim>                            hat_values(mapping,
-                             fe_hat,
-                             quadrature,
-                             update_values | update_gradients |
-                               update_jacobians | update_JxW_values);
-    std::vector<std::vector<Tensor<1, dim>>> flux(
-      n_fields, std::vector<Tensor<1, dim>>(quadrature.size()));
-    std::vector<std::vector<double>> source(
-      n_fields, std::vector<double>(quadrature.size()));
-    constexpr unsigned int n_v = GeometryInfo<dim>::vertices_per_cell;
-    std::vector<double>    cell_rhs, flux_moments(n_fields * n_tau),
-      vertex_rhs(n_v * record);
-
     // One pass over the owned cells: each cell computes its part of the
-    // right-hand sides of the patches it belongs to. In the metric G of
-    // the cell, (psi F, tau_j) is int psi (G F^) . (s_j tau^_j) over the
-    // reference cell, with the Piola pull-back F^ = adj(J) F = det J J^-1 F
-    // (so that F in RT_p gives the product of the patch energy): the sum
-    // over the quadrature points of psi s_j (G adj(J) F) . tau^_j w_q,
-    // which on parallelograms is the L2 product psi s_j (J^T F) . tau^_j
-    // w_q. No Raviart-Thomas values on the cell are needed, only J, G and
-    // the signs.
+    // right-hand sides of the patches it belongs to (concurrently, see
+    // cell_share()), and the parts are added to the patches' right-hand
+    // sides, or to what is sent to other processes, in the order of the
+    // cells.
+    std::vector<CellIterator> cells;
     for (const auto &cell :
          dof_handler.get_triangulation().active_cell_iterators())
-      {
-        if (!cell->is_locally_owned())
-          continue;
-        const auto &parts = memberships[cell->active_cell_index()];
-        if (parts.empty())
-          continue;
-        hat_values.reinit(cell);
-        sources.cell_values(cell, flux, source);
-        Tensor<2, dim> G;
-        {
-          const double *metric =
-            &cell_metric[cell->active_cell_index() * n_metric];
-          for (unsigned int a = 0, m = 0; a < dim; ++a)
-            for (unsigned int b = a; b < dim; ++b, ++m)
-              G[a][b] = G[b][a] = metric[m];
-        }
-
-        // The right-hand sides of the cell's Q1 shape functions phi_v,
-        // vertex_rhs[v record ...]; psi_a on the cell is the combination
-        // with the weights of its membership (one phi_v, or constraint
-        // weights at hanging vertices).
-        std::fill(vertex_rhs.begin(), vertex_rhs.end(), 0.);
-        for (const unsigned int q : hat_values.quadrature_point_indices())
-          {
-            const double         dx = hat_values.JxW(q);
-            const Tensor<2, dim> J(hat_values.jacobian(q));
-            // the metric's product with the Piola pull-back adj(J) F of F:
-            // G adj(J) = J^T on parallelograms
-            const Tensor<2, dim> pull = G * (determinant(J) * invert(J));
-            const double *reference = &weighted_flux_reference[q * n_tau * dim];
-            // (G adj(J) F_f) . tau^_j w_q, without the signs
-            for (unsigned int f = 0; f < n_fields; ++f)
-              {
-                double mapped[dim];
-                for (unsigned int e = 0; e < dim; ++e)
-                  {
-                    mapped[e] = 0;
-                    for (unsigned int d = 0; d < dim; ++d)
-                      mapped[e] += pull[e][d] * flux[f][q][d];
-                  }
-                for (unsigned int j = 0; j < n_tau; ++j)
-                  {
-                    double value = 0;
-                    for (unsigned int e = 0; e < dim; ++e)
-                      value += mapped[e] * reference[j * dim + e];
-                    flux_moments[f * n_tau + j] = value;
-                  }
-              }
-            const double *q_k = &q_reference[q * n_q];
-            for (unsigned int v = 0; v < n_v; ++v)
-              {
-                const double          phi      = hat_values.shape_value(v, q);
-                const Tensor<1, dim> &grad_phi = hat_values.shape_grad(v, q);
-                double               *values   = &vertex_rhs[v * record];
-                for (unsigned int f = 0; f < n_fields;
-                     ++f, values += n_tau + n_q)
-                  {
-                    const double *moments = &flux_moments[f * n_tau];
-                    for (unsigned int j = 0; j < n_tau; ++j)
-                      values[j] -= phi * moments[j];
-                    const double g =
-                      (source[f][q] * phi - flux[f][q] * grad_phi) * dx;
-                    for (unsigned int k = 0; k < n_q; ++k)
-                      values[n_tau + k] += g * q_k[k];
-                  }
-              }
-          }
-        cell_rhs.assign(parts.size() * record, 0.);
-        for (unsigned int m = 0; m < parts.size(); ++m)
-          for (unsigned int v = 0; v < n_v; ++v)
-            if (const double w = parts[m].hat[v]; w != 0.)
-              {
-                const double *from = &vertex_rhs[v * record];
-                double       *to   = &cell_rhs[m * record];
-                for (unsigned int i = 0; i < record; ++i)
-                  to[i] += w * from[i];
-              }
-        const std::int8_t *signs =
-          &piola_signs[cell->active_cell_index() * n_tau];
-        for (unsigned int m = 0; m < parts.size(); ++m)
-          for (unsigned int f = 0; f < n_fields; ++f)
-            {
-              double *values = cell_rhs.data() + m * record + f * (n_tau + n_q);
-              for (unsigned int j = 0; j < n_tau; ++j)
-                if (signs[j] < 0)
-                  values[j] = -values[j];
-            }
-        for (unsigned int m = 0; m < parts.size(); ++m)
-          if (parts[m].rank == rank)
-            add_cell_share(parts[m].index,
-                           parts[m].position,
-                           cell_rhs.data() + m * record,
-                           n_fields,
-                           rhs.data() + rhs_start[parts[m].index]);
-          else
-            std::copy_n(cell_rhs.data() + m * record,
-                        record,
-                        outgoing[parts[m].rank].data() +
-                          parts[m].index * record);
-      }
+      if (cell->is_locally_owned() &&
+          !memberships[cell->active_cell_index()].empty())
+        cells.push_back(cell);
+    const auto worker =
+      [&](const typename std::vector<CellIterator>::const_iterator &cell,
+          CellScratch                                              &scratch,
+          CellShare &share) { cell_share(*cell, scratch, share); };
+    const auto copier = [&](const CellShare &share) {
+      const auto &parts = memberships[share.cell->active_cell_index()];
+      for (unsigned int m = 0; m < parts.size(); ++m)
+        if (parts[m].rank == rank)
+          add_cell_share(parts[m].index,
+                         parts[m].position,
+                         share.rhs.data() + m * record,
+                         n_fields,
+                         rhs.data() + rhs_start[parts[m].index]);
+        else
+          std::copy_n(share.rhs.data() + m * record,
+                      record,
+                      outgoing[parts[m].rank].data() + parts[m].index * record);
+    };
+    WorkStream::run(cells.cbegin(),
+                    cells.cend(),
+                    worker,
+                    copier,
+                    CellScratch(*this, sources),
+                    CellShare(),
+                    /*queue_length=*/2 * MultithreadInfo::n_threads(),
+                    /*chunk_size=*/64);
 
     // The parts computed by the owners of cells in patches solved here.
     if (Utilities::MPI::n_mpi_processes(comm) > 1)
@@ -1189,16 +1267,24 @@ namespace VI
 
     // The patch fluxes summed at the positions of writable_dofs, then
     // added into distributed vectors (each writable dof once).
+    // The patch problems, independent of each other (concurrently): the
+    // patch solution overwrites its right-hand sides, sigma^a is the head
+    // of each column.
+    parallel::apply_to_subranges(
+      0u,
+      static_cast<unsigned int>(patches.size()),
+      [&](const unsigned int begin, const unsigned int end) {
+        std::vector<double> work;
+        for (unsigned int p = begin; p < end; ++p)
+          patches[p].solver->solve(rhs.data() + rhs_start[p], n_fields, work);
+      },
+      /*grainsize=*/256);
     std::vector<std::vector<double>> sums(
       n_fields, std::vector<double>(writable_dofs.n_elements(), 0.));
-    std::vector<double> work;
     for (unsigned int p = 0; p < patches.size(); ++p)
       {
-        // The patch solution overwrites its right-hand sides; sigma^a is
-        // the head of each column.
-        const LocalSolver &solver   = *patches[p].solver;
-        double            *solution = rhs.data() + rhs_start[p];
-        solver.solve(solution, n_fields, work);
+        const LocalSolver  &solver    = *patches[p].solver;
+        const double       *solution  = rhs.data() + rhs_start[p];
         const unsigned int  n_sigma   = solver.layout->n_sigma;
         const unsigned int *positions = &patch_positions[patches[p].dofs_start];
         for (unsigned int f = 0; f < n_fields; ++f)

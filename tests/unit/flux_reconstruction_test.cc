@@ -3,6 +3,7 @@
 // when the data satisfy the discrete equations up to the residual r_h that
 // enters the patch problems (as the algebraic residual of an iterate does).
 #include <deal.II/base/function.h>
+#include <deal.II/base/multithread_info.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/dofs/dof_tools.h>
@@ -182,25 +183,30 @@ namespace
 
     VI::FluxReconstruction<2> reconstruction(mapping, degree);
     reconstruction.reinit(dofs);
-    FEValues<2>         data_values(mapping,
-                            fe,
-                            reconstruction.get_quadrature(),
-                            update_values | update_gradients |
-                              update_quadrature_points);
-    std::vector<double> r_values(reconstruction.get_quadrature().size());
-
     typename VI::FluxReconstruction<2>::Sources sources;
-    sources.cell_values = [&](const auto &cell, auto &flux, auto &source) {
-      typename DoFHandler<2>::active_cell_iterator dof_cell(&tria,
-                                                            cell->level(),
-                                                            cell->index(),
-                                                            &dofs);
-      data_values.reinit(dof_cell);
-      data_values.get_function_gradients(u, flux[0]);
-      data_values.get_function_values(r, r_values);
-      for (unsigned int q = 0; q < flux[0].size(); ++q)
-        source[0][q] = f.value(data_values.quadrature_point(q)) -
-                       (degree > 1 ? r_values[q] : 0.);
+    sources.make_cell_values = [&]() {
+      // per thread (the cells are evaluated concurrently)
+      const auto data_values =
+        std::make_shared<FEValues<2>>(mapping,
+                                      fe,
+                                      reconstruction.get_quadrature(),
+                                      update_values | update_gradients |
+                                        update_quadrature_points);
+      const auto r_values = std::make_shared<std::vector<double>>(
+        reconstruction.get_quadrature().size());
+      return
+        [&, data_values, r_values](const auto &cell, auto &flux, auto &source) {
+          typename DoFHandler<2>::active_cell_iterator dof_cell(&tria,
+                                                                cell->level(),
+                                                                cell->index(),
+                                                                &dofs);
+          data_values->reinit(dof_cell);
+          data_values->get_function_gradients(u, flux[0]);
+          data_values->get_function_values(r, *r_values);
+          for (unsigned int q = 0; q < flux[0].size(); ++q)
+            source[0][q] = f.value(data_values->quadrature_point(q)) -
+                           (degree > 1 ? (*r_values)[q] : 0.);
+        };
     };
     if (degree == 1)
       sources.vertex_source = [&](const unsigned int a, const unsigned int) {
@@ -318,9 +324,11 @@ TEST_P(FluxReconstructionTest, ReproducesAConstantFluxOnDistortedMeshes)
   VI::FluxReconstruction<2> reconstruction(mapping, degree);
   reconstruction.reinit(dofs);
   typename VI::FluxReconstruction<2>::Sources sources;
-  sources.cell_values = [&](const auto &, auto &flux, auto &source) {
-    std::fill(flux[0].begin(), flux[0].end(), c);
-    std::fill(source[0].begin(), source[0].end(), 0.);
+  sources.make_cell_values = [&]() {
+    return [&](const auto &, auto &flux, auto &source) {
+      std::fill(flux[0].begin(), flux[0].end(), c);
+      std::fill(source[0].begin(), source[0].end(), 0.);
+    };
   };
   TrilinosWrappers::MPI::Vector sigma;
   reconstruction.reconstruct(sources, {&sigma});
@@ -341,4 +349,63 @@ TEST_P(FluxReconstructionTest, ReproducesAConstantFluxOnDistortedMeshes)
         largest = std::max(largest, (value + c).norm() / c.norm());
     }
   EXPECT_LT(largest, 1e-10) << "p = " << degree;
+}
+
+
+// The cells' right-hand sides and the patch problems are computed on the
+// threads of MultithreadInfo and summed in a fixed order: the flux must be
+// the same to the last bit with one thread and with four (more than the
+// cores of most test machines, so that cells finish out of order).
+TEST(FluxReconstruction, DoesNotDependOnTheNumberOfThreads)
+{
+  for (const unsigned int degree : {1u, 2u})
+    {
+      Triangulation<2> tria;
+      make_mesh(tria, /*distorted=*/true, /*hanging=*/true);
+      tria.refine_global(2); // many chunks of cells per thread
+      MappingQ<2>   mapping(1);
+      FE_Q<2>       fe(degree);
+      DoFHandler<2> dofs(tria);
+      dofs.distribute_dofs(fe);
+      Vector<double> u(dofs.n_dofs());
+      VectorTools::interpolate(mapping, dofs, Potential(), u);
+      const Load f;
+
+      VI::FluxReconstruction<2> reconstruction(mapping, degree);
+      reconstruction.reinit(dofs);
+      typename VI::FluxReconstruction<2>::Sources sources;
+      sources.make_cell_values = [&]() {
+        const auto values =
+          std::make_shared<FEValues<2>>(mapping,
+                                        fe,
+                                        reconstruction.get_quadrature(),
+                                        update_gradients |
+                                          update_quadrature_points);
+        return [&, values](const auto &cell, auto &flux, auto &source) {
+          values->reinit(typename DoFHandler<2>::active_cell_iterator(
+            &tria, cell->level(), cell->index(), &dofs));
+          values->get_function_gradients(u, flux[0]);
+          for (unsigned int q = 0; q < source[0].size(); ++q)
+            source[0][q] = f.value(values->quadrature_point(q));
+        };
+      };
+      // the vertex constants vary, so that every patch has its own data
+      sources.vertex_source = [&](const unsigned int a, const unsigned int) {
+        return std::sin(double(a));
+      };
+
+      TrilinosWrappers::MPI::Vector one_thread, four_threads;
+      MultithreadInfo::set_thread_limit(1);
+      reconstruction.reconstruct(sources, {&one_thread});
+      MultithreadInfo::set_thread_limit(4);
+      reconstruction.reconstruct(sources, {&four_threads});
+      MultithreadInfo::set_thread_limit();
+
+      ASSERT_EQ(one_thread.size(), four_threads.size());
+      unsigned int n_different = 0;
+      for (const auto i : one_thread.locally_owned_elements())
+        n_different += (one_thread(i) != four_threads(i));
+      EXPECT_EQ(n_different, 0u) << "p = " << degree;
+      EXPECT_GT(one_thread.l2_norm(), 0.);
+    }
 }

@@ -70,11 +70,16 @@ namespace VI
             const dealii::Function<dim>   &g,
             Vector                        &lifting) const;
 
-    /// L at the points of the cell quadrature on `cell` (owned or ghost;
-    /// not thread-safe: one FEValues object is reused).
+    /// The FEValues that values() works with: one per thread.
+    std::unique_ptr<dealii::FEValues<dim>>
+    make_cell_values() const;
+
+    /// L at the points of the cell quadrature on `cell` (owned or ghost),
+    /// with `cell_values` from make_cell_values() as scratch.
     void
     values(const CellIterator                  &cell,
            const Vector                        &lifting,
+           dealii::FEValues<dim>               &cell_values,
            std::vector<dealii::Tensor<1, dim>> &values) const;
 
     const dealii::DoFHandler<dim> &
@@ -87,8 +92,6 @@ namespace VI
     const dealii::Quadrature<dim - 1> face_quadrature;
     dealii::DoFHandler<dim>           dof_handler;
     dealii::IndexSet                  owned_dofs, relevant_dofs;
-    /// For values(): the shape functions at the cell quadrature points.
-    std::unique_ptr<dealii::FEValues<dim>> cell_values;
   };
 
 

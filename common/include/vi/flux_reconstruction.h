@@ -95,14 +95,21 @@ namespace VI
      */
     struct Sources
     {
-      unsigned int n_fields = 1;
-      /// Fill flux[c][q] = F and source[c][q] = s of field c at the points of
-      /// get_quadrature() on `cell`, a locally owned cell (each cell is
+      /// Fills flux[c][q] = F and source[c][q] = s of field c at the points
+      /// of get_quadrature() on `cell`, a locally owned cell (each cell is
       /// evaluated once per reconstruction); the vectors are sized.
-      std::function<void(const CellIterator &,
-                         std::vector<std::vector<dealii::Tensor<1, dim>>> &flux,
-                         std::vector<std::vector<double>> &source)>
-        cell_values;
+      using CellValues = std::function<
+        void(const CellIterator &,
+             std::vector<std::vector<dealii::Tensor<1, dim>>> &flux,
+             std::vector<std::vector<double>>                 &source)>;
+
+      unsigned int n_fields = 1;
+      /// Makes the CellValues of one thread. The cells are evaluated
+      /// concurrently (WorkStream, on the threads of MultithreadInfo), each
+      /// thread with the function made for it: that function may keep its
+      /// own scratch (FEValues, value arrays), and must only read what it
+      /// shares with the others (vectors, data tables).
+      std::function<CellValues()> make_cell_values;
       /// Optional: c_a of field c for the global vertex index a.
       std::function<double(const unsigned int vertex, const unsigned int field)>
         vertex_source;
@@ -133,6 +140,9 @@ namespace VI
     reinit(const dealii::DoFHandler<dim> &potential);
 
     /// sigma[c] = sum_a sigma_c^a for every field c, with ghost entries.
+    /// The cells' right-hand sides and the patch problems are computed on
+    /// the threads of MultithreadInfo; they are summed in a fixed order, so
+    /// the result does not depend on the number of threads.
     void
     reconstruct(
       const Sources                                              &sources,
@@ -181,6 +191,15 @@ namespace VI
                                        std::shared_ptr<const PatchLayout>,
                                        KeyHash>;
     struct Shares;
+    struct CellScratch;
+    struct CellShare;
+
+    /// The right-hand sides of a locally owned cell's parts in its patches
+    /// (thread-safe: writes only to the scratch and the share).
+    void
+    cell_share(const CellIterator &cell,
+               CellScratch        &scratch,
+               CellShare          &share) const;
 
     /// A vertex patch solved here: its unknowns sigma^a are the Raviart-Thomas
     /// dofs patch_positions[dofs_start ...] (as many as the layout of its
