@@ -622,6 +622,10 @@ namespace VI
     std::vector<const std::int8_t *> signs_of_cells;
     std::vector<const double *>      metrics;
     PatchLayout                      layout; // of the current patch
+    // the new solvers and where their cells' metrics start in
+    // unfactorised_metrics
+    std::vector<std::pair<LocalSolver *, std::size_t>> unfactorised;
+    std::vector<double>                                unfactorised_metrics;
 
     for (auto first = shares_here.begin(); first != shares_here.end();)
       {
@@ -768,7 +772,16 @@ namespace VI
           }
         if (!*solver)
           {
-            *solver = make_local_solver(patch_layout, metrics);
+            // factorised after the loop, on all cores
+            const auto created = std::make_shared<LocalSolver>();
+            created->layout    = patch_layout;
+            unfactorised.emplace_back(created.get(),
+                                      unfactorised_metrics.size());
+            for (const double *metric : metrics)
+              unfactorised_metrics.insert(unfactorised_metrics.end(),
+                                          metric,
+                                          metric + n_metric);
+            *solver = created;
             ++n_local_solvers;
           }
         patch.solver = *solver;
@@ -795,6 +808,15 @@ namespace VI
             release(mine.cells[mine.cell[member.index]]);
         patches.push_back(std::move(patch));
       }
+    parallel::apply_to_subranges(
+      std::size_t(0),
+      unfactorised.size(),
+      [&](const std::size_t begin, const std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i)
+          factorise(*unfactorised[i].first,
+                    unfactorised_metrics.data() + unfactorised[i].second);
+      },
+      /*grainsize=*/256);
     for (const auto &[from, shares] : incoming)
       AssertThrow(n_received[from] == shares.patch.size(),
                   ExcMessage("Flux reconstruction: a cell share sent to this "
@@ -920,25 +942,23 @@ namespace VI
   // The patch energy on the divergence-free fluxes from the cells'
   // metrics: Z^T A Z = sum G_c,m P_c,m = L L^T and C = sum G_c,m Q_c,m.
   template <int dim>
-  std::shared_ptr<const typename FluxReconstruction<dim>::LocalSolver>
-  FluxReconstruction<dim>::make_local_solver(
-    const std::shared_ptr<const PatchLayout> &layout,
-    const std::vector<const double *>        &metrics) const
+  void
+  FluxReconstruction<dim>::factorise(LocalSolver  &solver,
+                                     const double *metrics) const
   {
+    const auto            &layout   = solver.layout;
     const DivergenceBasis &basis    = *layout->basis;
     const unsigned int     d        = basis.n_free;
     const unsigned int     n_q      = basis.n_q;
     const unsigned int     n_packed = layout->n_packed();
     const unsigned int     n_block  = layout->energy_block();
-    auto                   solver   = std::make_shared<LocalSolver>();
-    solver->layout                  = layout;
-    solver->factors.assign(d * n_q + n_packed, 0.);
-    double *const C = solver->factors.data();
+    solver.factors.assign(d * n_q + n_packed, 0.);
+    double *const C = solver.factors.data();
     double *const L = C + d * n_q;
     for (unsigned int c = 0; c < layout->n_cells; ++c)
       for (unsigned int m = 0; m < n_metric; ++m)
         {
-          const double  G = metrics[c][m];
+          const double  G = metrics[c * n_metric + m];
           const double *P =
             &layout->energy[(std::size_t(c) * n_metric + m) * n_block];
           const double *Q = P + n_packed;
@@ -970,7 +990,6 @@ namespace VI
               }
           }
       }
-    return solver;
   }
 
 

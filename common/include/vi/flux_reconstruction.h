@@ -235,11 +235,11 @@ namespace VI
                   Layouts                                &layouts,
                   std::vector<std::int64_t>              &key) const;
 
-    /// The solver of a patch with the given shared layout and the metrics
-    /// J^T J / det J of its cells (dim (dim + 1) / 2 numbers each).
-    std::shared_ptr<const LocalSolver>
-    make_local_solver(const std::shared_ptr<const PatchLayout> &layout,
-                      const std::vector<const double *>        &metrics) const;
+    /// Assemble and factorise the patch matrices of `solver` (its layout
+    /// set) for the metrics J^T J / det J of its cells, dim (dim + 1) / 2
+    /// numbers per cell from `metrics` on.
+    void
+    factorise(LocalSolver &solver, const double *metrics) const;
 
     /// Add one cell's right-hand sides (all fields; layout of reconstruct())
     /// to those of patch p, column-major from rhs on.
