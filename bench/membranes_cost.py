@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
 """What a contact solve costs against a Poisson solve (doc/performance.md).
 
-In one run of step-membranes per process count, on globally refined meshes
+In one run of step-membranes per configuration, on globally refined meshes
 of the unit disk from about 1e4 to 7.9e5 unknowns per field (Q1; 3 fields,
-2.4e6 unknowns on the finest mesh), on one and on two processes:
+2.4e6 unknowns on the finest mesh), on one process with one thread, on one
+process with all cores (deal.II's default: the estimators run on threads,
+Trilinos' AMG and Krylov solvers on one) and on two processes:
 the contact problem solved by adaptive inexact semismooth Newton-min with
 GMRES + AMG and nested iteration (set-up, assembly, Newton, linear solves
 and the estimators that stop them), against one CG + AMG Poisson solve of
@@ -17,7 +19,7 @@ Usage, from the repository root after ./demo.sh or ./test.sh:
 --quick stops at about 5e4 unknowns per field (a smoke test of the script).
 --c-function chooses the C-function of Newton (default min); for another
 one the files are doc/data/cost-<name>.{csv,md,png}.
-The full study takes about 5 minutes and 10 GB of memory.
+The full study takes about 8 minutes and 10 GB of memory.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
@@ -36,11 +38,13 @@ C_FUNCTION = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--c-fun
 STEM = "cost" if C_FUNCTION == "min" else f"cost-{C_FUNCTION}"
 # 12288 cells and up to three refinements: 2.4e6 unknowns (peak memory
 # 8.3 GB on one process, 4.8 GB per process on two).
-CYCLES = {1: 2, 2: 2} if QUICK else {1: 4, 2: 4}
+CYCLES = 2 if QUICK else 4
+# (processes, threads per process; None: deal.II's default, all cores)
+CONFIGURATIONS = [(1, 1), (1, None), (2, None)]
 
 
-def run(np):
-    settings = {"Mesh/Initial refinements": 5, "Mesh/Cycles": CYCLES[np],
+def run(np, threads):
+    settings = {"Mesh/Initial refinements": 5, "Mesh/Cycles": CYCLES,
                 "Nonlinear solver/Strategy": "adaptive",
                 "Nonlinear solver/C-function": C_FUNCTION,
                 "Nonlinear solver/Nested iteration": "true",
@@ -49,19 +53,23 @@ def run(np):
                 "Benchmark/Reference Poisson solve": "true",
                 "Output/Write VTU": "false"}
     summary = run_program(PROGRAM, "estimators-disk-p1.prm", settings,
-                          os.path.join(OUT, f"{STEM}-np{np}"), np)
-    print(f"  np = {np}: done", flush=True)
-    return summary["cycles"]
+                          os.path.join(OUT, f"{STEM}-np{np}-threads{threads or 'all'}"),
+                          np, threads)
+    n_threads = summary["threads_per_rank"]
+    print(f"  np = {np} x {n_threads} thread(s): done", flush=True)
+    return n_threads, summary["cycles"]
 
 
 def main():
     rows = []
-    for np in (1, 2):
+    for k, (np, threads) in enumerate(CONFIGURATIONS):
         previous = None
-        for c in run(np):
+        n_threads, cycles = run(np, threads)
+        for c in cycles:
             poisson = sum(m["seconds"] for m in c["reference_poisson"])
             estimators = estimator_seconds(c["timing"])
-            row = {"np": np, "cycle": c["cycle"], "cells": c["cells"],
+            row = {"configuration": k, "np": np, "threads": n_threads,
+                   "cycle": c["cycle"], "cells": c["cells"],
                    "dofs_per_field": c["dofs_per_field"], "unknowns": c["dofs"],
                    "newton": c["newton_iterations"], "gmres": c["linear_iterations"],
                    "poisson_cg": "/".join(str(m["iterations"]) for m in c["reference_poisson"]),
@@ -77,14 +85,15 @@ def main():
             rows.append(row)
             previous = c
     for row in rows:
-        serial = next(r for r in rows if r["np"] == 1 and r["cycle"] == row["cycle"])
+        serial = next(r for r in rows
+                      if r["np"] == 1 and r["threads"] == 1 and r["cycle"] == row["cycle"])
         row["speedup"] = serial["solve_seconds"] / row["solve_seconds"]
 
-    header = ["np", "DoFs per field", "unknowns", "Newton", "GMRES", "Poisson CG",
+    header = ["np", "threads", "DoFs per field", "unknowns", "Newton", "GMRES", "Poisson CG",
               "contact solve (s)", "estimators (s)", "2 Poisson (s)", "ratio",
               "ratio without estimators", "estimators / rest", "growth exponent",
               "speed-up", "effectivity"]
-    formats = [("np", "{}"), ("dofs_per_field", "{}"), ("unknowns", "{}"),
+    formats = [("np", "{}"), ("threads", "{}"), ("dofs_per_field", "{}"), ("unknowns", "{}"),
                ("newton", "{}"), ("gmres", "{}"), ("poisson_cg", "{}"),
                ("solve_seconds", "{:.2f}"), ("estimator_seconds", "{:.2f}"),
                ("poisson_seconds", "{:.2f}"), ("ratio", "{:.1f}"),
@@ -93,31 +102,41 @@ def main():
     write_table(STEM, rows, header, formats)
 
     dat = os.path.join(OUT, f"{STEM}.dat")
+    groups = []  # (np, threads, index in the .dat file)
     with open(dat, "w") as f:
-        for np in (1, 2):
-            f.write(f"# np = {np}: DoFs per field, contact solve, estimators, 2 Poisson\n")
-            for row in rows:
-                if row["np"] == np:
-                    f.write(f"{row['dofs_per_field']} {row['solve_seconds']} "
-                            f"{row['estimator_seconds']} {row['poisson_seconds']}\n")
+        for k in range(len(CONFIGURATIONS)):
+            group = [r for r in rows if r["configuration"] == k]
+            np, n_threads = group[0]["np"], group[0]["threads"]
+            groups.append((np, n_threads, k))
+            f.write(f"# np = {np} x {n_threads} thread(s): DoFs per field, "
+                    "contact solve, estimators, 2 Poisson\n")
+            for row in group:
+                f.write(f"{row['dofs_per_field']} {row['solve_seconds']} "
+                        f"{row['estimator_seconds']} {row['poisson_seconds']}\n")
             f.write("\n\n")
     first = rows[0]
+    curves = []
+    for (np, n_threads, index), colour in zip(groups, (1, 4, 6)):
+        label = f"np = {np} x {n_threads} thread{'s' if n_threads > 1 else ''}"
+        curves.append(f"'{dat}' index {index} using 1:2 with linespoints lw 2 pt 7 "
+                      f"lc {colour} title 'contact solve, {label}'")
+        curves.append(f"'{dat}' index {index} using 1:3 with linespoints lw 1 pt 6 "
+                      f"lc {colour} dt 2 title 'of which estimators, {label}'")
+        if n_threads == 1:
+            curves.append(f"'{dat}' index {index} using 1:4 with linespoints lw 2 pt 5 "
+                          f"lc {colour + 1} title '2 Poisson solves, np = {np}'")
+    curves.append(f"{first['solve_seconds']}*x/{first['dofs_per_field']} with lines "
+                  "lc rgb 'gray' dt 3 title 'linear growth'")
     script = f"""
-set terminal pngcairo size 900,600 font ',11'
+set terminal pngcairo size 900,650 font ',11'
 set output '{os.path.join(DATA, STEM + '.png')}'
 set logscale xy
 set grid
-set key left top
+set key left top font ',9'
 set xlabel 'unknowns per field'
 set ylabel 'wall time (s)'
 set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG)\\nagainst two Poisson solves (CG + AMG)"
-plot '{dat}' index 0 using 1:2 with linespoints lw 2 pt 7 lc 1 title 'contact solve, np = 1', \\
-     '{dat}' index 0 using 1:3 with linespoints lw 1 pt 6 lc 1 dt 2 title 'of which estimators, np = 1', \\
-     '{dat}' index 0 using 1:4 with linespoints lw 2 pt 5 lc 2 title '2 Poisson solves, np = 1', \\
-     '{dat}' index 1 using 1:2 with linespoints lw 2 pt 7 lc 3 title 'contact solve, np = 2', \\
-     '{dat}' index 1 using 1:4 with linespoints lw 2 pt 5 lc 4 title '2 Poisson solves, np = 2', \\
-     {first['solve_seconds']}*x/{first['dofs_per_field']} with lines lc rgb 'gray' dt 3 title 'linear growth'
-"""
+plot """ + ", \\\n     ".join(curves) + "\n"
     subprocess.run(["gnuplot"], input=script.encode(), check=True)
     print(f"wrote {os.path.join(DATA, STEM)}.{{csv,md,png}}")
 
