@@ -1206,7 +1206,17 @@ namespace VI
     for (unsigned int p = 0; p < patches.size(); ++p)
       rhs_start[p + 1] =
         rhs_start[p] + std::size_t(patches[p].solver->n()) * n_fields;
-    std::vector<double>                         rhs(rhs_start.back(), 0.);
+    // (zeroed on all threads: on a large mesh this is the first touch of
+    // much memory, whose page faults then run in parallel)
+    const std::unique_ptr<double[]> rhs_storage(new double[rhs_start.back()]);
+    double *const                   rhs = rhs_storage.get();
+    parallel::apply_to_subranges(
+      std::size_t(0),
+      rhs_start.back(),
+      [&](const std::size_t begin, const std::size_t end) {
+        std::fill(rhs + begin, rhs + end, 0.);
+      },
+      /*grainsize=*/std::size_t(1) << 16);
     std::map<unsigned int, std::vector<double>> outgoing;
     for (const auto &[to, n] : n_sent)
       outgoing[to].assign(n * record, 0.);
@@ -1234,7 +1244,7 @@ namespace VI
                          parts[m].position,
                          share.rhs.data() + m * record,
                          n_fields,
-                         rhs.data() + rhs_start[parts[m].index]);
+                         rhs + rhs_start[parts[m].index]);
         else
           std::copy_n(share.rhs.data() + m * record,
                       record,
@@ -1262,7 +1272,7 @@ namespace VI
                              targets[i].second,
                              values.data() + i * record,
                              n_fields,
-                             rhs.data() + rhs_start[targets[i].first]);
+                             rhs + rhs_start[targets[i].first]);
           }
       }
 
@@ -1276,7 +1286,7 @@ namespace VI
           for (unsigned int f = 0; f < n_fields; ++f)
             {
               const double c_a    = sources.vertex_source(patch.vertex, f);
-              double      *column = rhs.data() + rhs_start[p] +
+              double      *column = rhs + rhs_start[p] +
                                std::size_t(f) * patch.solver->n() +
                                layout.n_sigma;
               for (unsigned int k = 0; k < layout.n_cells * n_q; ++k)
@@ -1295,24 +1305,32 @@ namespace VI
       [&](const unsigned int begin, const unsigned int end) {
         std::vector<double> work;
         for (unsigned int p = begin; p < end; ++p)
-          patches[p].solver->solve(rhs.data() + rhs_start[p], n_fields, work);
+          patches[p].solver->solve(rhs + rhs_start[p], n_fields, work);
       },
       /*grainsize=*/256);
-    std::vector<std::vector<double>> sums(
-      n_fields, std::vector<double>(writable_dofs.n_elements(), 0.));
-    for (unsigned int p = 0; p < patches.size(); ++p)
-      {
-        const LocalSolver  &solver    = *patches[p].solver;
-        const double       *solution  = rhs.data() + rhs_start[p];
-        const unsigned int  n_sigma   = solver.layout->n_sigma;
-        const unsigned int *positions = &patch_positions[patches[p].dofs_start];
-        for (unsigned int f = 0; f < n_fields; ++f)
+    // The fluxes of the patches summed in patch order, the fields
+    // concurrently.
+    std::vector<std::vector<double>> sums(n_fields);
+    parallel::apply_to_subranges(
+      0u,
+      n_fields,
+      [&](const unsigned int first_field, const unsigned int end_field) {
+        for (unsigned int f = first_field; f < end_field; ++f)
           {
-            const double *column = solution + std::size_t(f) * solver.n();
-            for (unsigned int i = 0; i < n_sigma; ++i)
-              sums[f][positions[i]] += column[i];
+            sums[f].assign(writable_dofs.n_elements(), 0.);
+            for (unsigned int p = 0; p < patches.size(); ++p)
+              {
+                const LocalSolver &solver = *patches[p].solver;
+                const double      *column =
+                  rhs + rhs_start[p] + std::size_t(f) * solver.n();
+                const unsigned int *positions =
+                  &patch_positions[patches[p].dofs_start];
+                for (unsigned int i = 0; i < solver.layout->n_sigma; ++i)
+                  sums[f][positions[i]] += column[i];
+              }
           }
-      }
+      },
+      /*grainsize=*/1);
     std::vector<types::global_dof_index> writable;
     writable_dofs.fill_index_vector(writable);
     // The fluxes on the fine side of hanging faces from the coarse side.
