@@ -387,15 +387,6 @@ namespace VI
     constexpr unsigned int n_v   = GeometryInfo<dim>::vertices_per_cell;
     const unsigned int     n_tau = fe_flux.n_dofs_per_cell();
     const unsigned int     n_q   = fe_divergence.n_dofs_per_cell();
-    // (The Jacobians from the Q1 element: in deal.II 9.4 an FEValues of a
-    // Raviart-Thomas element that asks for mapping data only trips over the
-    // face sign changes of unstructured meshes, deal.II PR 15963.)
-    FEValues<dim>                        hat_values(mapping,
-                             fe_hat,
-                             quadrature,
-                             update_values | update_jacobians |
-                               update_JxW_values);
-    std::vector<types::global_dof_index> rt_dofs(n_tau);
     // The Piola signs, for the patch layouts, the right-hand sides of
     // reconstruct() and the estimators, from the mesh (no Raviart-Thomas
     // FEValues, see PiolaDivergence::topological_signs).
@@ -405,96 +396,118 @@ namespace VI
     // The data and shares of the owned cells, psi_j on a cell being the Q1
     // function with value 1 at the vertex of j and the constraint weights
     // at the hanging vertices that depend on j.
-    Shares mine;
-    mine.cells.reserve(tria.n_active_cells());
+    Shares                                               mine;
+    std::vector<typename DoFHandler<dim>::cell_iterator> owned_cells;
+    for (const auto &hat_cell : hats.active_cell_iterators())
+      if (hat_cell->is_locally_owned())
+        owned_cells.push_back(hat_cell);
+    mine.cells.resize(owned_cells.size());
+
+    // The cells' data, on all threads (each cell writes its own entries).
+    parallel::apply_to_subranges(
+      std::size_t(0),
+      owned_cells.size(),
+      [&](const std::size_t begin, const std::size_t end) {
+        // (The Jacobians from the Q1 element: in deal.II 9.4 an FEValues of
+        // a Raviart-Thomas element that asks for mapping data only trips
+        // over the face sign changes of unstructured meshes, deal.II PR
+        // 15963.)
+        FEValues<dim>                        hat_values(mapping,
+                                 fe_hat,
+                                 quadrature,
+                                 update_values | update_jacobians |
+                                   update_JxW_values);
+        std::vector<types::global_dof_index> rt_dofs(n_tau);
+        for (std::size_t c = begin; c < end; ++c)
+          {
+            const CellIterator cell(owned_cells[c]);
+            CellData          &data = mine.cells[c];
+            data.cell               = cell;
+            for (unsigned int d = 0; d < dim; ++d)
+              data.center[d] = cell->center()[d];
+            typename DoFHandler<dim>::active_cell_iterator dof_cell(
+              &tria, cell->level(), cell->index(), &dof_handler);
+            dof_cell->get_dof_indices(rt_dofs);
+            std::int8_t *const cell_signs =
+              &piola_signs[cell->active_cell_index() * n_tau];
+            PiolaDivergence<dim>::topological_signs(
+              cell, fe_flux, ArrayView<std::int8_t>(cell_signs, n_tau));
+            data.signs.assign(cell_signs, cell_signs + n_tau);
+            for (unsigned int k = 0; k < n_tau; ++k)
+              {
+                data.expansion_start.push_back(data.expansion.size());
+                if (hanging_constraints.is_constrained(rt_dofs[k]))
+                  for (const auto &entry :
+                       *hanging_constraints.get_constraint_entries(rt_dofs[k]))
+                    data.expansion.push_back(entry);
+                else
+                  data.expansion.emplace_back(rt_dofs[k], 1.);
+              }
+            data.expansion_start.push_back(data.expansion.size());
+            hat_values.reinit(cell);
+            data.vertex_mass.assign(n_v * n_q, 0.);
+            Tensor<2, dim> mean_jacobian;
+            for (const unsigned int q : hat_values.quadrature_point_indices())
+              {
+                for (unsigned int v = 0; v < n_v; ++v)
+                  for (unsigned int k = 0; k < n_q; ++k)
+                    data.vertex_mass[v * n_q + k] +=
+                      hat_values.shape_value(v, q) * q_reference[q * n_q + k] *
+                      hat_values.JxW(q);
+                mean_jacobian +=
+                  quadrature.weight(q) * Tensor<2, dim>(hat_values.jacobian(q));
+              }
+            // G = J^T J / det J of the mean Jacobian (the jacobian of a
+            // bilinear cell at its center)
+            const Tensor<2, dim> G = transpose(mean_jacobian) * mean_jacobian /
+                                     determinant(mean_jacobian);
+            double *const metric =
+              &cell_metric[cell->active_cell_index() * n_metric];
+            for (unsigned int a = 0, m = 0; a < dim; ++a)
+              for (unsigned int b = a; b < dim; ++b, ++m)
+                metric[m] = G[a][b];
+            data.metric.assign(metric, metric + n_metric);
+          }
+      },
+      /*grainsize=*/1024);
+
+    // The shares, in the order of the cells.
     // the vertex of each unconstrained hat, by its position in relevant_hats
     std::vector<unsigned int> vertex_of(relevant_hats.n_elements(),
                                         numbers::invalid_unsigned_int);
     std::vector<std::pair<types::global_dof_index, std::array<double, n_v>>>
       psi;
-    for (const auto &hat_cell : hats.active_cell_iterators())
-      if (hat_cell->is_locally_owned())
-        {
-          psi.clear();
-          for (const unsigned int v : hat_cell->vertex_indices())
-            {
-              const auto i   = hat_cell->vertex_dof_index(v, 0);
-              const auto add = [&](const types::global_dof_index j,
-                                   const double                  w) {
-                auto entry =
-                  std::find_if(psi.begin(), psi.end(), [j](const auto &e) {
-                    return e.first == j;
-                  });
-                if (entry == psi.end())
-                  entry = psi.insert(psi.end(), {j, std::array<double, n_v>{}});
-                entry->second[v] = w;
-              };
-              if (hat_constraints.is_constrained(i))
-                for (const auto &[j, w] :
-                     *hat_constraints.get_constraint_entries(i))
-                  add(j, w);
-              else
-                {
-                  add(i, 1.);
-                  vertex_of[relevant_hats.index_within_set(i)] =
-                    hat_cell->vertex_index(v);
-                }
-            }
-
-          const CellIterator cell(hat_cell);
-          CellData           data;
-          data.cell = cell;
-          for (unsigned int d = 0; d < dim; ++d)
-            data.center[d] = cell->center()[d];
-          typename DoFHandler<dim>::active_cell_iterator dof_cell(&tria,
-                                                                  cell->level(),
-                                                                  cell->index(),
-                                                                  &dof_handler);
-          dof_cell->get_dof_indices(rt_dofs);
-          std::int8_t *const cell_signs =
-            &piola_signs[cell->active_cell_index() * n_tau];
-          PiolaDivergence<dim>::topological_signs(
-            cell, fe_flux, ArrayView<std::int8_t>(cell_signs, n_tau));
-          data.signs.assign(cell_signs, cell_signs + n_tau);
-          for (unsigned int k = 0; k < n_tau; ++k)
-            {
-              data.expansion_start.push_back(data.expansion.size());
-              if (hanging_constraints.is_constrained(rt_dofs[k]))
-                for (const auto &entry :
-                     *hanging_constraints.get_constraint_entries(rt_dofs[k]))
-                  data.expansion.push_back(entry);
-              else
-                data.expansion.emplace_back(rt_dofs[k], 1.);
-            }
-          data.expansion_start.push_back(data.expansion.size());
-          hat_values.reinit(cell);
-          data.vertex_mass.assign(n_v * n_q, 0.);
-          Tensor<2, dim> mean_jacobian;
-          for (const unsigned int q : hat_values.quadrature_point_indices())
-            {
-              for (unsigned int v = 0; v < n_v; ++v)
-                for (unsigned int k = 0; k < n_q; ++k)
-                  data.vertex_mass[v * n_q + k] +=
-                    hat_values.shape_value(v, q) * q_reference[q * n_q + k] *
-                    hat_values.JxW(q);
-              mean_jacobian +=
-                quadrature.weight(q) * Tensor<2, dim>(hat_values.jacobian(q));
-            }
-          // G = J^T J / det J of the mean Jacobian (the jacobian of a
-          // bilinear cell at its center)
-          const Tensor<2, dim> G = transpose(mean_jacobian) * mean_jacobian /
-                                   determinant(mean_jacobian);
-          double *const metric =
-            &cell_metric[cell->active_cell_index() * n_metric];
-          for (unsigned int a = 0, m = 0; a < dim; ++a)
-            for (unsigned int b = a; b < dim; ++b, ++m)
-              metric[m] = G[a][b];
-          data.metric.assign(metric, metric + n_metric);
-
-          for (const auto &[j, values] : psi)
-            mine.add(j, mine.cells.size(), values.data());
-          mine.cells.push_back(std::move(data));
-        }
+    for (std::size_t c = 0; c < owned_cells.size(); ++c)
+      {
+        const auto &hat_cell = owned_cells[c];
+        psi.clear();
+        for (const unsigned int v : hat_cell->vertex_indices())
+          {
+            const auto i   = hat_cell->vertex_dof_index(v, 0);
+            const auto add = [&](const types::global_dof_index j,
+                                 const double                  w) {
+              auto entry =
+                std::find_if(psi.begin(), psi.end(), [j](const auto &e) {
+                  return e.first == j;
+                });
+              if (entry == psi.end())
+                entry = psi.insert(psi.end(), {j, std::array<double, n_v>{}});
+              entry->second[v] = w;
+            };
+            if (hat_constraints.is_constrained(i))
+              for (const auto &[j, w] :
+                   *hat_constraints.get_constraint_entries(i))
+                add(j, w);
+            else
+              {
+                add(i, 1.);
+                vertex_of[relevant_hats.index_within_set(i)] =
+                  hat_cell->vertex_index(v);
+              }
+          }
+        for (const auto &[j, values] : psi)
+          mine.add(j, c, values.data());
+      }
 
     // The shares of patches solved elsewhere go to their ranks, with the
     // data of their cells; the others stay.
