@@ -53,7 +53,7 @@ TEST(Json, NewtonStepsCarryTheActiveSetsWhereKnown)
       step.iteration         = k;
       step.linear_iterations = 10 * k;
       step.has_active_set    = true;
-      step.active_set        = {100 - k, k == 1 ? 0 : 7};
+      step.active_set        = {100ull - k, k == 1 ? 0ull : 7ull};
       report.steps.push_back(step);
     }
   VI::NewtonStep without;
