@@ -829,51 +829,34 @@ namespace StepMembranes
     sources.n_fields         = 2;
     sources.make_cell_values = [&]() {
       // per thread: FEValues of u_h and of the lifting, value arrays
-      struct Scratch
-      {
-        Scratch(const Mapping<dim>         &mapping,
-                const FiniteElement<dim>   &fe,
-                const Quadrature<dim>      &quadrature,
-                const VI::JumpLifting<dim> &lifting)
-            : values(mapping,
-                     fe,
-                     quadrature,
-                     update_values | update_gradients |
-                       update_quadrature_points)
-            , lifting_scratch(lifting.make_cell_values())
-            , lambda_values(quadrature.size())
-            , r_values(quadrature.size())
-            , lifting_values(quadrature.size())
-        {
-        }
-        FEValues<dim>                  values;
-        std::unique_ptr<FEValues<dim>> lifting_scratch;
-        std::vector<double>            lambda_values, r_values;
-        std::vector<Tensor<1, dim>>    lifting_values;
-      };
-      const auto scratch = std::make_shared<Scratch>(
-        *mapping, fe, flux_reconstruction->get_quadrature(), *lifting);
-      return [&, scratch](const auto &cell, auto &flux, auto &source) {
+      const unsigned int n_q = quadrature.size();
+      return [&,
+              values_of = std::make_shared<FEValues<dim>>(
+                *mapping,
+                fe,
+                flux_reconstruction->get_quadrature(),
+                update_values | update_gradients | update_quadrature_points),
+              lifting_values_of =
+                std::shared_ptr<FEValues<dim>>(lifting->make_cell_values()),
+              lambda_values  = std::vector<double>(n_q),
+              r_values       = std::vector<double>(n_q),
+              lifting_values = std::vector<Tensor<1, dim>>(
+                n_q)](const auto &cell, auto &flux, auto &source) mutable {
         const typename DoFHandler<dim>::active_cell_iterator dof_cell(
           &triangulation, cell->level(), cell->index(), &dof_handler);
-        FEValues<dim> &values = scratch->values;
+        FEValues<dim> &values = *values_of;
         values.reinit(dof_cell);
-        values.get_function_values(lambda_source, scratch->lambda_values);
+        values.get_function_values(lambda_source, lambda_values);
         for (unsigned int a = 0; a < 2; ++a)
           {
             values.get_function_gradients(u[a], flux[a]);
-            lifting->values(cell,
-                            L[a],
-                            *scratch->lifting_scratch,
-                            scratch->lifting_values);
+            lifting->values(cell, L[a], *lifting_values_of, lifting_values);
             for (unsigned int q = 0; q < flux[a].size(); ++q)
-              flux[a][q] =
-                mu[a] * (flux[a][q] + epsilon * scratch->lifting_values[q]);
+              flux[a][q] = mu[a] * (flux[a][q] + epsilon * lifting_values[q]);
             f[a]->value_list(values.get_quadrature_points(), source[a]);
-            values.get_function_values(r[a], scratch->r_values);
+            values.get_function_values(r[a], r_values);
             for (unsigned int q = 0; q < source[a].size(); ++q)
-              source[a][q] -=
-                sign[a] * scratch->lambda_values[q] + scratch->r_values[q];
+              source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
           }
       };
     };

@@ -1210,31 +1210,20 @@ namespace StepMembranes
     sources.make_cell_values = [&]() {
       // per thread: FEValues of the potential and the multiplier's and
       // residual's values
-      struct Scratch
-      {
-        Scratch(const Mapping<dim>       &mapping,
-                const FiniteElement<dim> &fe,
-                const Quadrature<dim>    &quadrature)
-            : values(mapping, fe, quadrature, update_values | update_gradients)
-            , lambda_values(quadrature.size())
-            , r_values(quadrature.size())
-        {
-        }
-        FEValues<dim>       values;
-        std::vector<double> lambda_values, r_values;
-      };
-      const auto scratch =
-        std::make_shared<Scratch>(*mapping,
-                                  fe,
-                                  flux_reconstruction->get_quadrature());
-      return [&, scratch](const auto &cell, auto &flux, auto &source) {
+      return [&,
+              values_of = std::make_shared<FEValues<dim>>(
+                *mapping,
+                fe,
+                flux_reconstruction->get_quadrature(),
+                update_values | update_gradients),
+              lambda_values = std::vector<double>(quadrature.size()),
+              r_values      = std::vector<double>(quadrature.size())](
+               const auto &cell, auto &flux, auto &source) mutable {
         typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
                                                                 cell->level(),
                                                                 cell->index(),
                                                                 &dof_handler);
-        FEValues<dim>                                 &values = scratch->values;
-        std::vector<double> &lambda_values = scratch->lambda_values;
-        std::vector<double> &r_values      = scratch->r_values;
+        FEValues<dim>                                 &values = *values_of;
         values.reinit(dof_cell);
         if (cell_multiplier)
           cell_multiplier->values(it.lambda_cells,

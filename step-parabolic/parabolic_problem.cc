@@ -907,37 +907,22 @@ namespace StepParabolic
     sources.n_fields         = 2;
     sources.make_cell_values = [&]() {
       // per thread: FEValues of the potential and value arrays
-      struct Scratch
-      {
-        Scratch(const Mapping<dim>       &mapping,
-                const FiniteElement<dim> &fe,
-                const Quadrature<dim>    &quadrature)
-            : values(mapping,
-                     fe,
-                     quadrature,
-                     update_values | update_gradients |
-                       update_quadrature_points)
-            , lambda_values(quadrature.size())
-            , r_values(quadrature.size())
-            , dt_values(quadrature.size())
-        {
-        }
-        FEValues<dim>       values;
-        std::vector<double> lambda_values, r_values, dt_values;
-      };
-      const auto scratch =
-        std::make_shared<Scratch>(*mapping,
-                                  fe,
-                                  flux_reconstruction->get_quadrature());
-      return [&, scratch](const auto &cell, auto &flux, auto &source) {
+      const unsigned int n_q = quadrature.size();
+      return [&,
+              values_of = std::make_shared<FEValues<dim>>(
+                *mapping,
+                fe,
+                flux_reconstruction->get_quadrature(),
+                update_values | update_gradients | update_quadrature_points),
+              lambda_values = std::vector<double>(n_q),
+              r_values      = std::vector<double>(n_q),
+              dt_values     = std::vector<double>(
+                n_q)](const auto &cell, auto &flux, auto &source) mutable {
         typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
                                                                 cell->level(),
                                                                 cell->index(),
                                                                 &dof_handler);
-        FEValues<dim>                                 &values = scratch->values;
-        std::vector<double> &lambda_values = scratch->lambda_values;
-        std::vector<double> &r_values      = scratch->r_values;
-        std::vector<double> &dt_values     = scratch->dt_values;
+        FEValues<dim>                                 &values = *values_of;
         values.reinit(dof_cell);
         if (!lumped)
           values.get_function_values(it.lambda, lambda_values);

@@ -187,30 +187,18 @@ namespace VI
     // vertices, so G is continuous and s_h + G = g on the boundary. Face
     // values at the points that share the tangential coordinate of the
     // (tensor-product Gauss) cell quadrature points.
-    const unsigned int n_1d = std::lround(std::sqrt(double(n_q)));
-    AssertThrow(dim == 2 && n_1d * n_1d == n_q,
-                ExcMessage("The Dirichlet lifting needs a 2d tensor-product "
-                           "Gauss quadrature."));
-    const QGauss<1>                             gauss_1d(n_1d);
     std::vector<std::unique_ptr<FEValues<dim>>> face_values;
     for (unsigned int face = 0; face < GeometryInfo<dim>::faces_per_cell;
          ++face)
-      {
-        std::vector<Point<dim>> points(n_1d);
-        for (unsigned int k = 0; k < n_1d; ++k)
-          {
-            points[k][face / 2]     = double(face % 2);
-            points[k][1 - face / 2] = gauss_1d.point(k)[0];
-          }
-        face_values.emplace_back(std::make_unique<FEValues<dim>>(
-          *in.mapping,
-          in.continuous->get_fe(),
-          Quadrature<dim>(points, std::vector<double>(n_1d, 1.)),
-          update_values | update_gradients | update_jacobians |
-            update_quadrature_points));
-      }
-    std::vector<double>         G[2], face_s(n_1d);
-    std::vector<Tensor<1, dim>> grad_G[2], face_grad_s(n_1d);
+      face_values.emplace_back(
+        std::make_unique<FEValues<dim>>(*in.mapping,
+                                        in.continuous->get_fe(),
+                                        lifting_face_points<dim>(n_q, face),
+                                        update_values | update_gradients |
+                                          update_jacobians |
+                                          update_quadrature_points));
+    std::vector<double>         G[2];
+    std::vector<Tensor<1, dim>> grad_G[2];
     for (unsigned int a = 0; a < 2; ++a)
       {
         G[a].resize(n_q);
@@ -261,38 +249,14 @@ namespace VI
               {
                 FEValues<dim> &on_face = *face_values[face];
                 on_face.reinit(continuous_cell);
-                const unsigned int normal = face / 2, tangent = 1 - normal;
                 for (unsigned int a = 0; a < 2; ++a)
-                  {
-                    on_face.get_function_values(*s_vectors[a], face_s);
-                    on_face.get_function_gradients(*s_vectors[a], face_grad_s);
-                    for (unsigned int q = 0; q < n_q; ++q)
-                      {
-                        // cell point (x0, x1) = (p_(q % n), p_(q / n))
-                        const unsigned int k =
-                          tangent == 0 ? q % n_1d : q / n_1d;
-                        const double      xn     = quadrature.point(q)[normal];
-                        const double      weight = (face % 2) ? xn : 1. - xn;
-                        const Point<dim> &y      = on_face.quadrature_point(k);
-                        Tensor<1, dim>    along;
-                        for (unsigned int d = 0; d < dim; ++d)
-                          along[d] = on_face.jacobian(k)[d][tangent];
-                        const double delta = g[a]->value(y) - face_s[k];
-                        const double delta_prime =
-                          (g[a]->gradient(y) - face_grad_s[k]) * along;
-                        Tensor<1, dim> reference_gradient;
-                        reference_gradient[tangent] = delta_prime * weight;
-                        reference_gradient[normal] =
-                          (face % 2) ? delta : -delta;
-                        G[a][q] += delta * weight;
-                        const auto &inverse =
-                          continuous_values.inverse_jacobian(q);
-                        for (unsigned int d = 0; d < dim; ++d)
-                          for (unsigned int e = 0; e < dim; ++e)
-                            grad_G[a][q][d] +=
-                              inverse[e][d] * reference_gradient[e];
-                      }
-                  }
+                  add_face_lifting(continuous_values,
+                                   on_face,
+                                   face,
+                                   *s_vectors[a],
+                                   *g[a],
+                                   G[a],
+                                   grad_G[a]);
               }
 
         const double h_K          = broken_cell->diameter();

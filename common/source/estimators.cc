@@ -116,12 +116,9 @@ namespace VI
     // The lifting G of g - I_h g on the cells at the boundary (see the
     // function comment below) needs the values of u_h, g and the mapping on
     // the boundary faces, at the points that share the tangential
-    // coordinate of the (tensor-product Gauss) cell quadrature points.
-    const bool         lifting = in.g1 && in.g2;
-    const unsigned int n_1d    = std::lround(std::sqrt(double(n_q)));
-    AssertThrow(!lifting || (dim == 2 && n_1d * n_1d == n_q),
-                ExcMessage("The Dirichlet lifting needs a 2d "
-                           "tensor-product Gauss quadrature."));
+    // coordinate of the (tensor-product Gauss) cell quadrature points
+    // (lifting_face_points()).
+    const bool           lifting        = in.g1 && in.g2;
     const Function<dim> *g_functions[2] = {in.g1, in.g2};
 
     // What one thread needs on a cell: FEValues and the values at the
@@ -159,27 +156,15 @@ namespace VI
         for (auto *v : {&f, &lambda, &lambda_nonnegative, &lambda_ahead})
           v->resize(n_q);
         if (lifting)
-          {
-            const unsigned int n_1d = std::lround(std::sqrt(double(n_q)));
-            const QGauss<1>    gauss_1d(n_1d);
-            face_u.resize(n_1d);
-            face_grad_u.resize(n_1d);
-            for (const unsigned int f : GeometryInfo<dim>::face_indices())
-              {
-                std::vector<Point<dim>> points(n_1d);
-                for (unsigned int k = 0; k < n_1d; ++k)
-                  {
-                    points[k][f / 2]     = double(f % 2);
-                    points[k][1 - f / 2] = gauss_1d.point(k)[0];
-                  }
-                face_values.emplace_back(std::make_unique<FEValues<dim>>(
-                  *in.mapping,
-                  in.potential->get_fe(),
-                  Quadrature<dim>(points, std::vector<double>(n_1d, 1.)),
-                  update_values | update_gradients | update_jacobians |
-                    update_quadrature_points));
-              }
-          }
+          for (const unsigned int f : GeometryInfo<dim>::face_indices())
+            {
+              face_values.emplace_back(std::make_unique<FEValues<dim>>(
+                *in.mapping,
+                in.potential->get_fe(),
+                lifting_face_points<dim>(n_q, f),
+                update_values | update_gradients | update_jacobians |
+                  update_quadrature_points));
+            }
       }
 
       Scratch(const Scratch &other)
@@ -194,10 +179,9 @@ namespace VI
       std::vector<double> sigma_coefficients, potential_coefficients,
         unused_divergences;
       std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
-        sigma_ahead[2], grad_G[2], face_grad_u;
+        sigma_ahead[2], grad_G[2];
       std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], dt_u[2],
-        dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative, lambda_ahead,
-        face_u;
+        dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative, lambda_ahead;
       std::vector<std::unique_ptr<FEValues<dim>>> face_values;
     };
     // The sums of one cell, added in the order of the cells (so that the
@@ -252,11 +236,9 @@ namespace VI
            &div_ahead = scratch.div_ahead, &dt_u = scratch.dt_u,
            &dt_u_ahead = scratch.dt_u_ahead, &G = scratch.G;
       std::vector<double> &f = scratch.f, &lambda = scratch.lambda,
-                          &lambda_nonnegative  = scratch.lambda_nonnegative,
-                          &lambda_ahead        = scratch.lambda_ahead,
-                          &face_u              = scratch.face_u;
-      std::vector<Tensor<1, dim>> &face_grad_u = scratch.face_grad_u;
-      auto                        &face_values = scratch.face_values;
+                          &lambda_nonnegative = scratch.lambda_nonnegative,
+                          &lambda_ahead       = scratch.lambda_ahead;
+      auto &face_values                       = scratch.face_values;
 
       typename DoFHandler<dim>::active_cell_iterator flux_cell(
         &tria, potential_cell->level(), potential_cell->index(), in.flux);
@@ -343,37 +325,14 @@ namespace VI
             {
               FEValues<dim> &on_face = *face_values[f];
               on_face.reinit(potential_cell);
-              const unsigned int normal = f / 2, tangent = 1 - normal;
               for (unsigned int a = 0; a < 2; ++a)
-                {
-                  on_face.get_function_values(*u_vectors[a], face_u);
-                  on_face.get_function_gradients(*u_vectors[a], face_grad_u);
-                  for (unsigned int q = 0; q < n_q; ++q)
-                    {
-                      // cell point (x0, x1) = (p_(q % n), p_(q / n))
-                      const unsigned int k = tangent == 0 ? q % n_1d : q / n_1d;
-                      const double       xn =
-                        potential_values.get_quadrature().point(q)[normal];
-                      const double      weight = (f % 2) ? xn : 1. - xn;
-                      const Point<dim> &y      = on_face.quadrature_point(k);
-                      Tensor<1, dim>    along;
-                      for (unsigned int d = 0; d < dim; ++d)
-                        along[d] = on_face.jacobian(k)[d][tangent];
-                      const double delta = g_functions[a]->value(y) - face_u[k];
-                      const double delta_prime =
-                        (g_functions[a]->gradient(y) - face_grad_u[k]) * along;
-                      Tensor<1, dim> reference_gradient;
-                      reference_gradient[tangent] = delta_prime * weight;
-                      reference_gradient[normal]  = (f % 2) ? delta : -delta;
-                      G[a][q] += delta * weight;
-                      const auto &inverse =
-                        potential_values.inverse_jacobian(q);
-                      for (unsigned int d = 0; d < dim; ++d)
-                        for (unsigned int e = 0; e < dim; ++e)
-                          grad_G[a][q][d] +=
-                            inverse[e][d] * reference_gradient[e];
-                    }
-                }
+                add_face_lifting(potential_values,
+                                 on_face,
+                                 f,
+                                 *u_vectors[a],
+                                 *g_functions[a],
+                                 G[a],
+                                 grad_G[a]);
             }
       // From here on u_h stands for u_h + G, and s for s + G (s - u_h is
       // unchanged).
@@ -610,6 +569,65 @@ namespace VI
   }
 
 
+  template <int dim>
+  Quadrature<dim>
+  lifting_face_points(const unsigned int n_q, const unsigned int face)
+  {
+    const unsigned int n_1d = std::lround(std::sqrt(double(n_q)));
+    AssertThrow(dim == 2 && n_1d * n_1d == n_q,
+                ExcMessage("The Dirichlet lifting needs a 2d "
+                           "tensor-product Gauss quadrature."));
+    const QGauss<1>         gauss_1d(n_1d);
+    std::vector<Point<dim>> points(n_1d);
+    for (unsigned int k = 0; k < n_1d; ++k)
+      {
+        points[k][face / 2]     = double(face % 2);
+        points[k][1 - face / 2] = gauss_1d.point(k)[0];
+      }
+    return Quadrature<dim>(points, std::vector<double>(n_1d, 1.));
+  }
+
+
+  template <int dim>
+  void
+  add_face_lifting(const FEValues<dim>                 &cell_values,
+                   const FEValues<dim>                 &face_values,
+                   const unsigned int                   face,
+                   const TrilinosWrappers::MPI::Vector &v,
+                   const Function<dim>                 &g,
+                   std::vector<double>                 &G,
+                   std::vector<Tensor<1, dim>>         &grad_G)
+  {
+    const unsigned int          n_1d = face_values.n_quadrature_points;
+    std::vector<double>         face_v(n_1d);
+    std::vector<Tensor<1, dim>> face_grad_v(n_1d);
+    face_values.get_function_values(v, face_v);
+    face_values.get_function_gradients(v, face_grad_v);
+    const unsigned int normal = face / 2, tangent = 1 - normal;
+    for (const unsigned int q : cell_values.quadrature_point_indices())
+      {
+        // cell point (x0, x1) = (p_(q % n), p_(q / n))
+        const unsigned int k  = tangent == 0 ? q % n_1d : q / n_1d;
+        const double       xn = cell_values.get_quadrature().point(q)[normal];
+        const double       weight = (face % 2) ? xn : 1. - xn;
+        const Point<dim>  &y      = face_values.quadrature_point(k);
+        Tensor<1, dim>     along;
+        for (unsigned int d = 0; d < dim; ++d)
+          along[d] = face_values.jacobian(k)[d][tangent];
+        const double   delta       = g.value(y) - face_v[k];
+        const double   delta_prime = (g.gradient(y) - face_grad_v[k]) * along;
+        Tensor<1, dim> reference_gradient;
+        reference_gradient[tangent] = delta_prime * weight;
+        reference_gradient[normal]  = (face % 2) ? delta : -delta;
+        G[q] += delta * weight;
+        const auto &inverse = cell_values.inverse_jacobian(q);
+        for (unsigned int d = 0; d < dim; ++d)
+          for (unsigned int e = 0; e < dim; ++e)
+            grad_G[q][d] += inverse[e][d] * reference_gradient[e];
+      }
+  }
+
+
   MultiplierSplit
   split_multiplier(const std::vector<double> &lambda,
                    const std::vector<double> &JxW)
@@ -683,4 +701,14 @@ namespace VI
 
   template ContactEstimate
   estimate_contact_error(const ContactEstimatorInput<2> &);
+  template Quadrature<2>
+  lifting_face_points<2>(const unsigned int, const unsigned int);
+  template void
+  add_face_lifting<2>(const FEValues<2> &,
+                      const FEValues<2> &,
+                      const unsigned int,
+                      const TrilinosWrappers::MPI::Vector &,
+                      const Function<2> &,
+                      std::vector<double> &,
+                      std::vector<Tensor<1, 2>> &);
 } // namespace VI

@@ -848,6 +848,11 @@ namespace VI
     patch_positions.resize(patch_dofs.size());
     for (std::size_t i = 0; i < patch_dofs.size(); ++i)
       patch_positions[i] = writable_dofs.index_within_set(patch_dofs[i]);
+    cells_with_shares.clear();
+    for (const auto &cell : tria.active_cell_iterators())
+      if (cell->is_locally_owned() &&
+          !memberships[cell->active_cell_index()].empty())
+        cells_with_shares.push_back(cell);
     hats.clear();
   }
 
@@ -1239,12 +1244,6 @@ namespace VI
     // cell_share()), and the parts are added to the patches' right-hand
     // sides, or to what is sent to other processes, in the order of the
     // cells.
-    std::vector<CellIterator> cells;
-    for (const auto &cell :
-         dof_handler.get_triangulation().active_cell_iterators())
-      if (cell->is_locally_owned() &&
-          !memberships[cell->active_cell_index()].empty())
-        cells.push_back(cell);
     const auto worker =
       [&](const typename std::vector<CellIterator>::const_iterator &cell,
           CellScratch                                              &scratch,
@@ -1263,8 +1262,8 @@ namespace VI
                       record,
                       outgoing[parts[m].rank].data() + parts[m].index * record);
     };
-    WorkStream::run(cells.cbegin(),
-                    cells.cend(),
+    WorkStream::run(cells_with_shares.cbegin(),
+                    cells_with_shares.cend(),
                     worker,
                     copier,
                     CellScratch(*this, sources),

@@ -430,47 +430,32 @@ namespace
     typename VI::FluxReconstruction<2>::Sources sources;
     sources.make_cell_values = [&]() {
       // per thread (the cells are evaluated concurrently)
-      struct Scratch
-      {
-        Scratch(const Mapping<2>         &mapping,
-                const FiniteElement<2>   &fe,
-                const Quadrature<2>      &quadrature,
-                const VI::JumpLifting<2> &lift)
-            : data_values(mapping,
-                          fe,
-                          quadrature,
-                          update_values | update_gradients |
-                            update_quadrature_points)
-            , lifting_scratch(lift.make_cell_values())
-            , r_values(quadrature.size())
-        {
-        }
-        FEValues<2>                  data_values;
-        std::unique_ptr<FEValues<2>> lifting_scratch;
-        std::vector<double>          r_values;
-        std::vector<Tensor<1, 2>>    lifting_values;
-      };
-      const auto scratch = std::make_shared<Scratch>(
-        mapping, fe, reconstruction.get_quadrature(), lift);
-      return [&, scratch](const auto &cell, auto &flux, auto &source) {
+      return [&,
+              data_values_of =
+                std::make_shared<FEValues<2>>(mapping,
+                                              fe,
+                                              reconstruction.get_quadrature(),
+                                              update_values | update_gradients |
+                                                update_quadrature_points),
+              lifting_values_of =
+                std::shared_ptr<FEValues<2>>(lift.make_cell_values()),
+              r_values       = std::vector<double>(quadrature.size()),
+              lifting_values = std::vector<Tensor<1, 2>>()](
+               const auto &cell, auto &flux, auto &source) mutable {
         typename DoFHandler<2>::active_cell_iterator dof_cell(&tria,
                                                               cell->level(),
                                                               cell->index(),
                                                               &dofs);
-        FEValues<2> &data_values = scratch->data_values;
+        FEValues<2> &data_values = *data_values_of;
         data_values.reinit(dof_cell);
         data_values.get_function_gradients(u, flux[0]);
-        lift.values(cell,
-                    lifting,
-                    *scratch->lifting_scratch,
-                    scratch->lifting_values);
+        lift.values(cell, lifting, *lifting_values_of, lifting_values);
         if (with_lifting)
           for (unsigned int q = 0; q < flux[0].size(); ++q)
-            flux[0][q] += penalty.symmetry() * scratch->lifting_values[q];
-        data_values.get_function_values(r, scratch->r_values);
+            flux[0][q] += penalty.symmetry() * lifting_values[q];
+        data_values.get_function_values(r, r_values);
         for (unsigned int q = 0; q < flux[0].size(); ++q)
-          source[0][q] =
-            f.value(data_values.quadrature_point(q)) - scratch->r_values[q];
+          source[0][q] = f.value(data_values.quadrature_point(q)) - r_values[q];
       };
     };
     TrilinosWrappers::MPI::Vector sigma;

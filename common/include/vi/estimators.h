@@ -3,6 +3,7 @@
 #include <deal.II/base/function.h>
 #include <deal.II/base/quadrature.h>
 #include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping.h>
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
@@ -191,6 +192,37 @@ namespace VI
   MultiplierSplit
   split_multiplier(const std::vector<double> &lambda,
                    const std::vector<double> &JxW);
+
+
+  /**
+   * The points at which the Dirichlet lifting G (doc/estimators.md,
+   * "Boundary data") reads u_h and g on the face `face` of the reference
+   * cell: the points of the face that share the tangential coordinate of
+   * the cell quadrature's points, a tensor-product Gauss rule of n_q points
+   * in 2d (an error otherwise). Point k has the k-th 1d Gauss coordinate
+   * along the face; the weights are unused.
+   */
+  template <int dim>
+  dealii::Quadrature<dim>
+  lifting_face_points(const unsigned int n_q, const unsigned int face);
+
+  /**
+   * Add the lifting of g - v_h from the boundary face `face` to G and its
+   * gradient at the points of `cell_values` (reinitialised on the cell;
+   * its quadrature a tensor-product Gauss rule, with inverse Jacobians):
+   * delta_F(t) (1 - n) in the reference coordinates (t along F, n away from
+   * it), delta_F = g - v_h on F. `face_values` are the FEValues of v_h's
+   * element at lifting_face_points(n_q, face), reinitialised on the cell.
+   */
+  template <int dim>
+  void
+  add_face_lifting(const dealii::FEValues<dim>                 &cell_values,
+                   const dealii::FEValues<dim>                 &face_values,
+                   const unsigned int                           face,
+                   const dealii::TrilinosWrappers::MPI::Vector &v,
+                   const dealii::Function<dim>                 &g,
+                   std::vector<double>                         &G,
+                   std::vector<dealii::Tensor<1, dim>>         &grad_G);
 
 
   /// Evaluate the estimate (collective over the processes of the mesh).

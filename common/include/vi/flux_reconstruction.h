@@ -282,6 +282,8 @@ namespace VI
     std::vector<double>       hat_masses;
     /// For every active cell (owned ones only): its parts in patches.
     std::vector<std::vector<Membership>> memberships;
+    /// The owned cells with parts in patches, in the order of the mesh.
+    std::vector<CellIterator> cells_with_shares;
     /// Right-hand sides sent to each rank per reconstruction, and for those
     /// received from each rank, the (patch, position) they belong to.
     std::map<unsigned int, unsigned int> n_sent;
