@@ -718,6 +718,21 @@ namespace StepMembranes
                                       step.linear_iterations,
                                       true,
                                       *step_estimate);
+        if (!step_estimate->complete)
+          {
+            // GMRES stopped on the flux-free terms (Estimators/Defer
+            // fluxes), which say that Newton goes on.
+            if (parameters.output.verbose)
+              pcout << "             eta_lin >= " << std::scientific
+                    << std::setprecision(2) << step_estimate->eta_lin
+                    << ", eta_alg <= " << step_estimate->eta_alg
+                    << " (no fluxes: eta_lin > gamma_lin x predicted "
+                       "eta_disc)"
+                    << std::defaultfloat << std::endl;
+            final_estimate.reset();
+            return false;
+          }
+        remember_eta_disc(*step_estimate);
         final_estimate = step_estimate;
         if (parameters.output.verbose)
           pcout << "             eta_disc " << std::scientific
@@ -740,12 +755,18 @@ namespace StepMembranes
     // 1/32 and 1/4, three Newton steps and five estimates instead of one).
     if (parameters.estimators.enabled)
       newton.accept_full_step = [&](const Vector &) {
-        return step_estimate && adaptive_stop(*step_estimate);
+        return step_estimate && step_estimate->complete &&
+               adaptive_stop(*step_estimate);
       };
 
     newton_report = newton.solve(solution);
+    // (no Newton step was needed, or Newton met its tolerance at a step
+    // whose fluxes were deferred)
     if (parameters.estimators.enabled && !final_estimate)
-      final_estimate = estimate(solution); // no Newton step was needed
+      {
+        final_estimate = estimate(solution);
+        remember_eta_disc(*final_estimate);
+      }
   }
 
 
@@ -800,13 +821,39 @@ namespace StepMembranes
       accepted_update -= *linearization_point;
       step_estimate = e;
     };
+    // Estimators/Defer fluxes: the flux-free terms first. Their eta_alg
+    // bounds the complete estimate's from above and their eta_lin from
+    // below, so when they say that GMRES may stop, it may; if moreover
+    // eta_lin exceeds gamma_lin times the predicted eta_disc, Newton will
+    // (very likely) go on, and this iterate's fluxes are not needed.
+    const std::optional<double> predicted =
+      adaptive && parameters.estimators.defer_fluxes &&
+          !parameters.estimators.dual_norm_undershoots ?
+        predicted_eta_disc() :
+        std::nullopt;
     const auto monitor = [&](const Vector &update, const unsigned int i) {
       Vector X(*linearization_point);
       X += update;
-      describe_iterate(X, step_contact_nodes, current);
+      describe_iterate(X, step_contact_nodes, current, !predicted);
       current.linear_iteration = i;
+      if (predicted)
+        {
+          const VI::ContactEstimate flux_free = estimate(current, current);
+          if (nonlinear.algebraic_error_small(0.,
+                                              flux_free.eta_lin,
+                                              flux_free.eta_alg) &&
+              !nonlinear.linearisation_error_small(*predicted,
+                                                   flux_free.eta_lin))
+            {
+              estimate_records.emplace_back(newton_step, i, false, flux_free);
+              accept(current, flux_free);
+              return true;
+            }
+          add_fluxes(current);
+        }
 
       const VI::ContactEstimate own = estimate(current, current);
+      remember_eta_disc(own);
       estimate_records.emplace_back(newton_step, i, false, own);
       if (adaptive && criterion(own))
         {
@@ -1131,9 +1178,25 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::describe_iterate(const Vector &X,
                                          const Vector &contact,
-                                         Iterate      &it) const
+                                         Iterate      &it,
+                                         const bool    fluxes) const
   {
-    TimerOutput::Scope t(timer, "estimators: fluxes");
+    {
+      TimerOutput::Scope t(timer, "estimators: fields");
+      describe_fields(X, contact, it);
+    }
+    it.has_fluxes = false;
+    if (fluxes)
+      add_fluxes(it);
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::describe_fields(const Vector &X,
+                                        const Vector &contact,
+                                        Iterate      &it) const
+  {
     it.X = X;
 
     Vector u1(owned_nodes, comm), u2(owned_nodes, comm), s1(owned_nodes, comm),
@@ -1196,6 +1259,15 @@ namespace StepMembranes
         multiplier_function.from_moments(moments, function);
         ghosted(function, *r[field]);
       }
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::add_fluxes(Iterate &it) const
+  {
+    TimerOutput::Scope t(timer, "estimators: fluxes");
+    Vector            *r[2] = {&it.r1, &it.r2};
 
     // The fluxes: sigma_alpha ~ -mu_alpha grad u_alpha,h, equilibrated with
     // f_alpha -/+ lambda_h - r_alpha,h; for p = 1 the multiplier and the
@@ -1256,6 +1328,32 @@ namespace StepMembranes
         return -sign[a] * it.lambda(i) - (*r[a])(i);
       };
     flux_reconstruction->reconstruct(sources, {&it.sigma1, &it.sigma2});
+    it.has_fluxes = true;
+  }
+
+
+  template <int dim>
+  std::optional<double>
+  MembraneProblem<dim>::predicted_eta_disc() const
+  {
+    if (last_eta_disc_dofs == 0 || !(last_eta_disc > 0))
+      return std::nullopt;
+    // eta_disc ~ N^(-p/d) at the optimal rate
+    return last_eta_disc *
+           std::pow(double(last_eta_disc_dofs) / double(dof_handler.n_dofs()),
+                    double(fe.degree) / dim);
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::remember_eta_disc(const VI::ContactEstimate &e)
+  {
+    if (e.complete)
+      {
+        last_eta_disc      = e.eta_disc;
+        last_eta_disc_dofs = dof_handler.n_dofs();
+      }
   }
 
 
@@ -1296,6 +1394,8 @@ namespace StepMembranes
     in.dual_norm             = dual_norm.get();
     in.dual_norm_undershoots = parameters.estimators.dual_norm_undershoots;
     in.dual_norm_remainder   = parameters.estimators.dual_norm_remainder;
+    in.without_fluxes        = !it.has_fluxes;
+    AssertThrow(it.has_fluxes || &ahead == &it, ExcInternalError());
     if (cell_multiplier)
       {
         in.cell_multiplier          = cell_multiplier.get();
@@ -1605,10 +1705,16 @@ namespace StepMembranes
         it["k"]        = r.newton_step;
         it["i"]        = r.linear_iteration;
         it["accepted"] = r.accepted;
-        it["eta"]      = r.eta;
-        it["eta_disc"] = r.eta_disc;
-        it["eta_lin"]  = r.eta_lin;
-        it["eta_alg"]  = r.eta_alg;
+        if (r.complete)
+          {
+            it["eta"]      = r.eta;
+            it["eta_disc"] = r.eta_disc;
+          }
+        else
+          // the flux-free terms only: eta_lin from below, eta_alg from above
+          it["fluxes"] = false;
+        it["eta_lin"] = r.eta_lin;
+        it["eta_alg"] = r.eta_alg;
         iterations.push_back(it);
       }
     record["iterations"] = iterations;

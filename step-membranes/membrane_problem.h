@@ -123,6 +123,8 @@ namespace StepMembranes
       /// `lambda_nonnegative` stay empty), and 2 <lambda_h, u1h - u2h>_h.
       std::vector<double> lambda_cells, lambda_nonnegative_cells;
       double              complementarity = 0;
+      /// Whether sigma1, sigma2 were reconstructed (see add_fluxes()).
+      bool has_fluxes = false;
     };
 
     /// One estimate during the solve, for summary.json: its components
@@ -138,6 +140,7 @@ namespace StepMembranes
           : newton_step(newton_step)
           , linear_iteration(linear_iteration)
           , accepted(accepted)
+          , complete(e.complete)
           , eta(e.eta)
           , eta_disc(e.eta_disc)
           , eta_lin(e.eta_lin)
@@ -147,7 +150,10 @@ namespace StepMembranes
       unsigned int newton_step;
       unsigned int linear_iteration;
       bool         accepted;
-      double       eta, eta_disc, eta_lin, eta_alg;
+      /// false: only the flux-free terms (Estimators/Defer fluxes), eta_lin
+      /// from below and eta_alg from above; eta and eta_disc unknown.
+      bool   complete;
+      double eta, eta_disc, eta_lin, eta_alg;
     };
 
     void
@@ -174,10 +180,26 @@ namespace StepMembranes
     compare_with_petsc_vi(const Vector &initial);
     /// `contact`: the nodes in contact that decide the contact cells of
     /// the cellwise multiplier (see contact_nodes()).
+    /// With `fluxes` false the equilibrated fluxes are left out (the
+    /// estimate of the iterate then has only its flux-free terms) and can
+    /// be added later by add_fluxes().
     void
     describe_iterate(const Vector &X,
                      const Vector &contact,
-                     Iterate      &iterate) const;
+                     Iterate      &iterate,
+                     const bool    fluxes = true) const;
+    void
+    describe_fields(const Vector &X,
+                    const Vector &contact,
+                    Iterate      &iterate) const;
+    void
+    add_fluxes(Iterate &iterate) const;
+    /// The eta_disc of the current mesh predicted from the last complete
+    /// estimate (Estimators/Defer fluxes), if there was one.
+    std::optional<double>
+    predicted_eta_disc() const;
+    void
+    remember_eta_disc(const VI::ContactEstimate &estimate);
     /// The nodes in contact at X (1, else 0; with ghosts).
     void
     contact_nodes(const Vector &X, Vector &indicator) const;
@@ -280,6 +302,10 @@ namespace StepMembranes
     unsigned int                       newton_step         = 0;
     std::optional<VI::ContactEstimate> step_estimate;
     std::vector<EstimateRecord>        estimate_records;
+    /// The eta_disc of the last complete estimate and the unknowns per
+    /// field of its mesh (for predicted_eta_disc()).
+    double                  last_eta_disc      = 0;
+    types::global_dof_index last_eta_disc_dofs = 0;
 
     // The discrete solution as finite element functions (with ghosts).
     Vector u1_h, u2_h, gap_h, lambda_h, contact_set;

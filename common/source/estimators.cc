@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 namespace VI
@@ -197,6 +198,12 @@ namespace VI
       in.sigma1_ahead == in.sigma1_disc && in.sigma2_ahead == in.sigma2_disc &&
       (in.cell_multiplier ? in.lambda_ahead_cells == in.lambda_cells :
                             in.lambda_ahead == in.lambda);
+    const bool with_fluxes = !in.without_fluxes;
+    AssertThrow(with_fluxes || (own_look_ahead &&
+                                !(in.dual_norm && in.dual_norm_undershoots)),
+                ExcMessage("The estimate without fluxes is that of an iterate "
+                           "with itself as look-ahead and Friedrichs' bound of "
+                           "the undershoots."));
 
     std::array<double, n_sums> sums{};
     const double               c_mu = std::sqrt(1. / in.mu1 + 1. / in.mu2);
@@ -243,11 +250,12 @@ namespace VI
       typename DoFHandler<dim>::active_cell_iterator flux_cell(
         &tria, potential_cell->level(), potential_cell->index(), in.flux);
       potential_values.reinit(potential_cell);
-      divergence.reinit(potential_values,
-                        ArrayView<const std::int8_t>(
-                          in.flux_signs->data() +
-                            potential_cell->active_cell_index() * n_tau,
-                          n_tau));
+      if (with_fluxes)
+        divergence.reinit(potential_values,
+                          ArrayView<const std::int8_t>(
+                            in.flux_signs->data() +
+                              potential_cell->active_cell_index() * n_tau,
+                            n_tau));
       // values and divergences of a flux vector at the quadrature points
       const auto flux_at_points = [&](const TrilinosWrappers::MPI::Vector &v,
                                       std::vector<Tensor<1, dim>> &values,
@@ -273,7 +281,16 @@ namespace VI
                                s[a],
                                grad_s[a]);
           potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
-          flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
+          if (with_fluxes)
+            flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
+          else
+            {
+              // (the flux terms below are then not used)
+              std::fill(sigma_ahead[a].begin(),
+                        sigma_ahead[a].end(),
+                        Tensor<1, dim>());
+              std::fill(div_ahead[a].begin(), div_ahead[a].end(), 0.);
+            }
           if (own_look_ahead)
             sigma_disc[a] = sigma_ahead[a];
           else
@@ -490,7 +507,7 @@ namespace VI
     const double friedrichs_remainder =
       in.friedrichs_constant *
       std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
-    if (remainder && friedrichs_remainder > negligible)
+    if (remainder && with_fluxes && friedrichs_remainder > negligible)
       {
         // (rho_alpha, w_alpha) <= ||rho_alpha||_{-1} |grad w_alpha|
         const auto dual = [&](const unsigned int a) {
@@ -565,6 +582,25 @@ namespace VI
     e.eta_lin = e.nonc_1_lin + e.nonc_2_lin + cross(e.nonc_1_lin) +
                 std::sqrt(std::max(e.contact_lin, 0.) / 2.);
     e.eta_alg = e.flux_alg + e.remainder;
+    if (!with_fluxes)
+      {
+        // What is known without the fluxes: eta_lin from below (the cross
+        // term needs eta_1), eta_alg = eta_rem from above (the complete
+        // estimate may bound the remainder by equilibration, the smaller
+        // bound).
+        e.complete = false;
+        e.eta_lin  = e.nonc_1_lin + e.nonc_2_lin +
+                    std::sqrt(std::max(e.contact_lin, 0.) / 2.);
+        e.eta_alg = e.remainder;
+        for (double *unknown : {&e.eta,
+                                &e.eta_disc,
+                                &e.eta_1,
+                                &e.eta_1_disc,
+                                &e.flux_disc,
+                                &e.residual,
+                                &e.flux_alg})
+          *unknown = std::numeric_limits<double>::quiet_NaN();
+      }
     return estimate;
   }
 

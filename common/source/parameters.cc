@@ -454,6 +454,20 @@ namespace VI
         "undershoots lambda_h < 0 of a Newton iterate; 'remainder', the "
         "residuals rho_alpha that the look-ahead leaves (the algebraic "
         "remainder). Empty: Friedrichs for both.");
+      prm.declare_entry(
+        "Defer fluxes",
+        "true",
+        Bool(),
+        "Adaptive strategy (FEM in step-membranes): at a check of GMRES, "
+        "first evaluate the terms that need no equilibrated flux (eta_alg "
+        "from above with Friedrichs' bound of the residual, eta_lin from "
+        "below without its cross term). If they show that GMRES may stop "
+        "and that Newton must go on (eta_lin above gamma_lin times the "
+        "eta_disc predicted from the last complete estimate, scaled by "
+        "(N_last / N)^(p/d) with N the unknowns per field), the flux "
+        "reconstruction of that iterate is skipped. Every iterate Newton "
+        "stops at is estimated completely; a wrong prediction costs one "
+        "more Newton step, never accuracy (doc/estimators.md).");
     }
     prm.leave_subsection();
   }
@@ -475,6 +489,7 @@ namespace VI
       };
       dual_norm_undershoots = has("undershoots");
       dual_norm_remainder   = has("remainder");
+      defer_fluxes          = prm.get_bool("Defer fluxes");
     }
     prm.leave_subsection();
   }

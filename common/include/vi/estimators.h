@@ -28,6 +28,9 @@ namespace VI
    */
   struct ContactEstimate
   {
+    /// Whether every term was computed (see
+    /// ContactEstimatorInput::without_fluxes).
+    bool complete = true;
     /// Guaranteed upper bound of |||u - u_h|||.
     double eta = 0;
     /// Components with eta <= eta_disc + eta_lin + eta_alg.
@@ -165,6 +168,15 @@ namespace VI
     /// |grad w_alpha|. Each bound is the smaller of the two.
     const DualNormBound<dim> *dual_norm = nullptr;
     bool dual_norm_undershoots = false, dual_norm_remainder = false;
+
+    /// Only the terms that need no equilibrated flux (the fluxes may be
+    /// empty; the iterate must be its own look-ahead, and the undershoots
+    /// are bounded with Friedrichs' inequality). The estimate is then
+    /// incomplete: eta_lin without the cross term sqrt((eta_1 + eta_nonc2)
+    /// eta_nonc1,lin), a lower bound of the complete estimate's, and
+    /// eta_alg = the remainder with Friedrichs' inequality, an upper bound;
+    /// eta, eta_disc and the flux terms are NaN.
+    bool without_fluxes = false;
   };
 
 

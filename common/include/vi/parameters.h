@@ -142,6 +142,9 @@ namespace VI
     /// Dual norms bounded by equilibration (DualNormBound): of the cell
     /// means of the multiplier's undershoots, of the algebraic remainder.
     bool dual_norm_undershoots = false, dual_norm_remainder = false;
+    /// Adaptive strategy: skip the flux reconstruction of a check whose
+    /// flux-free terms already decide it (GMRES stops, Newton goes on).
+    bool defer_fluxes = true;
     bool
     equilibrated_dual_norms() const
     {
