@@ -83,6 +83,7 @@ def run(name, settings):
                      "Nonlinear solver/Nested iteration": "true",
                      "Linear solver/Tolerance": "1e-8",
                      "Estimators/At every check": "false",
+                     "Estimators/Sharpen final estimate": "false",
                      "Benchmark/Compare with PETSc VI": "true",
                      "Output/Write VTU": "false"})
     summary = run_program(PROGRAM, "estimators-disk-p1.prm", settings,

@@ -203,10 +203,19 @@ namespace StepMembranes
     /// The nodes in contact at X (1, else 0; with ghosts).
     void
     contact_nodes(const Vector &X, Vector &indicator) const;
+    /// With `equilibrated`, both dual norms (undershoots, remainder) are
+    /// bounded by equilibration, whatever Estimators/Equilibrated dual norms
+    /// says.
     VI::ContactEstimate
-    estimate(const Iterate &iterate, const Iterate &ahead) const;
+    estimate(const Iterate &iterate,
+             const Iterate &ahead,
+             const bool     equilibrated = false) const;
     VI::ContactEstimate
-    estimate(const Vector &X) const;
+    estimate(const Vector &X, const bool equilibrated = false) const;
+    /// Estimators/Sharpen final estimate: replaces final_estimate by the
+    /// equilibrated estimate of the solution if that is smaller.
+    void
+    sharpen_final_estimate();
     void
     postprocess();
     void
@@ -302,6 +311,8 @@ namespace StepMembranes
     unsigned int                       newton_step         = 0;
     std::optional<VI::ContactEstimate> step_estimate;
     std::vector<EstimateRecord>        estimate_records;
+    /// Whether sharpen_final_estimate() replaced final_estimate.
+    bool final_estimate_sharpened = false;
     /// The eta_disc of the last complete estimate and the unknowns per
     /// field of its mesh (for predicted_eta_disc()).
     double                  last_eta_disc      = 0;

@@ -257,6 +257,9 @@ namespace StepParabolic
     require(!estimators.equilibrated_dual_norms(),
             "Estimators/Equilibrated dual norms is implemented for "
             "step-membranes (fem): leave it empty for step-parabolic");
+    require(!estimators.sharpen_final,
+            "Estimators/Sharpen final estimate is implemented for "
+            "step-membranes (fem): set it to false for step-parabolic");
     require(linear_solver.solver != "gmres" ||
               linear_solver.preconditioner != "amg" ||
               problem.mu1 == problem.mu2,

@@ -145,10 +145,19 @@ namespace VI
     /// Adaptive strategy: skip the flux reconstruction of a check whose
     /// flux-free terms already decide it (GMRES stops, Newton goes on).
     bool defer_fluxes = true;
+    /// The estimate each solve ends with computed once more with both dual
+    /// norms bounded by equilibration; the smaller bound is reported.
+    bool sharpen_final = false;
     bool
     equilibrated_dual_norms() const
     {
       return dual_norm_undershoots || dual_norm_remainder;
+    }
+    /// Whether any estimate bounds dual norms by equilibration.
+    bool
+    needs_dual_norm_bound() const
+    {
+      return equilibrated_dual_norms() || sharpen_final;
     }
 
     static void
