@@ -201,7 +201,9 @@ def effectivity_on_nested_meshes():
             ("seed-jump", 2, "exact"), ("seed-smooth", 1, "adaptive"),
             ("seed-smooth", 2, "adaptive"),
             ("seed-smooth", 1, "adaptive, gamma_lin 0.1"),
-            ("seed-smooth", 2, "adaptive, gamma_lin 0.1")]
+            ("seed-smooth", 2, "adaptive, gamma_lin 0.1"),
+            ("seed-smooth", 1, "adaptive, sharpened"),
+            ("seed-smooth", 2, "adaptive, sharpened")]
     rows = []
     for test, p, strategy in runs:
         settings = {"Discretization/Polynomial degree": p,
@@ -212,6 +214,8 @@ def effectivity_on_nested_meshes():
             settings["Linear solver/Solver"] = "gmres"
         if "gamma_lin" in strategy:
             settings["Nonlinear solver/gamma_lin"] = strategy.split()[-1]
+        if "sharpened" in strategy:
+            settings["Estimators/Sharpen final estimate"] = "true"
         if QUICK:
             settings["Mesh/Cycles"] = 3
         name = "-".join([test, f"p{p}"] + strategy.replace(",", "").split())
@@ -236,10 +240,13 @@ def effectivity_on_nested_meshes():
                     f.write(f"{r['dofs_per_field']} {r['effectivity']}\n")
             f.write("\n\n")
     def style(n, p, strategy):
-        # the gamma_lin = 0.1 runs dashed, in the colour family of their p
-        if "gamma" not in strategy:
-            return f"lw 2 pt {n + 4}"
-        return f"lw 2 pt {n + 4} dt 2 lc rgb '{'#444444' if p == 1 else '#cc0000'}'"
+        # the gamma_lin = 0.1 runs dashed and the sharpened ones dotted, in
+        # the colour family of their p
+        if "gamma" in strategy:
+            return f"lw 2 pt {n + 4} dt 2 lc rgb '{'#444444' if p == 1 else '#cc0000'}'"
+        if "sharpened" in strategy:
+            return f"lw 2 pt {n + 4} dt 3 lc rgb '{'#0072b2' if p == 1 else '#e69f00'}'"
+        return f"lw 2 pt {n + 4}"
     plots = [f"'{dat}' index {n} with linespoints {style(n, p, s)} "
              f"title '{t}, Q{p}, {s.replace('gamma_lin', '{/Symbol g}_{lin}')}'"
              for n, (t, p, s) in enumerate(runs)]
