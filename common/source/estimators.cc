@@ -579,19 +579,18 @@ namespace VI
     e.eta_disc = e.dirichlet + eta_1_disc + e.nonc_1_disc + e.nonc_2_disc +
                  cross(e.nonc_1_disc) +
                  std::sqrt(std::max(e.contact_disc, 0.) / 2.);
-    e.eta_lin = e.nonc_1_lin + e.nonc_2_lin + cross(e.nonc_1_lin) +
+    // Without the fluxes eta_1 is unknown, and so is the cross term: eta_lin
+    // is then a lower bound of the complete estimate's, and eta_alg = eta_rem
+    // (sigma_alg = 0 for an iterate that is its own look-ahead) with
+    // Friedrichs' inequality an upper bound (the complete estimate may bound
+    // the remainder by equilibration, the smaller bound).
+    e.eta_lin = e.nonc_1_lin + e.nonc_2_lin +
+                (with_fluxes ? cross(e.nonc_1_lin) : 0.) +
                 std::sqrt(std::max(e.contact_lin, 0.) / 2.);
     e.eta_alg = e.flux_alg + e.remainder;
     if (!with_fluxes)
       {
-        // What is known without the fluxes: eta_lin from below (the cross
-        // term needs eta_1), eta_alg = eta_rem from above (the complete
-        // estimate may bound the remainder by equilibration, the smaller
-        // bound).
         e.complete = false;
-        e.eta_lin  = e.nonc_1_lin + e.nonc_2_lin +
-                    std::sqrt(std::max(e.contact_lin, 0.) / 2.);
-        e.eta_alg = e.remainder;
         for (double *unknown : {&e.eta,
                                 &e.eta_disc,
                                 &e.eta_1,
