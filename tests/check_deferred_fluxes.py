@@ -14,24 +14,21 @@ and with Estimators/Defer fluxes = false, and checks that
     otherwise not test anything).
 Usage: check_deferred_fluxes.py PROGRAM WORKDIR PRM [PRM ...]
 Exits non-zero with one line per failure."""
-import json
 import math
 import os
 import shutil
-import subprocess
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                os.pardir, "bench"))
+import vi_bench  # noqa: E402  (running a program with --set overrides)
 
 RELATIVE = 1e-12  # round-off of the same sums in the same order
 
 
 def run(program, prm, directory, defer):
     shutil.rmtree(directory, ignore_errors=True)
-    os.makedirs(directory)
-    subprocess.run([program, prm, "--set", f"Estimators/Defer fluxes={defer}",
-                    "--set", f"Output/Directory={directory}/output"],
-                   cwd=directory, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(directory, "output", "summary.json")) as f:
-        return json.load(f)
+    return vi_bench.run(program, prm, {"Estimators/Defer fluxes": defer}, directory)
 
 
 def close(a, b):
