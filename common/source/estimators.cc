@@ -5,6 +5,7 @@
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/filtered_iterator.h>
 
+#include <vi/cell_function_values.h>
 #include <vi/cell_multiplier.h>
 #include <vi/dual_norm.h>
 #include <vi/estimators.h>
@@ -47,28 +48,6 @@ namespace VI
       dirichlet_squared,  // |||G|||^2
       n_sums
     };
-
-    // Values and gradients at the quadrature points of `values`' cell of the
-    // finite element function `vector`, its cell coefficients read once
-    // from the distributed vector (into `coefficients`).
-    template <int dim, class CellIterator>
-    void
-    values_and_gradients(const FEValues<dim>                 &values,
-                         const CellIterator                  &cell,
-                         const TrilinosWrappers::MPI::Vector &vector,
-                         std::vector<double>                 &coefficients,
-                         std::vector<double>                 &function_values,
-                         std::vector<Tensor<1, dim>> &function_gradients)
-    {
-      coefficients.resize(values.dofs_per_cell);
-      cell->get_dof_values(vector, coefficients.begin(), coefficients.end());
-      const FEValuesViews::Scalar<dim> &scalar =
-        values[FEValuesExtractors::Scalar(0)];
-      scalar.get_function_values_from_local_dof_values(coefficients,
-                                                       function_values);
-      scalar.get_function_gradients_from_local_dof_values(coefficients,
-                                                          function_gradients);
-    }
   } // namespace
 
 
@@ -268,19 +247,23 @@ namespace VI
       };
       for (unsigned int a = 0; a < 2; ++a)
         {
-          values_and_gradients(potential_values,
+          cell_function_values(potential_values,
                                potential_cell,
                                *u_vectors[a],
                                potential_coefficients,
-                               u[a],
-                               grad_u[a]);
-          values_and_gradients(potential_values,
+                               &u[a],
+                               &grad_u[a]);
+          cell_function_values(potential_values,
                                potential_cell,
                                *s_vectors[a],
                                potential_coefficients,
-                               s[a],
-                               grad_s[a]);
-          potential_values.get_function_values(*r_vectors[a], r_ahead[a]);
+                               &s[a],
+                               &grad_s[a]);
+          cell_function_values(potential_values,
+                               potential_cell,
+                               *r_vectors[a],
+                               potential_coefficients,
+                               &r_ahead[a]);
           if (with_fluxes)
             flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
           else
@@ -297,9 +280,16 @@ namespace VI
             flux_at_points(*disc_vectors[a], sigma_disc[a], unused_divergences);
           if (dt_vectors[a])
             {
-              potential_values.get_function_values(*dt_vectors[a], dt_u[a]);
-              potential_values.get_function_values(*dt_ahead_vectors[a],
-                                                   dt_u_ahead[a]);
+              cell_function_values(potential_values,
+                                   potential_cell,
+                                   *dt_vectors[a],
+                                   potential_coefficients,
+                                   &dt_u[a]);
+              cell_function_values(potential_values,
+                                   potential_cell,
+                                   *dt_ahead_vectors[a],
+                                   potential_coefficients,
+                                   &dt_u_ahead[a]);
             }
         }
       if (in.cell_multiplier)
@@ -316,12 +306,22 @@ namespace VI
         }
       else
         {
-          potential_values.get_function_values(*in.lambda, lambda);
-          potential_values.get_function_values(*in.lambda_nonnegative,
-                                               lambda_nonnegative);
+          cell_function_values(potential_values,
+                               potential_cell,
+                               *in.lambda,
+                               potential_coefficients,
+                               &lambda);
+          cell_function_values(potential_values,
+                               potential_cell,
+                               *in.lambda_nonnegative,
+                               potential_coefficients,
+                               &lambda_nonnegative);
           if (!own_look_ahead)
-            potential_values.get_function_values(*in.lambda_ahead,
-                                                 lambda_ahead);
+            cell_function_values(potential_values,
+                                 potential_cell,
+                                 *in.lambda_ahead,
+                                 potential_coefficients,
+                                 &lambda_ahead);
         }
       if (own_look_ahead)
         lambda_ahead = lambda;
