@@ -1,6 +1,8 @@
 #include "membrane_problem.h"
 
+#include <deal.II/base/multithread_info.h>
 #include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/thread_management.h>
 #include <deal.II/base/utilities.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
@@ -16,6 +18,7 @@
 #include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
 
+#include <vi/cell_function_values.h>
 #include <vi/errors.h>
 #include <vi/nodal_fields.h>
 #include <vi/petsc_vi.h>
@@ -23,6 +26,7 @@
 
 #include "reference_poisson.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -346,26 +350,67 @@ namespace StepMembranes
         // points: see `quadrature`).
         TimerOutput::Scope     loads(timer, "estimators: loads");
         const Quadrature<dim> &points = flux_reconstruction->get_quadrature();
-        FEValues<dim> where(*mapping, fe, points, update_quadrature_points);
-        std::vector<double>  values(points.size());
-        const Function<dim> *f[2] = {data.f1.get(), data.f2.get()};
         for (unsigned int a = 0; a < 2; ++a)
           load_values[a].assign(triangulation.n_active_cells() * points.size(),
                                 0.);
-        for (const auto &cell : dof_handler.active_cell_iterators())
-          if (cell->is_locally_owned())
+        on_cells_with_own_data([&](const VI::MembraneData<dim> &d,
+                                   const auto                  &cells,
+                                   const std::size_t            begin,
+                                   const std::size_t            end) {
+          const Function<dim> *f[2] = {d.f1.get(), d.f2.get()};
+          FEValues<dim> where(*mapping, fe, points, update_quadrature_points);
+          std::vector<double> values(points.size());
+          for (std::size_t c = begin; c < end; ++c)
             {
-              where.reinit(cell);
+              where.reinit(cells[c]);
               for (unsigned int a = 0; a < 2; ++a)
                 {
                   f[a]->value_list(where.get_quadrature_points(), values);
                   std::copy(values.begin(),
                             values.end(),
                             load_values[a].begin() +
-                              cell->active_cell_index() * points.size());
+                              cells[c]->active_cell_index() * points.size());
                 }
             }
+        });
       }
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::on_cells_with_own_data(
+    const std::function<
+      void(const VI::MembraneData<dim> &,
+           const std::vector<typename DoFHandler<dim>::active_cell_iterator> &,
+           const std::size_t,
+           const std::size_t)> &work) const
+  {
+    std::vector<typename DoFHandler<dim>::active_cell_iterator> cells;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        cells.push_back(cell);
+    const std::size_t n_parts =
+      std::clamp<std::size_t>(cells.size() / 1024,
+                              1,
+                              MultithreadInfo::n_threads());
+    // (made here, one after the other: parsing is not thread-safe)
+    std::vector<VI::MembraneData<dim>> copies;
+    for (std::size_t part = 1; part < n_parts; ++part)
+      copies.push_back(
+        VI::make_membrane_data<dim>(parameters.problem,
+                                    VI::geometry_center<dim>(geometry)));
+    const auto run = [&](const std::size_t part) {
+      work(part == 0 ? data : copies[part - 1],
+           cells,
+           cells.size() * part / n_parts,
+           cells.size() * (part + 1) / n_parts);
+    };
+    Threads::TaskGroup<void> parts;
+    for (std::size_t part = 1; part < n_parts; ++part)
+      parts += Threads::new_task([&run, part]() { run(part); });
+    run(0);
+    parts.join_all();
   }
 
 
@@ -1296,8 +1341,10 @@ namespace StepMembranes
                 flux_reconstruction->get_quadrature(),
                 update_values | update_gradients),
               lambda_values = std::vector<double>(quadrature.size()),
-              r_values      = std::vector<double>(quadrature.size())](
-               const auto &cell, auto &flux, auto &source) mutable {
+              r_values      = std::vector<double>(quadrature.size()),
+              coefficients  = std::vector<double>()](const auto &cell,
+                                                    auto       &flux,
+                                                    auto &source) mutable {
         typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
                                                                 cell->level(),
                                                                 cell->index(),
@@ -1309,10 +1356,12 @@ namespace StepMembranes
                                   cell->active_cell_index(),
                                   lambda_values);
         else if (!lumped)
-          values.get_function_values(it.lambda, lambda_values);
+          VI::cell_function_values(
+            values, dof_cell, it.lambda, coefficients, &lambda_values);
         for (unsigned int a = 0; a < 2; ++a)
           {
-            values.get_function_gradients(*u[a], flux[a]);
+            VI::cell_function_values(
+              values, dof_cell, *u[a], coefficients, nullptr, &flux[a]);
             for (auto &F : flux[a])
               F *= mu[a];
             std::copy_n(load_values[a].begin() +
@@ -1321,7 +1370,8 @@ namespace StepMembranes
                         source[a].begin());
             if (!lumped)
               {
-                values.get_function_values(*r[a], r_values);
+                VI::cell_function_values(
+                  values, dof_cell, *r[a], coefficients, &r_values);
                 for (unsigned int q = 0; q < source[a].size(); ++q)
                   source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
               }
@@ -1511,27 +1561,70 @@ namespace StepMembranes
       return;
     TimerOutput::Scope t(timer, "errors");
 
-    const QGauss<dim>      error_quadrature(fe.degree + 3);
-    dealii::Vector<double> cellwise(triangulation.n_active_cells());
-    const auto             error = [&](const Vector               &uh,
-                           const Function<dim>        &exact,
-                           const VectorTools::NormType norm) {
-      VectorTools::integrate_difference(
-        *mapping, dof_handler, uh, exact, cellwise, error_quadrature, norm);
-      return VectorTools::compute_global_error(triangulation, cellwise, norm);
+    // On the cells of all threads (VectorTools::integrate_difference runs on
+    // one), with the data's own gradients: for a parsed expression these
+    // are fourth-order differences, eight evaluations per point, which make
+    // this the longest part of a run after the solve.
+    const QGauss<dim>      quadrature(fe.degree + 3);
+    const unsigned int     n_cells = triangulation.n_active_cells();
+    dealii::Vector<double> cell_u1(n_cells), cell_u2(n_cells),
+      cell_lambda(n_cells);
+    on_cells_with_own_data([&](const VI::MembraneData<dim> &d,
+                               const auto                  &cells,
+                               const std::size_t            begin,
+                               const std::size_t            end) {
+      FEValues<dim>               values(*mapping,
+                           fe,
+                           quadrature,
+                           update_values | update_gradients |
+                             update_quadrature_points | update_JxW_values);
+      const unsigned int          n_q = quadrature.size();
+      std::vector<double>         coefficients, lambda(n_q), exact_lambda(n_q);
+      std::vector<Tensor<1, dim>> gradient(n_q), exact_gradient(n_q);
+      const Vector               *u[2]  = {&u1_h, &u2_h};
+      const Function<dim>    *exact[2]  = {d.exact_u1.get(), d.exact_u2.get()};
+      dealii::Vector<double> *cell_u[2] = {&cell_u1, &cell_u2};
+      for (std::size_t c = begin; c < end; ++c)
+        {
+          const auto &cell = cells[c];
+          values.reinit(cell);
+          const auto &points = values.get_quadrature_points();
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              VI::cell_function_values(
+                values, cell, *u[a], coefficients, nullptr, &gradient);
+              exact[a]->gradient_list(points, exact_gradient);
+              double sum = 0;
+              for (unsigned int q = 0; q < n_q; ++q)
+                sum += (exact_gradient[q] - gradient[q]).norm_square() *
+                       values.JxW(q);
+              (*cell_u[a])[cell->active_cell_index()] = std::sqrt(sum);
+            }
+          if (d.exact_lambda)
+            {
+              VI::cell_function_values(
+                values, cell, lambda_h, coefficients, &lambda);
+              d.exact_lambda->value_list(points, exact_lambda);
+              double sum = 0;
+              for (unsigned int q = 0; q < n_q; ++q)
+                sum += std::pow(exact_lambda[q] - lambda[q], 2) * values.JxW(q);
+              cell_lambda[cell->active_cell_index()] = std::sqrt(sum);
+            }
+        }
+    });
+    const auto global = [&](const dealii::Vector<double> &cellwise) {
+      return VectorTools::compute_global_error(triangulation,
+                                               cellwise,
+                                               VectorTools::L2_norm);
     };
-    const double e1 = error(u1_h, *data.exact_u1, VectorTools::H1_seminorm);
-    cell_error.reinit(cellwise.size());
-    for (unsigned int K = 0; K < cellwise.size(); ++K)
-      cell_error[K] = data.mu1 * cellwise[K] * cellwise[K];
-    const double e2 = error(u2_h, *data.exact_u2, VectorTools::H1_seminorm);
-    for (unsigned int K = 0; K < cellwise.size(); ++K)
-      cell_error[K] =
-        std::sqrt(cell_error[K] + data.mu2 * cellwise[K] * cellwise[K]);
+    cell_error.reinit(n_cells);
+    for (unsigned int K = 0; K < n_cells; ++K)
+      cell_error[K] = std::sqrt(data.mu1 * cell_u1[K] * cell_u1[K] +
+                                data.mu2 * cell_u2[K] * cell_u2[K]);
+    const double e1 = global(cell_u1), e2 = global(cell_u2);
     error_energy = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
     if (data.exact_lambda)
-      error_multiplier =
-        error(lambda_h, *data.exact_lambda, VectorTools::L2_norm);
+      error_multiplier = global(cell_lambda);
   }
 
 
