@@ -28,6 +28,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -409,8 +410,20 @@ namespace StepMembranes
     Threads::TaskGroup<void> parts;
     for (std::size_t part = 1; part < n_parts; ++part)
       parts += Threads::new_task([&run, part]() { run(part); });
-    run(0);
+    // (the tasks use `run` and `cells`: wait for them before an exception
+    // of this part leaves the function; join_all rethrows theirs)
+    std::exception_ptr failure;
+    try
+      {
+        run(0);
+      }
+    catch (...)
+      {
+        failure = std::current_exception();
+      }
     parts.join_all();
+    if (failure)
+      std::rethrow_exception(failure);
   }
 
 
