@@ -1578,7 +1578,7 @@ namespace StepMembranes
     // one), with the data's own gradients: for a parsed expression these
     // are fourth-order differences, eight evaluations per point, which make
     // this the longest part of a run after the solve.
-    const QGauss<dim>      quadrature(fe.degree + 3);
+    const QGauss<dim>      error_quadrature(fe.degree + 3);
     const unsigned int     n_cells = triangulation.n_active_cells();
     dealii::Vector<double> cell_u1(n_cells), cell_u2(n_cells),
       cell_lambda(n_cells);
@@ -1588,10 +1588,10 @@ namespace StepMembranes
                                const std::size_t            end) {
       FEValues<dim>               values(*mapping,
                            fe,
-                           quadrature,
+                           error_quadrature,
                            update_values | update_gradients |
                              update_quadrature_points | update_JxW_values);
-      const unsigned int          n_q = quadrature.size();
+      const unsigned int          n_q = error_quadrature.size();
       std::vector<double>         coefficients, lambda(n_q), exact_lambda(n_q);
       std::vector<Tensor<1, dim>> gradient(n_q), exact_gradient(n_q);
       const Vector               *u[2]  = {&u1_h, &u2_h};
