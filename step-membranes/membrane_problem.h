@@ -224,9 +224,8 @@ namespace StepMembranes
     /// locally owned cells `cells`, concurrently on the threads, each part
     /// with its own copy of the problem data. A parsed expression reaches its
     /// parser through deal.II's thread-local storage, whose lock threads
-    /// sharing one FunctionParser contend for at every point: two threads
-    /// on one parser are slower than one thread, two on two are 1.5 - 1.9
-    /// times faster.
+    /// sharing one FunctionParser take at every point; with a copy each they
+    /// share nothing (bench/parser_threads.cc measures both).
     void
     on_cells_with_own_data(
       const std::function<void(
