@@ -19,6 +19,9 @@ Usage, from the repository root after ./demo.sh or ./test.sh:
 --quick stops at about 5e4 unknowns per field (a smoke test of the script).
 --c-function chooses the C-function of Newton (default min); for another
 one the files are doc/data/cost-<name>.{csv,md,png}.
+--huge-pages runs the programs with glibc's heap in huge pages
+(GLIBC_TUNABLES=glibc.malloc.hugetlb=1, see README.md); the files are then
+doc/data/cost[-<name>]-huge-pages.{csv,md,png}.
 The full study takes about 8 minutes and 10 GB of memory.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
@@ -36,6 +39,10 @@ QUICK = "--quick" in sys.argv
 C_FUNCTION = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--c-function=")),
                   "min")
 STEM = "cost" if C_FUNCTION == "min" else f"cost-{C_FUNCTION}"
+if "--huge-pages" in sys.argv:
+    # the programs inherit the environment (vi_bench.run)
+    os.environ["GLIBC_TUNABLES"] = "glibc.malloc.hugetlb=1"
+    STEM += "-huge-pages"
 # 12288 cells and up to three refinements: 2.4e6 unknowns (peak memory
 # 8.3 GB on one process, 4.8 GB per process on two).
 CYCLES = 2 if QUICK else 4
