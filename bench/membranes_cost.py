@@ -40,8 +40,10 @@ C_FUNCTION = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--c-fun
                   "min")
 STEM = "cost" if C_FUNCTION == "min" else f"cost-{C_FUNCTION}"
 if "--huge-pages" in sys.argv:
-    # the programs inherit the environment (vi_bench.run)
-    os.environ["GLIBC_TUNABLES"] = "glibc.malloc.hugetlb=1"
+    # the programs inherit the environment (vi_bench.run); other tunables
+    # the caller set are kept
+    os.environ["GLIBC_TUNABLES"] = ":".join(
+        t for t in (os.environ.get("GLIBC_TUNABLES"), "glibc.malloc.hugetlb=1") if t)
     STEM += "-huge-pages"
 # 12288 cells and up to three refinements: 2.4e6 unknowns (peak memory
 # 8.3 GB on one process, 4.8 GB per process on two).
