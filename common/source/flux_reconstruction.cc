@@ -2,6 +2,7 @@
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/multithread_info.h>
 #include <deal.II/base/parallel.h>
+#include <deal.II/base/partitioner.h>
 #include <deal.II/base/work_stream.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
@@ -361,8 +362,7 @@ namespace VI
     dof_handler.distribute_dofs(fe_flux);
     owned_dofs = dof_handler.locally_owned_dofs();
     DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_dofs);
-    hanging_constraints.clear();
-    hanging_constraints.reinit(relevant_dofs);
+    AffineConstraints<double> hanging_constraints(relevant_dofs);
     DoFTools::make_hanging_node_constraints(dof_handler, hanging_constraints);
     hanging_constraints.close();
 
@@ -835,19 +835,48 @@ namespace VI
                   ExcMessage("Flux reconstruction: a cell share sent to this "
                              "process belongs to no patch solved here."));
     hat_masses.shrink_to_fit();
-    // The dofs a patch solved here writes: the relevant ones and, with
-    // hanging nodes in parallel, a few beyond; the patch unknowns as
-    // positions in that set.
+    // Where the fluxes are summed: the owned dofs, and as ghosts the
+    // relevant ones (the patches' and the constraints' dofs) and, with
+    // hanging nodes in parallel, a few beyond that patches solved here
+    // write; the patch unknowns as local indices there.
     std::vector<types::global_dof_index> beyond;
     for (const types::global_dof_index g : patch_dofs)
       if (!relevant_dofs.is_element(g))
         beyond.push_back(g);
-    writable_dofs = relevant_dofs;
+    IndexSet writable_dofs = relevant_dofs;
     writable_dofs.add_indices(index_set(dof_handler.n_dofs(), beyond));
     writable_dofs.compress();
+    const auto partitioner =
+      std::make_shared<Utilities::MPI::Partitioner>(owned_dofs,
+                                                    writable_dofs,
+                                                    comm);
+    flux_partitioner = partitioner;
     patch_positions.resize(patch_dofs.size());
-    for (std::size_t i = 0; i < patch_dofs.size(); ++i)
-      patch_positions[i] = writable_dofs.index_within_set(patch_dofs[i]);
+    parallel::apply_to_subranges(
+      std::size_t(0),
+      patch_dofs.size(),
+      [&](const std::size_t begin, const std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i)
+          patch_positions[i] = partitioner->global_to_local(patch_dofs[i]);
+      },
+      /*grainsize=*/std::size_t(1) << 14);
+    // The constraints of the owned dofs (the others are the owners'); their
+    // entries, on the coarse side of the face, are relevant.
+    constrained_dofs.clear();
+    constraint_start.assign(1, 0);
+    constraint_entries.clear();
+    for (const auto &line : hanging_constraints.get_lines())
+      if (owned_dofs.is_element(line.index))
+        {
+          constrained_dofs.push_back(partitioner->global_to_local(line.index));
+          for (const auto &[g, w] : line.entries)
+            {
+              Assert(writable_dofs.is_element(g), ExcInternalError());
+              constraint_entries.emplace_back(partitioner->global_to_local(g),
+                                              w);
+            }
+          constraint_start.push_back(constraint_entries.size());
+        }
     cells_with_shares.clear();
     for (const auto &cell : tria.active_cell_iterators())
       if (cell->is_locally_owned() &&
@@ -1306,8 +1335,6 @@ namespace VI
             }
         }
 
-    // The patch fluxes summed at the positions of writable_dofs, then
-    // added into distributed vectors (each writable dof once).
     // The patch problems, independent of each other (concurrently): the
     // patch solution overwrites its right-hand sides, sigma^a is the head
     // of each column.
@@ -1321,15 +1348,18 @@ namespace VI
       },
       /*grainsize=*/256);
     // The fluxes of the patches summed in patch order, the fields
-    // concurrently.
-    std::vector<std::vector<double>> sums(n_fields);
+    // concurrently; then the sums of dofs other processes own added
+    // there (in serial, nothing to send).
+    std::vector<LinearAlgebra::distributed::Vector<double>> sums(n_fields);
+    for (auto &sum : sums)
+      sum.reinit(flux_partitioner);
     parallel::apply_to_subranges(
       0u,
       n_fields,
       [&](const unsigned int first_field, const unsigned int end_field) {
         for (unsigned int f = first_field; f < end_field; ++f)
           {
-            sums[f].assign(writable_dofs.n_elements(), 0.);
+            double *const values = sums[f].get_values();
             for (unsigned int p = 0; p < patches.size(); ++p)
               {
                 const LocalSolver &solver = *patches[p].solver;
@@ -1338,23 +1368,33 @@ namespace VI
                 const unsigned int *positions =
                   &patch_positions[patches[p].dofs_start];
                 for (unsigned int i = 0; i < solver.layout->n_sigma; ++i)
-                  sums[f][positions[i]] += column[i];
+                  values[positions[i]] += column[i];
               }
           }
       },
       /*grainsize=*/1);
-    std::vector<types::global_dof_index> writable;
-    writable_dofs.fill_index_vector(writable);
-    // The fluxes on the fine side of hanging faces from the coarse side.
-    TrilinosWrappers::MPI::Vector owned(owned_dofs, comm), accumulated;
-    accumulated.reinit(owned_dofs, writable_dofs, comm, /*writable=*/true);
+    TrilinosWrappers::MPI::Vector owned(owned_dofs, comm);
     for (unsigned int f = 0; f < n_fields; ++f)
       {
-        accumulated = 0;
-        accumulated.add(writable, sums[f]);
-        accumulated.compress(VectorOperation::add);
-        owned = accumulated;
-        hanging_constraints.distribute(owned);
+        LinearAlgebra::distributed::Vector<double> &sum = sums[f];
+        sum.compress(VectorOperation::add);
+        // The fluxes on the fine side of hanging faces from the coarse side
+        // (the patches wrote none there), which may be owned elsewhere.
+        sum.update_ghost_values();
+        double *const values = sum.get_values();
+        for (std::size_t c = 0; c < constrained_dofs.size(); ++c)
+          {
+            double value = 0;
+            for (unsigned int e = constraint_start[c];
+                 e < constraint_start[c + 1];
+                 ++e)
+              value += constraint_entries[e].second *
+                       values[constraint_entries[e].first];
+            values[constrained_dofs[c]] = value;
+          }
+        // The owned entries come first, in the order of owned_dofs, as in
+        // the Trilinos vector; the ghosts of sigma from their owners.
+        std::copy_n(values, sum.locally_owned_size(), owned.begin());
         sigma[f]->reinit(owned_dofs, relevant_dofs, comm);
         *sigma[f] = owned;
       }

@@ -20,6 +20,11 @@
 #include <unordered_map>
 #include <vector>
 
+namespace dealii::Utilities::MPI
+{
+  class Partitioner;
+}
+
 namespace VI
 {
   /**
@@ -270,14 +275,13 @@ namespace VI
     /// The Piola signs s_i of the owned cells' Raviart-Thomas functions
     /// [active cell index n_tau + i], and the cells' metrics G = J^T J /
     /// det J of their mean Jacobian [active cell index n_metric + m]
-    std::vector<std::int8_t>          piola_signs;
-    std::vector<double>               cell_metric;
-    dealii::DoFHandler<dim>           dof_handler;
-    dealii::AffineConstraints<double> hanging_constraints; ///< of RT_p
-    dealii::IndexSet                  owned_dofs, relevant_dofs;
-    std::vector<Patch>                patches;
-    /// The unknowns of all patches, as positions in writable_dofs, and their
-    /// cells' (psi_a, q_k)_K.
+    std::vector<std::int8_t> piola_signs;
+    std::vector<double>      cell_metric;
+    dealii::DoFHandler<dim>  dof_handler;
+    dealii::IndexSet         owned_dofs, relevant_dofs;
+    std::vector<Patch>       patches;
+    /// The unknowns of all patches, as local indices of flux_partitioner,
+    /// and their cells' (psi_a, q_k)_K.
     std::vector<unsigned int> patch_positions;
     std::vector<double>       hat_masses;
     /// For every active cell (owned ones only): its parts in patches.
@@ -288,8 +292,19 @@ namespace VI
     /// received from each rank, the (patch, position) they belong to.
     std::map<unsigned int, unsigned int> n_sent;
     std::map<unsigned int, std::vector<std::pair<unsigned int, unsigned int>>>
-                     received;
-    dealii::IndexSet writable_dofs; ///< relevant and patch dofs
-    unsigned int     n_local_solvers = 0;
+      received;
+    /// Where the patch fluxes are summed: the owned dofs and, as ghosts, the
+    /// others that patches solved here write (relevant ones and, with
+    /// hanging nodes in parallel, a few beyond) or that the hanging node
+    /// constraints of owned dofs read.
+    std::shared_ptr<const dealii::Utilities::MPI::Partitioner> flux_partitioner;
+    /// The hanging node constraints of the owned dofs in local indices of
+    /// flux_partitioner: dof constrained_dofs[c] is the sum of w x_i over
+    /// the (i, w) of constraint_entries[constraint_start[c] ...
+    /// constraint_start[c + 1] - 1].
+    std::vector<unsigned int>                    constrained_dofs;
+    std::vector<unsigned int>                    constraint_start;
+    std::vector<std::pair<unsigned int, double>> constraint_entries;
+    unsigned int                                 n_local_solvers = 0;
   };
 } // namespace VI
