@@ -17,12 +17,15 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <boost/serialization/utility.hpp>
 #include <boost/serialization/vector.hpp>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <mutex>
+#include <numeric>
 #include <tuple>
 
 namespace VI
@@ -367,6 +370,7 @@ namespace VI
     hanging_constraints.close();
 
     patches.clear();
+    hat_masses.clear();
     memberships.assign(tria.n_active_cells(), {});
     n_sent.clear();
     received.clear();
@@ -554,295 +558,414 @@ namespace VI
       incoming = Utilities::MPI::some_to_some(comm, outgoing);
     outgoing.clear();
 
-    // The shares solved here, (patch, rank, index in that rank's Shares),
-    // grouped by patch.
-    std::vector<std::tuple<types::global_dof_index, unsigned int, unsigned int>>
-      shares_here;
-    for (const unsigned int i : solved_here)
-      shares_here.emplace_back(mine.patch[i], rank, i);
+    // The shares solved here, grouped by patch in the order of the patch
+    // dofs and, within a patch, by rank and index in that rank's Shares: a
+    // counting sort on the positions of the patch dofs in relevant_hats
+    // (where they all are: on cells here, or owned here).
+    struct ShareHere
+    {
+      unsigned int from, index;
+    };
+    const auto for_each_share_here = [&](const auto &visit) {
+      const auto visit_mine = [&]() {
+        for (const unsigned int i : solved_here)
+          visit(relevant_hats.index_within_set(mine.patch[i]), rank, i);
+      };
+      bool mine_visited = false;
+      for (const auto &[from, shares] : incoming)
+        {
+          if (!mine_visited && from > rank)
+            {
+              visit_mine();
+              mine_visited = true;
+            }
+          for (unsigned int i = 0; i < shares.patch.size(); ++i)
+            visit(relevant_hats.index_within_set(shares.patch[i]), from, i);
+        }
+      if (!mine_visited)
+        visit_mine();
+    };
+    std::vector<std::size_t> group_start(relevant_hats.n_elements() + 1, 0);
+    for_each_share_here(
+      [&](const std::size_t position, const unsigned int, const unsigned int) {
+        ++group_start[position + 1];
+      });
+    std::partial_sum(group_start.begin(),
+                     group_start.end(),
+                     group_start.begin());
+    std::vector<ShareHere> shares_here(group_start.back());
+    {
+      std::vector<std::size_t> next(group_start.begin(), group_start.end() - 1);
+      for_each_share_here([&](const std::size_t  position,
+                              const unsigned int from,
+                              const unsigned int index) {
+        shares_here[next[position]++] = {from, index};
+      });
+    }
+    // the patches solved here, by the positions of their dofs
+    std::vector<unsigned int> patches_here;
+    for (unsigned int i = 0; i < relevant_hats.n_elements(); ++i)
+      if (group_start[i + 1] > group_start[i])
+        patches_here.push_back(i);
     for (const auto &[from, shares] : incoming)
-      {
-        received[from].resize(shares.patch.size());
-        for (unsigned int i = 0; i < shares.patch.size(); ++i)
-          shares_here.emplace_back(shares.patch[i], from, i);
-      }
-    std::sort(shares_here.begin(), shares_here.end());
+      received[from].resize(shares.patch.size());
 
-    // A cell's data are released after the last of its
-    // patches solved here (or after sending, if it has none): what is held
-    // is the front of the patch loop, not the mesh.
-    std::vector<unsigned int> pending(mine.cells.size(), 0);
+    // A cell's data are released after the last of its patches solved here
+    // (or after sending, if it has none): what is held is the front of the
+    // patch loop, not the mesh.
+    std::vector<std::atomic<unsigned int>> pending(mine.cells.size());
     for (const unsigned int i : solved_here)
-      ++pending[mine.cell[i]];
+      pending[mine.cell[i]].fetch_add(1, std::memory_order_relaxed);
     const auto release = [&](CellData &data) {
       const CellIterator cell = data.cell;
       data                    = CellData();
       data.cell               = cell;
     };
     for (unsigned int c = 0; c < mine.cells.size(); ++c)
-      if (pending[c] == 0)
+      if (pending[c].load(std::memory_order_relaxed) == 0)
         release(mine.cells[c]);
 
-    // Layouts shared between patches of the same connectivity and signs,
-    // solvers between patches of the same layout and metrics.
-    std::unordered_map<std::vector<std::int64_t>,
-                       std::shared_ptr<const LocalSolver>,
-                       KeyHash>
-                                         solvers;
-    Layouts                              layouts;
-    bool                                 share_solvers = true;
-    constexpr unsigned int               sharing_trial = 1000;
-    std::map<unsigned int, unsigned int> n_received;
-    // the global dofs of the patch unknowns, as they are numbered
-    std::vector<types::global_dof_index> patch_dofs;
-    hat_masses.clear();
+    // The patches, in chunks on all threads: per patch, its cells (data,
+    // psi_a, where the share came from) in a canonical order, its unknowns,
+    // their numbering and its layout. What a chunk finds is gathered after,
+    // in the order of the patches, so that nothing depends on the threads.
+    struct PatchChunk
+    {
+      std::vector<Patch> patches; ///< starts relative to the chunk
+      std::vector<std::shared_ptr<const PatchLayout>> layouts;
+      /// the global dofs of the patch unknowns as they are numbered, and
+      /// those of them that are not relevant here
+      std::vector<types::global_dof_index> dofs, beyond;
+      /// per cell of each patch, in order: (psi_a, q_k)_K, the metric, and
+      /// where its share came from
+      std::vector<double>    hat_masses, metrics;
+      std::vector<ShareHere> cells;
+    };
+    constexpr unsigned int  chunk_size = 1024;
+    std::vector<PatchChunk> chunks((patches_here.size() + chunk_size - 1) /
+                                   chunk_size);
+    Layouts                 layouts; // shared by the patches of all chunks
+    std::mutex              layouts_mutex;
 
-    // Per patch: its cells (data, psi_a, where the share came from) in a
-    // canonical order, free dofs, their local numbers.
     struct Member
     {
       std::pair<double, double> polar;
       const CellData           *data;
       const double             *hat;
-      unsigned int              from, index;
+      ShareHere                 share;
       bool
       operator<(const Member &other) const
       {
         return polar < other.polar;
       }
     };
-    std::vector<Member> members;
-    // Per Raviart-Thomas dof (by slot(): its position in relevant_dofs, or
-    // after them for the few dofs of patches beyond), its number in the
-    // current patch; not_free where it is not an unknown of the patch.
-    constexpr unsigned int    not_free   = numbers::invalid_unsigned_int;
-    constexpr unsigned int    unnumbered = not_free - 1;
-    std::vector<unsigned int> number(relevant_dofs.n_elements(), not_free);
-    std::vector<std::size_t>  touched;
-    std::map<types::global_dof_index, std::size_t> beyond_relevant;
-    const auto slot = [&](const types::global_dof_index g) -> std::size_t {
-      if (relevant_dofs.is_element(g))
-        return relevant_dofs.index_within_set(g);
-      const auto entry = beyond_relevant.emplace(g,
-                                                 relevant_dofs.n_elements() +
-                                                   beyond_relevant.size());
-      if (entry.second)
-        number.push_back(not_free);
-      return entry.first->second;
+    const auto process_chunks = [&](const std::size_t first_chunk,
+                                    const std::size_t end_chunk) {
+      std::vector<Member> members;
+      // The free dofs of the current patch and their numbers (unnumbered
+      // until first met): a patch has a few dozen.
+      constexpr unsigned int not_free   = numbers::invalid_unsigned_int;
+      constexpr unsigned int unnumbered = not_free - 1;
+      std::vector<std::pair<types::global_dof_index, unsigned int>> free_dofs;
+      const auto find_free = [&](const types::global_dof_index g) {
+        return std::find_if(free_dofs.begin(),
+                            free_dofs.end(),
+                            [g](const auto &entry) {
+                              return entry.first == g;
+                            });
+      };
+      std::vector<bool>                is_free(n_tau);
+      std::vector<std::int64_t>        layout_key;
+      std::vector<const std::int8_t *> signs_of_cells;
+      PatchLayout                      layout; // of the current patch
+      Layouts                          cache;
+
+      for (std::size_t ch = first_chunk; ch < end_chunk; ++ch)
+        {
+          PatchChunk       &chunk = chunks[ch];
+          const std::size_t end_patch =
+            std::min<std::size_t>((ch + 1) * chunk_size, patches_here.size());
+          // (the positions without patches have no shares)
+          const std::size_t n_patches = end_patch - ch * chunk_size,
+                            n_cells =
+                              group_start[patches_here[end_patch - 1] + 1] -
+                              group_start[patches_here[ch * chunk_size]];
+          chunk.patches.reserve(n_patches);
+          chunk.layouts.reserve(n_patches);
+          chunk.hat_masses.reserve(n_cells * n_q);
+          chunk.metrics.reserve(n_cells * n_metric);
+          chunk.cells.reserve(n_cells);
+          for (std::size_t p = ch * chunk_size; p < end_patch; ++p)
+            {
+              const unsigned int position = patches_here[p];
+              const unsigned int a        = vertex_of[position];
+              Patch              patch;
+              patch.vertex          = a;
+              patch.dofs_start      = chunk.dofs.size();
+              patch.hat_mass        = nullptr; // (set once the chunk is done)
+              const Point<dim> &x_a = tria.get_vertices()[a];
+
+              // Cells in a canonical order (by angle around a, then
+              // distance), so that patches of the same shape get the same
+              // local numbering.
+              members.clear();
+              for (std::size_t s = group_start[position];
+                   s < group_start[position + 1];
+                   ++s)
+                {
+                  const ShareHere share = shares_here[s];
+                  const Shares   &shares =
+                    share.from == rank ? mine : incoming.at(share.from);
+                  Member member;
+                  member.data  = &shares.cells[shares.cell[share.index]];
+                  member.hat   = &shares.hat[share.index * n_v];
+                  member.share = share;
+                  Tensor<1, dim> d;
+                  for (unsigned int k = 0; k < dim; ++k)
+                    d[k] = member.data->center[k] - x_a[k];
+                  member.polar = {std::atan2(d[1], d[0]), d.norm()};
+                  members.push_back(member);
+                }
+              std::sort(members.begin(), members.end());
+
+              // The free fluxes: the dofs on faces where psi_a does not
+              // vanish (the others carry sigma^a . n = 0), or their parents
+              // on the coarse side of a hanging face; and the dofs inside
+              // the cells. They are marked, then numbered as first met in
+              // the cells' order.
+              free_dofs.clear();
+              for (const Member &member : members)
+                {
+                  std::fill(is_free.begin(), is_free.end(), true);
+                  for (const unsigned int f : GeometryInfo<dim>::face_indices())
+                    {
+                      bool nonzero = false;
+                      for (unsigned int w = 0;
+                           w < GeometryInfo<dim>::vertices_per_face;
+                           ++w)
+                        nonzero |=
+                          member.hat[GeometryInfo<dim>::face_to_cell_vertices(
+                            f, w)] != 0.;
+                      for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f);
+                           ++i)
+                        is_free[fe_flux.face_to_cell_index(i, f)] = nonzero;
+                    }
+                  for (unsigned int k = 0; k < n_tau; ++k)
+                    if (is_free[k])
+                      for (unsigned int e = member.data->expansion_start[k];
+                           e < member.data->expansion_start[k + 1];
+                           ++e)
+                        {
+                          const types::global_dof_index g =
+                            member.data->expansion[e].first;
+                          if (find_free(g) == free_dofs.end())
+                            free_dofs.emplace_back(g, unnumbered);
+                        }
+                }
+              // sigma^a's unknowns are the free dofs, numbered as first met.
+              const auto local_number = [&](const types::global_dof_index g) {
+                const auto entry = find_free(g);
+                if (entry == free_dofs.end())
+                  return not_free;
+                if (entry->second == unnumbered)
+                  {
+                    entry->second = chunk.dofs.size() - patch.dofs_start;
+                    chunk.dofs.push_back(g);
+                    if (!relevant_dofs.is_element(g))
+                      chunk.beyond.push_back(g);
+                  }
+                return entry->second;
+              };
+              layout.n_cells = members.size();
+              layout.sigma_start.clear();
+              layout.sigma_entries.clear();
+              signs_of_cells.clear();
+              for (const Member &member : members)
+                {
+                  for (unsigned int k = 0; k < n_tau; ++k)
+                    {
+                      layout.sigma_start.push_back(layout.sigma_entries.size());
+                      for (unsigned int e = member.data->expansion_start[k];
+                           e < member.data->expansion_start[k + 1];
+                           ++e)
+                        {
+                          const auto &[g, w]   = member.data->expansion[e];
+                          const unsigned int I = local_number(g);
+                          if (I != not_free)
+                            layout.sigma_entries.emplace_back(I, w);
+                        }
+                    }
+                  layout.sigma_start.push_back(layout.sigma_entries.size());
+                  const std::size_t start = chunk.hat_masses.size();
+                  chunk.hat_masses.resize(start + n_q, 0.);
+                  for (unsigned int v = 0; v < n_v; ++v)
+                    for (unsigned int k = 0; k < n_q; ++k)
+                      chunk.hat_masses[start + k] +=
+                        member.hat[v] * member.data->vertex_mass[v * n_q + k];
+                  chunk.metrics.insert(chunk.metrics.end(),
+                                       member.data->metric.begin(),
+                                       member.data->metric.end());
+                  chunk.cells.push_back(member.share);
+                  signs_of_cells.push_back(member.data->signs.data());
+                }
+              layout.n_sigma = chunk.dofs.size() - patch.dofs_start;
+              chunk.layouts.push_back(shared_layout(layout,
+                                                    signs_of_cells,
+                                                    cache,
+                                                    layouts,
+                                                    layouts_mutex,
+                                                    layout_key));
+              chunk.patches.push_back(std::move(patch));
+
+              for (const Member &member : members)
+                if (member.share.from == rank)
+                  {
+                    const unsigned int c = mine.cell[member.share.index];
+                    if (pending[c].fetch_sub(1, std::memory_order_acq_rel) == 1)
+                      release(mine.cells[c]);
+                  }
+            }
+        }
     };
-    std::vector<bool>                is_free(n_tau);
-    std::vector<std::int64_t>        key, layout_key;
-    std::vector<const std::int8_t *> signs_of_cells;
-    std::vector<const double *>      metrics;
-    PatchLayout                      layout; // of the current patch
-    // the new solvers and where their cells' metrics start in
-    // unfactorised_metrics
-    std::vector<std::pair<LocalSolver *, std::size_t>> unfactorised;
-    std::vector<double>                                unfactorised_metrics;
+    parallel::apply_to_subranges(std::size_t(0),
+                                 chunks.size(),
+                                 process_chunks,
+                                 /*grainsize=*/1);
 
-    for (auto first = shares_here.begin(); first != shares_here.end();)
+    // In the order of the patches: their solvers, shared between patches
+    // of the same layout and metrics, and their cells' parts. On curved or
+    // perturbed meshes no two patches have the same metrics: once the
+    // first patches show that, solvers are no longer looked up (the
+    // metrics are invariant under scaling, so on uniformly refined meshes
+    // a few solvers serve every level).
+    std::unordered_map<std::vector<std::int64_t>,
+                       std::shared_ptr<const LocalSolver>,
+                       KeyHash>
+                                         solvers;
+    bool                                 share_solvers = true;
+    constexpr unsigned int               sharing_trial = 1000;
+    std::vector<std::int64_t>            key;
+    std::map<unsigned int, unsigned int> n_received;
+    // The new solvers, made (when not shared) and factorised after the
+    // loop on all cores: the patch, its layout and its cells' metrics.
+    struct NewSolver
+    {
+      std::size_t                               patch;
+      LocalSolver                              *shared; ///< or to be made
+      const std::shared_ptr<const PatchLayout> *layout;
+      const double                             *metrics;
+    };
+    std::vector<NewSolver>   new_solvers;
+    std::vector<std::size_t> dofs_offset(chunks.size() + 1, 0);
+    patches.reserve(patches_here.size());
+    for (std::size_t ch = 0; ch < chunks.size(); ++ch)
       {
-        const types::global_dof_index j    = std::get<0>(*first);
-        auto                          last = first;
-        while (last != shares_here.end() && std::get<0>(*last) == j)
-          ++last;
-
-        const unsigned int a = vertex_of[relevant_hats.index_within_set(j)];
-        Patch              patch;
-        patch.vertex          = a;
-        patch.dofs_start      = patch_dofs.size();
-        patch.hat_mass_start  = hat_masses.size();
-        const Point<dim> &x_a = tria.get_vertices()[a];
-
-        // Cells in a canonical order (by angle around a, then distance),
-        // so that patches of the same shape get the same local numbering.
-        members.clear();
-        for (auto share = first; share != last; ++share)
+        const PatchChunk &chunk = chunks[ch];
+        dofs_offset[ch + 1]     = dofs_offset[ch] + chunk.dofs.size();
+        std::size_t first_cell  = 0;
+        for (std::size_t i = 0; i < chunk.patches.size(); ++i)
           {
-            const auto [patch_dof, from, index] = *share;
-            const Shares &shares = from == rank ? mine : incoming.at(from);
-            Member        member;
-            member.data  = &shares.cells[shares.cell[index]];
-            member.hat   = &shares.hat[index * n_v];
-            member.from  = from;
-            member.index = index;
-            Tensor<1, dim> d;
-            for (unsigned int k = 0; k < dim; ++k)
-              d[k] = member.data->center[k] - x_a[k];
-            member.polar = {std::atan2(d[1], d[0]), d.norm()};
-            members.push_back(member);
-          }
-        std::sort(members.begin(), members.end());
-        first = last;
+            Patch patch = chunk.patches[i];
+            patch.dofs_start += dofs_offset[ch];
+            patch.hat_mass = &chunk.hat_masses[first_cell * n_q];
+            const std::shared_ptr<const PatchLayout> &layout = chunk.layouts[i];
+            const double *metrics = &chunk.metrics[first_cell * n_metric];
 
-        // The free fluxes: the dofs on faces where psi_a does not vanish
-        // (the others carry sigma^a . n = 0), or their parents on the
-        // coarse side of a hanging face; and the dofs inside the cells.
-        // They are marked in `number` (by their positions, see slot()),
-        // then numbered as first met in the cells' order.
-        touched.clear();
-        for (const Member &member : members)
-          {
-            std::fill(is_free.begin(), is_free.end(), true);
-            for (const unsigned int f : GeometryInfo<dim>::face_indices())
+            if (share_solvers && patches.size() == sharing_trial &&
+                n_local_solvers > patches.size() / 2)
               {
-                bool nonzero = false;
-                for (unsigned int w = 0;
-                     w < GeometryInfo<dim>::vertices_per_face;
-                     ++w)
-                  nonzero |=
-                    member
-                      .hat[GeometryInfo<dim>::face_to_cell_vertices(f, w)] !=
-                    0.;
-                for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f); ++i)
-                  is_free[fe_flux.face_to_cell_index(i, f)] = nonzero;
+                share_solvers = false;
+                solvers.clear();
               }
-            for (unsigned int k = 0; k < n_tau; ++k)
-              if (is_free[k])
-                for (unsigned int e = member.data->expansion_start[k];
-                     e < member.data->expansion_start[k + 1];
-                     ++e)
-                  {
-                    const std::size_t position =
-                      slot(member.data->expansion[e].first);
-                    if (number[position] == not_free)
-                      {
-                        number[position] = unnumbered;
-                        touched.push_back(position);
-                      }
-                  }
-          }
-        // sigma^a's unknowns are the free dofs, numbered as first met.
-        const auto local_number = [&](const types::global_dof_index g) {
-          const std::size_t position = slot(g);
-          unsigned int     &n        = number[position];
-          if (n == unnumbered)
-            {
-              n = patch_dofs.size() - patch.dofs_start;
-              patch_dofs.push_back(g);
-            }
-          return n;
-        };
-        layout.n_cells = members.size();
-        layout.sigma_start.clear();
-        layout.sigma_entries.clear();
-        for (const Member &member : members)
-          {
-            for (unsigned int k = 0; k < n_tau; ++k)
+            if (share_solvers)
               {
-                layout.sigma_start.push_back(layout.sigma_entries.size());
-                for (unsigned int e = member.data->expansion_start[k];
-                     e < member.data->expansion_start[k + 1];
-                     ++e)
+                key.assign({reinterpret_cast<std::intptr_t>(layout.get())});
+                for (unsigned int m = 0; m < layout->n_cells * n_metric; ++m)
+                  key.push_back(std::llround(metrics[m] * 1e9));
+                std::shared_ptr<const LocalSolver> &solver = solvers[key];
+                if (!solver)
                   {
-                    const auto &[g, w]   = member.data->expansion[e];
-                    const unsigned int I = local_number(g);
-                    if (I != not_free)
-                      layout.sigma_entries.emplace_back(I, w);
+                    // made here, to be shared; factorised below
+                    auto created    = std::make_shared<LocalSolver>();
+                    created->layout = layout;
+                    new_solvers.push_back(
+                      {patches.size(), created.get(), &layout, metrics});
+                    solver = std::move(created);
+                    ++n_local_solvers;
+                  }
+                patch.solver = solver;
+              }
+            else
+              {
+                new_solvers.push_back(
+                  {patches.size(), nullptr, &layout, metrics});
+                ++n_local_solvers;
+              }
+
+            // Where the right-hand sides of the cells come from.
+            const unsigned int patch_number = patches.size();
+            for (unsigned int c = 0; c < layout->n_cells; ++c)
+              {
+                const auto [from, index] = chunk.cells[first_cell + c];
+                if (from == rank)
+                  {
+                    Membership membership{rank, patch_number, c, {}};
+                    std::copy_n(&mine.hat[index * n_v],
+                                n_v,
+                                membership.hat.begin());
+                    memberships[mine.cells[mine.cell[index]]
+                                  .cell->active_cell_index()]
+                      .push_back(membership);
+                  }
+                else
+                  {
+                    // a rank computes the right-hand sides of the shares it
+                    // sent in the order it sent them
+                    received[from][index] = {patch_number, c};
+                    ++n_received[from];
                   }
               }
-            layout.sigma_start.push_back(layout.sigma_entries.size());
-            const std::size_t start = hat_masses.size();
-            hat_masses.resize(start + n_q, 0.);
-            for (unsigned int v = 0; v < n_v; ++v)
-              for (unsigned int k = 0; k < n_q; ++k)
-                hat_masses[start + k] +=
-                  member.hat[v] * member.data->vertex_mass[v * n_q + k];
+            first_cell += layout->n_cells;
+            patches.push_back(std::move(patch));
           }
-        layout.n_sigma = patch_dofs.size() - patch.dofs_start;
-        for (const std::size_t position : touched)
-          number[position] = not_free;
-
-        signs_of_cells.clear();
-        metrics.clear();
-        for (const Member &member : members)
-          {
-            signs_of_cells.push_back(member.data->signs.data());
-            metrics.push_back(member.data->metric.data());
-          }
-        const std::shared_ptr<const PatchLayout> patch_layout =
-          shared_layout(layout, signs_of_cells, layouts, layout_key);
-
-        // On curved or perturbed meshes no two patches have the same
-        // metrics: once the first patches show that, solvers are no longer
-        // looked up (the metrics are invariant under scaling, so on
-        // uniformly refined meshes a few solvers serve every level).
-        if (share_solvers && patches.size() == sharing_trial &&
-            n_local_solvers > patches.size() / 2)
-          {
-            share_solvers = false;
-            solvers.clear();
-          }
-        std::shared_ptr<const LocalSolver>  unshared;
-        std::shared_ptr<const LocalSolver> *solver = &unshared;
-        if (share_solvers)
-          {
-            key.assign({reinterpret_cast<std::intptr_t>(patch_layout.get())});
-            for (const double *metric : metrics)
-              for (unsigned int m = 0; m < n_metric; ++m)
-                key.push_back(std::llround(metric[m] * 1e9));
-            solver = &solvers[key];
-          }
-        if (!*solver)
-          {
-            // factorised after the loop, on all cores
-            const auto created = std::make_shared<LocalSolver>();
-            created->layout    = patch_layout;
-            unfactorised.emplace_back(created.get(),
-                                      unfactorised_metrics.size());
-            for (const double *metric : metrics)
-              unfactorised_metrics.insert(unfactorised_metrics.end(),
-                                          metric,
-                                          metric + n_metric);
-            *solver = created;
-            ++n_local_solvers;
-          }
-        patch.solver = *solver;
-
-        // Where the right-hand sides of the cells come from.
-        const unsigned int patch_number = patches.size();
-        for (unsigned int c = 0; c < members.size(); ++c)
-          if (members[c].from == rank)
-            {
-              Membership membership{rank, patch_number, c, {}};
-              std::copy_n(members[c].hat, n_v, membership.hat.begin());
-              memberships[members[c].data->cell->active_cell_index()].push_back(
-                membership);
-            }
-          else
-            {
-              // a rank computes the right-hand sides of the shares it sent
-              // in the order it sent them
-              received[members[c].from][members[c].index] = {patch_number, c};
-              ++n_received[members[c].from];
-            }
-        for (const Member &member : members)
-          if (member.from == rank && --pending[mine.cell[member.index]] == 0)
-            release(mine.cells[mine.cell[member.index]]);
-        patches.push_back(std::move(patch));
       }
     parallel::apply_to_subranges(
       std::size_t(0),
-      unfactorised.size(),
+      new_solvers.size(),
       [&](const std::size_t begin, const std::size_t end) {
         for (std::size_t i = begin; i < end; ++i)
-          factorise(*unfactorised[i].first,
-                    unfactorised_metrics.data() + unfactorised[i].second);
+          {
+            const NewSolver &job = new_solvers[i];
+            if (job.shared)
+              factorise(*job.shared, job.metrics);
+            else
+              {
+                auto created    = std::make_shared<LocalSolver>();
+                created->layout = *job.layout;
+                factorise(*created, job.metrics);
+                patches[job.patch].solver = std::move(created);
+              }
+          }
       },
       /*grainsize=*/256);
+    for (PatchChunk &chunk : chunks)
+      {
+        chunk.metrics = std::vector<double>();
+        chunk.cells   = std::vector<ShareHere>();
+        chunk.layouts = std::vector<std::shared_ptr<const PatchLayout>>();
+      }
     for (const auto &[from, shares] : incoming)
       AssertThrow(n_received[from] == shares.patch.size(),
                   ExcMessage("Flux reconstruction: a cell share sent to this "
                              "process belongs to no patch solved here."));
-    hat_masses.shrink_to_fit();
     // Where the fluxes are summed: the owned dofs, and as ghosts the
     // relevant ones (the patches' and the constraints' dofs) and, with
     // hanging nodes in parallel, a few beyond that patches solved here
-    // write; the patch unknowns as local indices there.
+    // write; the patch unknowns as local indices there, and their cells'
+    // (psi_a, q_k)_K, gathered from the chunks.
     std::vector<types::global_dof_index> beyond;
-    for (const types::global_dof_index g : patch_dofs)
-      if (!relevant_dofs.is_element(g))
-        beyond.push_back(g);
+    for (const PatchChunk &chunk : chunks)
+      beyond.insert(beyond.end(), chunk.beyond.begin(), chunk.beyond.end());
     IndexSet writable_dofs = relevant_dofs;
     writable_dofs.add_indices(index_set(dof_handler.n_dofs(), beyond));
     writable_dofs.compress();
@@ -851,15 +974,24 @@ namespace VI
                                                     writable_dofs,
                                                     comm);
     flux_partitioner = partitioner;
-    patch_positions.resize(patch_dofs.size());
+    patch_positions.resize(dofs_offset.back());
+    hat_masses.resize(chunks.size());
     parallel::apply_to_subranges(
       std::size_t(0),
-      patch_dofs.size(),
-      [&](const std::size_t begin, const std::size_t end) {
-        for (std::size_t i = begin; i < end; ++i)
-          patch_positions[i] = partitioner->global_to_local(patch_dofs[i]);
+      chunks.size(),
+      [&](const std::size_t first_chunk, const std::size_t end_chunk) {
+        for (std::size_t ch = first_chunk; ch < end_chunk; ++ch)
+          {
+            PatchChunk &chunk = chunks[ch];
+            for (std::size_t i = 0; i < chunk.dofs.size(); ++i)
+              patch_positions[dofs_offset[ch] + i] =
+                partitioner->global_to_local(chunk.dofs[i]);
+            // (moved: the patches point into them)
+            hat_masses[ch] = std::move(chunk.hat_masses);
+            chunk          = PatchChunk();
+          }
       },
-      /*grainsize=*/std::size_t(1) << 14);
+      /*grainsize=*/1);
     // The constraints of the owned dofs (the others are the owners'); their
     // entries, on the coarse side of the face, are relevant.
     constrained_dofs.clear();
@@ -894,7 +1026,9 @@ namespace VI
   FluxReconstruction<dim>::shared_layout(
     const PatchLayout                      &layout,
     const std::vector<const std::int8_t *> &signs,
+    Layouts                                &cache,
     Layouts                                &layouts,
+    std::mutex                             &mutex,
     std::vector<std::int64_t>              &key) const
   {
     const unsigned int n_tau   = fe_flux.n_dofs_per_cell(),
@@ -915,9 +1049,16 @@ namespace VI
       }
     for (unsigned int c = 0; c < layout.n_cells; ++c)
       key.insert(key.end(), signs[c], signs[c] + n_tau);
-    auto &shared = layouts[key];
+    auto &cached = cache[key];
+    if (cached)
+      return cached;
+    const std::lock_guard<std::mutex> lock(mutex);
+    auto                             &shared = layouts[key];
     if (shared)
-      return shared;
+      {
+        cached = shared;
+        return cached;
+      }
 
     std::vector<double> B(n_q * n_sigma, 0.);
     for (unsigned int c = 0; c < layout.n_cells; ++c)
@@ -982,7 +1123,8 @@ namespace VI
           }
       }
     shared = new_layout;
-    return shared;
+    cached = shared;
+    return cached;
   }
 
 
@@ -1321,9 +1463,9 @@ namespace VI
     if (sources.vertex_source)
       for (unsigned int p = 0; p < patches.size(); ++p)
         {
-          const Patch       &patch  = patches[p];
-          const PatchLayout &layout = *patch.solver->layout;
-          const double *hat_mass    = hat_masses.data() + patch.hat_mass_start;
+          const Patch       &patch    = patches[p];
+          const PatchLayout &layout   = *patch.solver->layout;
+          const double      *hat_mass = patch.hat_mass;
           for (unsigned int f = 0; f < n_fields; ++f)
             {
               const double c_a    = sources.vertex_source(patch.vertex, f);

@@ -352,17 +352,18 @@ TEST_P(FluxReconstructionTest, ReproducesAConstantFluxOnDistortedMeshes)
 }
 
 
-// The cells' right-hand sides and the patch problems are computed on the
-// threads of MultithreadInfo and summed in a fixed order: the flux must be
-// the same to the last bit with one thread and with four (more than the
-// cores of most test machines, so that cells finish out of order).
+// The patches are set up in chunks, and the cells' right-hand sides and the
+// patch problems computed, on the threads of MultithreadInfo; all is
+// gathered or summed in a fixed order: the flux must be the same to the last
+// bit with one thread and with four (more than the cores of most test
+// machines, so that cells and chunks finish out of order).
 TEST(FluxReconstruction, DoesNotDependOnTheNumberOfThreads)
 {
   for (const unsigned int degree : {1u, 2u})
     {
       Triangulation<2> tria;
       make_mesh(tria, /*distorted=*/true, /*hanging=*/true);
-      tria.refine_global(2); // many chunks of cells per thread
+      tria.refine_global(3); // many chunks of cells and patches per thread
       MappingQ<2>   mapping(1);
       FE_Q<2>       fe(degree);
       DoFHandler<2> dofs(tria);
@@ -371,14 +372,14 @@ TEST(FluxReconstruction, DoesNotDependOnTheNumberOfThreads)
       VectorTools::interpolate(mapping, dofs, Potential(), u);
       const Load f;
 
-      VI::FluxReconstruction<2> reconstruction(mapping, degree);
-      reconstruction.reinit(dofs);
+      VI::FluxReconstruction<2> serial_setup(mapping, degree),
+        threaded_setup(mapping, degree);
       typename VI::FluxReconstruction<2>::Sources sources;
       sources.make_cell_values = [&]() {
         const auto values =
           std::make_shared<FEValues<2>>(mapping,
                                         fe,
-                                        reconstruction.get_quadrature(),
+                                        serial_setup.get_quadrature(),
                                         update_gradients |
                                           update_quadrature_points);
         return [&, values](const auto &cell, auto &flux, auto &source) {
@@ -396,10 +397,15 @@ TEST(FluxReconstruction, DoesNotDependOnTheNumberOfThreads)
 
       TrilinosWrappers::MPI::Vector one_thread, four_threads;
       MultithreadInfo::set_thread_limit(1);
-      reconstruction.reconstruct(sources, {&one_thread});
+      serial_setup.reinit(dofs);
+      serial_setup.reconstruct(sources, {&one_thread});
       MultithreadInfo::set_thread_limit(4);
-      reconstruction.reconstruct(sources, {&four_threads});
+      threaded_setup.reinit(dofs);
+      threaded_setup.reconstruct(sources, {&four_threads});
       MultithreadInfo::set_thread_limit();
+      // several chunks of patches per thread
+      EXPECT_GT(threaded_setup.statistics().first, 8 * 1024u);
+      EXPECT_EQ(threaded_setup.statistics(), serial_setup.statistics());
 
       ASSERT_EQ(one_thread.size(), four_threads.size());
       unsigned int n_different = 0;

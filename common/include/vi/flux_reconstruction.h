@@ -17,6 +17,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <unordered_map>
 #include <vector>
 
@@ -139,7 +140,10 @@ namespace VI
     /**
      * Build the Raviart-Thomas space and the patches of the vertices owned
      * by this process, on the mesh of `potential` (the mesh may have
-     * hanging nodes).
+     * hanging nodes). The cells' data, the patches (in chunks of
+     * consecutive ones) and their factorisations are computed on the
+     * threads of MultithreadInfo and gathered in a fixed order: the patches
+     * do not depend on the number of threads.
      */
     void
     reinit(const dealii::DoFHandler<dim> &potential);
@@ -208,12 +212,13 @@ namespace VI
 
     /// A vertex patch solved here: its unknowns sigma^a are the Raviart-Thomas
     /// dofs patch_positions[dofs_start ...] (as many as the layout of its
-    /// solver says), and (psi_a, q_k)_K of its cells are
-    /// hat_masses[hat_mass_start ...], cell by cell.
+    /// solver says), and (psi_a, q_k)_K of its cells are hat_mass[0 ...],
+    /// cell by cell (in hat_masses).
     struct Patch
     {
       unsigned int                       vertex;
-      std::size_t                        dofs_start, hat_mass_start;
+      std::size_t                        dofs_start;
+      const double                      *hat_mass;
       std::shared_ptr<const LocalSolver> solver;
     };
 
@@ -232,12 +237,15 @@ namespace VI
 
     /// The layout shared by the patches of the connectivity of `layout`
     /// and the Piola signs of its cells, with its divergence basis and its
-    /// energy products (looked up in, or added to, `layouts`; `key` is
-    /// scratch space).
+    /// energy products: looked up in the thread's `cache`, then in
+    /// `layouts` (shared by the threads, under `mutex`), or made and added
+    /// to both. `key` is scratch space.
     std::shared_ptr<const PatchLayout>
     shared_layout(const PatchLayout                      &layout,
                   const std::vector<const std::int8_t *> &signs,
+                  Layouts                                &cache,
                   Layouts                                &layouts,
+                  std::mutex                             &mutex,
                   std::vector<std::int64_t>              &key) const;
 
     /// Assemble and factorise the patch matrices of `solver` (its layout
@@ -281,9 +289,9 @@ namespace VI
     dealii::IndexSet         owned_dofs, relevant_dofs;
     std::vector<Patch>       patches;
     /// The unknowns of all patches, as local indices of flux_partitioner,
-    /// and their cells' (psi_a, q_k)_K.
-    std::vector<unsigned int> patch_positions;
-    std::vector<double>       hat_masses;
+    /// and their cells' (psi_a, q_k)_K, in blocks of consecutive patches.
+    std::vector<unsigned int>        patch_positions;
+    std::vector<std::vector<double>> hat_masses;
     /// For every active cell (owned ones only): its parts in patches.
     std::vector<std::vector<Membership>> memberships;
     /// The owned cells with parts in patches, in the order of the mesh.
