@@ -314,5 +314,7 @@ namespace VI
     std::vector<unsigned int>                    constraint_start;
     std::vector<std::pair<unsigned int, double>> constraint_entries;
     unsigned int                                 n_local_solvers = 0;
+    /// The factors of the patch solvers, one array per mesh.
+    std::unique_ptr<double[]> factor_storage;
   };
 } // namespace VI
