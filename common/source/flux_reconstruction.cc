@@ -7,6 +7,7 @@
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/grid_tools.h>
+#include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/la_parallel_vector.h>
 #include <deal.II/lac/lapack_full_matrix.h>
@@ -26,7 +27,6 @@
 #include <map>
 #include <mutex>
 #include <numeric>
-#include <tuple>
 
 namespace VI
 {
@@ -938,9 +938,8 @@ namespace VI
     for (NewSolver &job : new_solvers)
       {
         job.factors_start = n_factors;
-        n_factors +=
-          (*job.layout)->n_packed() +
-          std::size_t((*job.layout)->basis->n_free) * (*job.layout)->basis->n_q;
+        // (C and L have the sizes of an energy block's Q and P)
+        n_factors += (*job.layout)->energy_block();
       }
     factor_storage.reset(new double[n_factors]);
     parallel::apply_to_subranges(
@@ -1160,7 +1159,7 @@ namespace VI
     const unsigned int     n_packed = layout->n_packed();
     const unsigned int     n_block  = layout->energy_block();
     double *const          C        = solver.factors;
-    std::fill_n(C, d * n_q + n_packed, 0.);
+    std::fill_n(C, n_block, 0.); // C and L: the sizes of Q and P
     double *const L = C + d * n_q;
     for (unsigned int c = 0; c < layout->n_cells; ++c)
       for (unsigned int m = 0; m < n_metric; ++m)
