@@ -46,7 +46,8 @@ namespace VI
   // mean-value condition; gamma is not needed. Per patch this costs the
   // Cholesky factor of Z^T A Z, of order dim ker B (9 for an interior Q1
   // patch, against an LU factorisation of order 41 for the saddle-point
-  // matrix), and each solve four small matrix-vector products.
+  // matrix), and each solve a few small matrix-vector products: B^+ g,
+  // Z^T A B^+ g (see LocalSolver), Z^T b, the triangular solves and Z y.
   template <int dim>
   struct FluxReconstruction<dim>::DivergenceBasis
   {
@@ -115,17 +116,18 @@ namespace VI
   // With the cells' metrics G_c = J_c^T J_c / det J_c (J_c the mean
   // Jacobian of the patch's cell c), the patch energy is A = sum_c E_c^T
   // S_c (sum_m G_c,m M^_m) S_c E_c, E_c the expansion into the cell's
-  // dofs, S_c its signs, M^_m the reference products. So Z^T A Z and
-  // Z^T A B^+ are the sums of G_c,m P_c,m and G_c,m Q_c,m with
-  // P_c,m = (S_c E_c Z)^T M^_m (S_c E_c Z) (packed lower triangle) and
-  // Q_c,m = (S_c E_c Z)^T M^_m (S_c E_c B^+) (n_free x n_q by rows), which
-  // the layout keeps in `energy`, block (c n_metric + m).
+  // dofs, S_c its signs (`signs`, n_tau per cell), M^_m the reference
+  // products. So Z^T A Z and Z^T A B^+ are the sums of G_c,m P_c,m and
+  // G_c,m Q_c,m with P_c,m = (S_c E_c Z)^T M^_m (S_c E_c Z) (packed lower
+  // triangle) and Q_c,m = (S_c E_c Z)^T M^_m (S_c E_c B^+) (n_free x n_q by
+  // rows), which the layout keeps in `energy`, block (c n_metric + m).
   template <int dim>
   struct FluxReconstruction<dim>::PatchLayout
   {
     unsigned int                                 n_cells = 0, n_sigma = 0;
     std::vector<unsigned int>                    sigma_start;
     std::vector<std::pair<unsigned int, double>> sigma_entries;
+    std::vector<std::int8_t>                     signs;
     std::shared_ptr<const DivergenceBasis>       basis;
     std::vector<double>                          energy;
 
@@ -136,21 +138,45 @@ namespace VI
     }
 
     unsigned int
+    n_products() const
+    {
+      return basis->n_free * basis->n_q;
+    }
+
+    unsigned int
     energy_block() const
     {
-      return n_packed() + basis->n_free * basis->n_q;
+      return n_packed() + n_products();
     }
   };
 
 
-  // A patch's energy on the divergence-free fluxes, once per mesh and patch
-  // metrics: the Cholesky factor L of Z^T A Z and C = Z^T A B^+, in
-  // factors (C by rows, n_free x n_q, then the rows of L, packed).
+  // A patch's energy, once per mesh and patch metrics: its cells' metrics
+  // (n_metric numbers per cell) and the Cholesky factor L of Z^T A Z (its
+  // rows, packed), one after the other in solver_storage. The reduced
+  // problem's right-hand side needs Z^T A B^+ g: the first reconstruction
+  // on a mesh computes it cell by cell, A B^+ g from the metrics, and
+  // from the second on (a mesh whose fluxes are reconstructed often, at
+  // the checks of an adaptive solve) C = Z^T A B^+ is kept
+  // (keep_products()). C is n_free n_q numbers per patch, 144 for an
+  // interior Q1 patch against 45 for L: kept on a mesh reconstructed once,
+  // it would be the largest array of the reconstruction, and its memory
+  // costs more to touch than its products save.
   template <int dim>
   struct FluxReconstruction<dim>::LocalSolver
   {
     std::shared_ptr<const PatchLayout> layout;
-    double                            *factors = nullptr; ///< in factor_storage
+    double                            *metrics = nullptr; ///< in solver_storage
+    double *cholesky = nullptr; ///< right after the metrics
+    /// C by rows (n_free x n_q), in product_storage, or none
+    double *products = nullptr;
+
+    /// How many numbers of solver_storage a solver of `layout` holds.
+    static std::size_t
+    storage_size(const PatchLayout &layout)
+    {
+      return std::size_t(layout.n_cells) * n_metric + layout.n_packed();
+    }
 
     /// Length of a right-hand side column: b (n_sigma), then g (n_q).
     unsigned int
@@ -160,34 +186,62 @@ namespace VI
     }
 
     /// Overwrite the head of each of the n_columns columns (b, g) with
-    /// sigma = B^+ g + Z y, (Z^T A Z) y = Z^T b - C g.
+    /// sigma = B^+ g + Z y, (Z^T A Z) y = Z^T b - C g, C g = Z^T A B^+ g
+    /// from the products or else from the cells' metrics and the nonzero
+    /// entries of the reference products M^_m (`reference`); n_tau
+    /// Raviart-Thomas dofs per cell.
     void
-    solve(double              *columns,
-          const unsigned int   n_columns,
-          std::vector<double> &work) const
+    solve(double                         *columns,
+          const unsigned int              n_columns,
+          const std::vector<MetricEntry> &reference,
+          const unsigned int              n_tau,
+          std::vector<double>            &work) const
     {
       const DivergenceBasis &basis   = *layout->basis;
       const unsigned int     n_sigma = basis.n_sigma, n_q = basis.n_q,
                          d  = basis.n_free;
-      const double *const C = factors;
-      const double *const L = C + std::size_t(d) * n_q;
-      work.resize(n_sigma + d);
+      const double *const L = cholesky;
+      work.resize(n_sigma + d + 2 * n_tau);
       double *const particular = work.data();
       double *const y          = particular + n_sigma;
+      double *const v          = y + d; // a cell's part of B^+ g
+      double *const Av         = v + n_tau;
       for (unsigned int c = 0; c < n_columns; ++c)
         {
           double *const       x = columns + std::size_t(c) * n();
           const double *const g = x + n_sigma;
-          for (unsigned int j = 0; j < d; ++j)
+          std::fill(particular, particular + n_sigma, 0.);
+          for (unsigned int k = 0; k < n_q; ++k)
             {
-              const double *z   = &basis.kernel[j * n_sigma];
-              const double *c_j = &C[j * n_q];
-              double        t   = 0;
+              const double *column = &basis.pseudo_inverse[k * n_sigma];
               for (unsigned int i = 0; i < n_sigma; ++i)
-                t += z[i] * x[i];
-              for (unsigned int k = 0; k < n_q; ++k)
-                t -= c_j[k] * g[k];
-              y[j] = t;
+                particular[i] += column[i] * g[k];
+            }
+          if (products)
+            {
+              for (unsigned int j = 0; j < d; ++j)
+                {
+                  const double *z   = &basis.kernel[j * n_sigma];
+                  const double *c_j = &products[j * n_q];
+                  double        t   = 0;
+                  for (unsigned int i = 0; i < n_sigma; ++i)
+                    t += z[i] * x[i];
+                  for (unsigned int k = 0; k < n_q; ++k)
+                    t -= c_j[k] * g[k];
+                  y[j] = t;
+                }
+            }
+          else
+            {
+              subtract_energy(x, particular, reference, n_tau, v, Av);
+              for (unsigned int j = 0; j < d; ++j)
+                {
+                  const double *z = &basis.kernel[j * n_sigma];
+                  double        t = 0;
+                  for (unsigned int i = 0; i < n_sigma; ++i)
+                    t += z[i] * x[i];
+                  y[j] = t;
+                }
             }
           // L (row j from j (j + 1) / 2 on) and L^T
           for (unsigned int j = 0; j < d; ++j)
@@ -203,13 +257,6 @@ namespace VI
                 y[j] -= L[m * (m + 1) / 2 + j] * y[m];
               y[j] /= L[j * (j + 1) / 2 + j];
             }
-          std::fill(particular, particular + n_sigma, 0.);
-          for (unsigned int k = 0; k < n_q; ++k)
-            {
-              const double *column = &basis.pseudo_inverse[k * n_sigma];
-              for (unsigned int i = 0; i < n_sigma; ++i)
-                particular[i] += column[i] * g[k];
-            }
           for (unsigned int j = 0; j < d; ++j)
             {
               const double *z = &basis.kernel[j * n_sigma];
@@ -217,6 +264,41 @@ namespace VI
                 particular[i] += z[i] * y[j];
             }
           std::copy_n(particular, n_sigma, x);
+        }
+    }
+
+    /// x -= A p, cell by cell: A = sum_K E_K^T S_K (sum_m G_K,m M^_m) S_K
+    /// E_K; v and Av have room for a cell's dofs.
+    void
+    subtract_energy(double                         *x,
+                    const double                   *p,
+                    const std::vector<MetricEntry> &reference,
+                    const unsigned int              n_tau,
+                    double *const                   v,
+                    double *const                   Av) const
+    {
+      const auto *entries = layout->sigma_entries.data();
+      for (unsigned int K = 0; K < layout->n_cells; ++K)
+        {
+          const unsigned int *start = &layout->sigma_start[K * (n_tau + 1)];
+          const std::int8_t  *s     = &layout->signs[K * n_tau];
+          const double       *G     = &metrics[K * n_metric];
+          for (unsigned int i = 0; i < n_tau; ++i)
+            {
+              double value = 0;
+              for (unsigned int e = start[i]; e < start[i + 1]; ++e)
+                value += entries[e].second * p[entries[e].first];
+              v[i]  = s[i] * value;
+              Av[i] = 0;
+            }
+          for (const MetricEntry &entry : reference)
+            Av[entry.i] += G[entry.m] * entry.value * v[entry.j];
+          for (unsigned int i = 0; i < n_tau; ++i)
+            {
+              const double value = s[i] * Av[i];
+              for (unsigned int e = start[i]; e < start[i + 1]; ++e)
+                x[entries[e].first] -= entries[e].second * value;
+            }
         }
     }
   };
@@ -264,6 +346,17 @@ namespace VI
                    (a < b ? tau[i * dim + b] * tau[j * dim + a] : 0.)) *
                   scale;
       }
+    // Their nonzero entries, for the patch solves (a Raviart-Thomas function
+    // of a quadrilateral has one nonzero component: a quarter of the
+    // entries of M^_m are nonzero, some of the others round-off). By
+    // columns, so that consecutive entries add to different rows.
+    for (unsigned int m = 0; m < n_metric; ++m)
+      for (unsigned int j = 0; j < n_tau; ++j)
+        for (unsigned int i = 0; i < n_tau; ++i)
+          if (const double value =
+                metric_reference[(m * n_tau + i) * n_tau + j];
+              value != 0.)
+            metric_entries.push_back({m, i, j, value});
     for (unsigned int q = 0; q < quadrature.size(); ++q)
       for (unsigned int k = 0; k < n_q; ++k)
         {
@@ -374,7 +467,9 @@ namespace VI
     memberships.assign(tria.n_active_cells(), {});
     n_sent.clear();
     received.clear();
-    n_local_solvers = 0;
+    local_solvers.clear();
+    product_storage.reset();
+    n_reconstructions = 0;
 
     // The conforming hat functions: Q1 with its hanging node constraints,
     // one patch per unconstrained (regular) vertex, numbered by its degree
@@ -842,8 +937,9 @@ namespace VI
                        std::shared_ptr<const LocalSolver>,
                        KeyHash>
                                          solvers;
-    bool                                 share_solvers = true;
-    constexpr unsigned int               sharing_trial = 1000;
+    bool                                 share_solvers   = true;
+    unsigned int                         n_local_solvers = 0;
+    constexpr unsigned int               sharing_trial   = 1000;
     std::vector<std::int64_t>            key;
     std::map<unsigned int, unsigned int> n_received;
     // The new solvers, made (when not shared) and factorised after the
@@ -854,7 +950,7 @@ namespace VI
       LocalSolver                              *shared; ///< or to be made
       const std::shared_ptr<const PatchLayout> *layout;
       const double                             *metrics;
-      std::size_t                               factors_start = 0;
+      std::size_t                               storage_start = 0;
     };
     std::vector<NewSolver>   new_solvers;
     std::vector<std::size_t> dofs_offset(chunks.size() + 1, 0);
@@ -930,38 +1026,43 @@ namespace VI
             patches.push_back(std::move(patch));
           }
       }
-    // The factors of all new solvers in one array (1.2 GB on 7.9e5 Q1
-    // patches), first touched on the threads that factorise: one large
-    // allocation, which glibc maps in huge pages when asked to (README.md),
-    // instead of a vector per patch from the threads' heaps.
-    std::size_t n_factors = 0;
+    // The metrics and factors of all new solvers in one array (0.35 GB on
+    // 7.9e5 Q1 patches), first touched on the threads that factorise: one
+    // large allocation, which glibc maps in huge pages when asked to
+    // (README.md), instead of a vector per patch from the threads' heaps.
+    std::size_t storage_size = 0;
     for (NewSolver &job : new_solvers)
       {
-        job.factors_start = n_factors;
-        // (C and L have the sizes of an energy block's Q and P)
-        n_factors += (*job.layout)->energy_block();
+        job.storage_start = storage_size;
+        storage_size += LocalSolver::storage_size(**job.layout);
       }
-    factor_storage.reset(new double[n_factors]);
+    solver_storage.reset(new double[storage_size]);
+    local_solvers.resize(new_solvers.size());
     parallel::apply_to_subranges(
       std::size_t(0),
       new_solvers.size(),
       [&](const std::size_t begin, const std::size_t end) {
         for (std::size_t i = begin; i < end; ++i)
           {
-            const NewSolver &job = new_solvers[i];
-            if (job.shared)
+            const NewSolver             &job    = new_solvers[i];
+            LocalSolver                 *solver = job.shared;
+            std::shared_ptr<LocalSolver> created;
+            if (!solver)
               {
-                job.shared->factors = &factor_storage[job.factors_start];
-                factorise(*job.shared, job.metrics);
+                created         = std::make_shared<LocalSolver>();
+                created->layout = *job.layout;
+                solver          = created.get();
               }
-            else
-              {
-                auto created     = std::make_shared<LocalSolver>();
-                created->layout  = *job.layout;
-                created->factors = &factor_storage[job.factors_start];
-                factorise(*created, job.metrics);
-                patches[job.patch].solver = std::move(created);
-              }
+            solver->metrics = &solver_storage[job.storage_start];
+            std::copy_n(job.metrics,
+                        solver->layout->n_cells * n_metric,
+                        solver->metrics);
+            solver->cholesky =
+              solver->metrics + solver->layout->n_cells * n_metric;
+            factorise(*solver);
+            local_solvers[i] = solver;
+            if (created)
+              patches[job.patch].solver = std::move(created);
           }
       },
       /*grainsize=*/256);
@@ -1089,6 +1190,10 @@ namespace VI
                 (signs[c][i] * divergence_reference[k * n_tau + i]);
       }
     auto new_layout = std::make_shared<PatchLayout>(layout);
+    for (unsigned int c = 0; c < layout.n_cells; ++c)
+      new_layout->signs.insert(new_layout->signs.end(),
+                               signs[c],
+                               signs[c] + n_tau);
     new_layout->basis =
       std::make_shared<const DivergenceBasis>(n_sigma, n_q, B);
     const DivergenceBasis &basis    = *new_layout->basis;
@@ -1146,32 +1251,26 @@ namespace VI
 
 
   // The patch energy on the divergence-free fluxes from the cells'
-  // metrics: Z^T A Z = sum G_c,m P_c,m = L L^T and C = sum G_c,m Q_c,m.
+  // metrics: Z^T A Z = sum G_c,m P_c,m = L L^T.
   template <int dim>
   void
-  FluxReconstruction<dim>::factorise(LocalSolver  &solver,
-                                     const double *metrics) const
+  FluxReconstruction<dim>::factorise(LocalSolver &solver) const
   {
-    const auto            &layout   = solver.layout;
-    const DivergenceBasis &basis    = *layout->basis;
-    const unsigned int     d        = basis.n_free;
-    const unsigned int     n_q      = basis.n_q;
-    const unsigned int     n_packed = layout->n_packed();
-    const unsigned int     n_block  = layout->energy_block();
-    double *const          C        = solver.factors;
-    std::fill_n(C, n_block, 0.); // C and L: the sizes of Q and P
-    double *const L = C + d * n_q;
+    const auto         &layout   = solver.layout;
+    const unsigned int  d        = layout->basis->n_free;
+    const unsigned int  n_packed = layout->n_packed();
+    const unsigned int  n_block  = layout->energy_block();
+    const double *const metrics  = solver.metrics;
+    double *const       L        = solver.cholesky;
+    std::fill_n(L, n_packed, 0.);
     for (unsigned int c = 0; c < layout->n_cells; ++c)
       for (unsigned int m = 0; m < n_metric; ++m)
         {
           const double  G = metrics[c * n_metric + m];
           const double *P =
             &layout->energy[(std::size_t(c) * n_metric + m) * n_block];
-          const double *Q = P + n_packed;
           for (unsigned int i = 0; i < n_packed; ++i)
             L[i] += G * P[i];
-          for (unsigned int i = 0; i < d * n_q; ++i)
-            C[i] += G * Q[i];
         }
     // Cholesky in place, row by row of the packed lower triangle.
     for (unsigned int j = 0; j < d; ++j)
@@ -1196,6 +1295,44 @@ namespace VI
               }
           }
       }
+  }
+
+
+  // C = Z^T A B^+ = sum G_c,m Q_c,m of every solver, in one array.
+  template <int dim>
+  void
+  FluxReconstruction<dim>::keep_products() const
+  {
+    std::vector<std::size_t> start(local_solvers.size() + 1, 0);
+    for (std::size_t s = 0; s < local_solvers.size(); ++s)
+      start[s + 1] = start[s] + local_solvers[s]->layout->n_products();
+    product_storage.reset(new double[start.back()]);
+    parallel::apply_to_subranges(
+      std::size_t(0),
+      local_solvers.size(),
+      [&](const std::size_t begin, const std::size_t end) {
+        for (std::size_t s = begin; s < end; ++s)
+          {
+            LocalSolver       &solver  = *local_solvers[s];
+            const PatchLayout &layout  = *solver.layout;
+            const unsigned int n       = layout.n_products();
+            const unsigned int n_block = layout.energy_block();
+            double *const      C       = &product_storage[start[s]];
+            std::fill_n(C, n, 0.);
+            for (unsigned int c = 0; c < layout.n_cells; ++c)
+              for (unsigned int m = 0; m < n_metric; ++m)
+                {
+                  const double  G = solver.metrics[c * n_metric + m];
+                  const double *Q =
+                    &layout.energy[(std::size_t(c) * n_metric + m) * n_block +
+                                   layout.n_packed()];
+                  for (unsigned int i = 0; i < n; ++i)
+                    C[i] += G * Q[i];
+                }
+            solver.products = C;
+          }
+      },
+      /*grainsize=*/256);
   }
 
 
@@ -1496,14 +1633,18 @@ namespace VI
 
     // The patch problems, independent of each other (concurrently): the
     // patch solution overwrites its right-hand sides, sigma^a is the head
-    // of each column.
+    // of each column. A mesh reconstructed more than once keeps the
+    // products C of its solvers (see LocalSolver).
+    if (++n_reconstructions == 2)
+      keep_products();
     parallel::apply_to_subranges(
       0u,
       static_cast<unsigned int>(patches.size()),
       [&](const unsigned int begin, const unsigned int end) {
         std::vector<double> work;
         for (unsigned int p = begin; p < end; ++p)
-          patches[p].solver->solve(rhs + rhs_start[p], n_fields, work);
+          patches[p].solver->solve(
+            rhs + rhs_start[p], n_fields, metric_entries, n_tau, work);
       },
       /*grainsize=*/256);
     // The fluxes of the patches summed in patch order, the fields
@@ -1604,7 +1745,7 @@ namespace VI
   std::pair<unsigned int, unsigned int>
   FluxReconstruction<dim>::statistics() const
   {
-    return {patches.size(), n_local_solvers};
+    return {patches.size(), local_solvers.size()};
   }
 
 

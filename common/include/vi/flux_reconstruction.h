@@ -150,7 +150,9 @@ namespace VI
     /// sigma[c] = sum_a sigma_c^a for every field c, with ghost entries.
     /// The cells' right-hand sides and the patch problems are computed on
     /// the threads of MultithreadInfo; they are summed in a fixed order, so
-    /// the result does not depend on the number of threads.
+    /// the result does not depend on the number of threads. The second
+    /// call on a mesh keeps products for the later ones (see the .cc
+    /// file): calls must not overlap.
     void
     reconstruct(
       const Sources                                              &sources,
@@ -247,11 +249,14 @@ namespace VI
                   std::mutex                             &mutex,
                   std::vector<std::int64_t>              &key) const;
 
-    /// Assemble and factorise the patch matrices of `solver` (its layout
-    /// set) for the metrics J^T J / det J of its cells, dim (dim + 1) / 2
-    /// numbers per cell from `metrics` on.
+    /// Assemble and factorise the patch matrix of `solver` (its layout and
+    /// its cells' metrics J^T J / det J set).
     void
-    factorise(LocalSolver &solver, const double *metrics) const;
+    factorise(LocalSolver &solver) const;
+
+    /// Compute and keep the products C = Z^T A B^+ of all patch solvers.
+    void
+    keep_products() const;
 
     /// Add one cell's right-hand sides (all fields; layout of reconstruct())
     /// to those of patch p, column-major from rhs on.
@@ -279,6 +284,14 @@ namespace VI
     /// for a < b), [(m n_tau + i) n_tau + j] for the m-th pair (a, b)
     static constexpr unsigned int n_metric = dim * (dim + 1) / 2;
     std::vector<double>           metric_reference;
+    /// The nonzero entries of the reference products, value = entry (i, j)
+    /// of the m-th, ordered by m, then j, then i
+    struct MetricEntry
+    {
+      unsigned int m, i, j;
+      double       value;
+    };
+    std::vector<MetricEntry> metric_entries;
     /// The Piola signs s_i of the owned cells' Raviart-Thomas functions
     /// [active cell index n_tau + i], and the cells' metrics G = J^T J /
     /// det J of their mean Jacobian [active cell index n_metric + m]
@@ -312,8 +325,14 @@ namespace VI
     std::vector<unsigned int>                    constrained_dofs;
     std::vector<unsigned int>                    constraint_start;
     std::vector<std::pair<unsigned int, double>> constraint_entries;
-    unsigned int                                 n_local_solvers = 0;
-    /// The factors of the patch solvers, one array per mesh.
-    std::unique_ptr<double[]> factor_storage;
+    /// The patch solvers (a few shared by all patches on uniformly refined
+    /// meshes, one per patch on others), and their cells' metrics and
+    /// factors, one array per mesh.
+    std::vector<LocalSolver *> local_solvers;
+    std::unique_ptr<double[]>  solver_storage;
+    /// The reconstructions on this mesh so far, and the products C of the
+    /// solvers, kept from the second on (see the .cc file).
+    mutable unsigned int              n_reconstructions = 0;
+    mutable std::unique_ptr<double[]> product_storage;
   };
 } // namespace VI
