@@ -148,6 +148,28 @@ namespace VI
     {
       return n_packed() + n_products();
     }
+
+    /// sum_c,m G_c,m (P_c,m or Q_c,m) for the cells' metrics G: the n
+    /// numbers of each energy block from `offset` on (0 and n_packed()
+    /// for P, n_packed() and n_products() for Q).
+    void
+    combine(const double      *metrics,
+            const unsigned int offset,
+            const unsigned int n,
+            double            *sum) const
+    {
+      std::fill_n(sum, n, 0.);
+      for (unsigned int c = 0; c < n_cells; ++c)
+        for (unsigned int m = 0; m < n_metric; ++m)
+          {
+            const double  G = metrics[c * n_metric + m];
+            const double *block =
+              &energy[(std::size_t(c) * n_metric + m) * energy_block() +
+                      offset];
+            for (unsigned int i = 0; i < n; ++i)
+              sum[i] += G * block[i];
+          }
+    }
   };
 
 
@@ -217,31 +239,18 @@ namespace VI
               for (unsigned int i = 0; i < n_sigma; ++i)
                 particular[i] += column[i] * g[k];
             }
-          if (products)
+          if (!products) // b - A B^+ g, then Z^T of it
+            subtract_energy(x, particular, reference, n_tau, v, Av);
+          for (unsigned int j = 0; j < d; ++j)
             {
-              for (unsigned int j = 0; j < d; ++j)
-                {
-                  const double *z   = &basis.kernel[j * n_sigma];
-                  const double *c_j = &products[j * n_q];
-                  double        t   = 0;
-                  for (unsigned int i = 0; i < n_sigma; ++i)
-                    t += z[i] * x[i];
-                  for (unsigned int k = 0; k < n_q; ++k)
-                    t -= c_j[k] * g[k];
-                  y[j] = t;
-                }
-            }
-          else
-            {
-              subtract_energy(x, particular, reference, n_tau, v, Av);
-              for (unsigned int j = 0; j < d; ++j)
-                {
-                  const double *z = &basis.kernel[j * n_sigma];
-                  double        t = 0;
-                  for (unsigned int i = 0; i < n_sigma; ++i)
-                    t += z[i] * x[i];
-                  y[j] = t;
-                }
+              const double *z = &basis.kernel[j * n_sigma];
+              double        t = 0;
+              for (unsigned int i = 0; i < n_sigma; ++i)
+                t += z[i] * x[i];
+              if (products)
+                for (unsigned int k = 0; k < n_q; ++k)
+                  t -= products[j * n_q + k] * g[k];
+              y[j] = t;
             }
           // L (row j from j (j + 1) / 2 on) and L^T
           for (unsigned int j = 0; j < d; ++j)
@@ -348,11 +357,10 @@ namespace VI
       }
     // Their nonzero entries, for the patch solves (a Raviart-Thomas function
     // of a quadrilateral has one nonzero component: a quarter of the
-    // entries of M^_m are nonzero, some of the others round-off). By
-    // columns, so that consecutive entries add to different rows.
+    // entries of M^_m are nonzero, some of the others round-off).
     for (unsigned int m = 0; m < n_metric; ++m)
-      for (unsigned int j = 0; j < n_tau; ++j)
-        for (unsigned int i = 0; i < n_tau; ++i)
+      for (unsigned int i = 0; i < n_tau; ++i)
+        for (unsigned int j = 0; j < n_tau; ++j)
           if (const double value =
                 metric_reference[(m * n_tau + i) * n_tau + j];
               value != 0.)
@@ -1256,22 +1264,10 @@ namespace VI
   void
   FluxReconstruction<dim>::factorise(LocalSolver &solver) const
   {
-    const auto         &layout   = solver.layout;
-    const unsigned int  d        = layout->basis->n_free;
-    const unsigned int  n_packed = layout->n_packed();
-    const unsigned int  n_block  = layout->energy_block();
-    const double *const metrics  = solver.metrics;
-    double *const       L        = solver.cholesky;
-    std::fill_n(L, n_packed, 0.);
-    for (unsigned int c = 0; c < layout->n_cells; ++c)
-      for (unsigned int m = 0; m < n_metric; ++m)
-        {
-          const double  G = metrics[c * n_metric + m];
-          const double *P =
-            &layout->energy[(std::size_t(c) * n_metric + m) * n_block];
-          for (unsigned int i = 0; i < n_packed; ++i)
-            L[i] += G * P[i];
-        }
+    const PatchLayout &layout = *solver.layout;
+    const unsigned int d      = layout.basis->n_free;
+    double *const      L      = solver.cholesky;
+    layout.combine(solver.metrics, 0, layout.n_packed(), L);
     // Cholesky in place, row by row of the packed lower triangle.
     for (unsigned int j = 0; j < d; ++j)
       {
@@ -1313,22 +1309,13 @@ namespace VI
       [&](const std::size_t begin, const std::size_t end) {
         for (std::size_t s = begin; s < end; ++s)
           {
-            LocalSolver       &solver  = *local_solvers[s];
-            const PatchLayout &layout  = *solver.layout;
-            const unsigned int n       = layout.n_products();
-            const unsigned int n_block = layout.energy_block();
-            double *const      C       = &product_storage[start[s]];
-            std::fill_n(C, n, 0.);
-            for (unsigned int c = 0; c < layout.n_cells; ++c)
-              for (unsigned int m = 0; m < n_metric; ++m)
-                {
-                  const double  G = solver.metrics[c * n_metric + m];
-                  const double *Q =
-                    &layout.energy[(std::size_t(c) * n_metric + m) * n_block +
-                                   layout.n_packed()];
-                  for (unsigned int i = 0; i < n; ++i)
-                    C[i] += G * Q[i];
-                }
+            LocalSolver       &solver = *local_solvers[s];
+            const PatchLayout &layout = *solver.layout;
+            double *const      C      = &product_storage[start[s]];
+            layout.combine(solver.metrics,
+                           layout.n_packed(),
+                           layout.n_products(),
+                           C);
             solver.products = C;
           }
       },

@@ -285,7 +285,7 @@ namespace VI
     static constexpr unsigned int n_metric = dim * (dim + 1) / 2;
     std::vector<double>           metric_reference;
     /// The nonzero entries of the reference products, value = entry (i, j)
-    /// of the m-th, ordered by m, then j, then i
+    /// of the m-th
     struct MetricEntry
     {
       unsigned int m, i, j;
