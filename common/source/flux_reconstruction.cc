@@ -189,9 +189,15 @@ namespace VI
   {
     std::shared_ptr<const PatchLayout> layout;
     double                            *metrics = nullptr; ///< in solver_storage
-    double *cholesky = nullptr; ///< right after the metrics
     /// C by rows (n_free x n_q), in product_storage, or none
     double *products = nullptr;
+
+    /// L, right after the metrics
+    double *
+    cholesky() const
+    {
+      return metrics + std::size_t(layout->n_cells) * n_metric;
+    }
 
     /// How many numbers of solver_storage a solver of `layout` holds.
     static std::size_t
@@ -222,7 +228,7 @@ namespace VI
       const DivergenceBasis &basis   = *layout->basis;
       const unsigned int     n_sigma = basis.n_sigma, n_q = basis.n_q,
                          d  = basis.n_free;
-      const double *const L = cholesky;
+      const double *const L = cholesky();
       work.resize(n_sigma + d + 2 * n_tau);
       double *const particular = work.data();
       double *const y          = particular + n_sigma;
@@ -945,9 +951,8 @@ namespace VI
                        std::shared_ptr<const LocalSolver>,
                        KeyHash>
                                          solvers;
-    bool                                 share_solvers   = true;
-    unsigned int                         n_local_solvers = 0;
-    constexpr unsigned int               sharing_trial   = 1000;
+    bool                                 share_solvers = true;
+    constexpr unsigned int               sharing_trial = 1000;
     std::vector<std::int64_t>            key;
     std::map<unsigned int, unsigned int> n_received;
     // The new solvers, made (when not shared) and factorised after the
@@ -977,7 +982,7 @@ namespace VI
             const double *metrics = &chunk.metrics[first_cell * n_metric];
 
             if (share_solvers && patches.size() == sharing_trial &&
-                n_local_solvers > patches.size() / 2)
+                new_solvers.size() > patches.size() / 2)
               {
                 share_solvers = false;
                 solvers.clear();
@@ -996,7 +1001,6 @@ namespace VI
                     new_solvers.push_back(
                       {patches.size(), created.get(), &layout, metrics});
                     solver = std::move(created);
-                    ++n_local_solvers;
                   }
                 patch.solver = solver;
               }
@@ -1004,7 +1008,6 @@ namespace VI
               {
                 new_solvers.push_back(
                   {patches.size(), nullptr, &layout, metrics});
-                ++n_local_solvers;
               }
 
             // Where the right-hand sides of the cells come from.
@@ -1065,8 +1068,6 @@ namespace VI
             std::copy_n(job.metrics,
                         solver->layout->n_cells * n_metric,
                         solver->metrics);
-            solver->cholesky =
-              solver->metrics + solver->layout->n_cells * n_metric;
             factorise(*solver);
             local_solvers[i] = solver;
             if (created)
@@ -1266,7 +1267,7 @@ namespace VI
   {
     const PatchLayout &layout = *solver.layout;
     const unsigned int d      = layout.basis->n_free;
-    double *const      L      = solver.cholesky;
+    double *const      L      = solver.cholesky();
     layout.combine(solver.metrics, 0, layout.n_packed(), L);
     // Cholesky in place, row by row of the packed lower triangle.
     for (unsigned int j = 0; j < d; ++j)
