@@ -437,11 +437,13 @@ namespace StepMembranes
   {
     TimerOutput::Scope t(timer, "assembly");
 
-    system_matrix    = 0;
-    system_rhs       = 0;
-    stiffness_matrix = 0;
+    // (a mass matrix for p >= 2 only, see setup_system())
+    const bool with_mass_matrix = fe.degree > 1;
+    system_matrix               = 0;
+    system_rhs                  = 0;
+    stiffness_matrix            = 0;
     Vector lumped_mass(owned_nodes, comm);
-    if (fe.degree > 1)
+    if (with_mass_matrix)
       mass_matrix = 0;
 
     // mesh_loop calls the copier for every cell of the range it is given,
@@ -486,12 +488,12 @@ namespace StepMembranes
             {
               const double phi_i = fe_values.shape_value(i, q);
               for (const unsigned int j : fe_values.dof_indices())
-                {
-                  copy.matrices[0](i, j) += fe_values.shape_grad(i, q) *
-                                            fe_values.shape_grad(j, q) * dx;
+                copy.matrices[0](i, j) +=
+                  fe_values.shape_grad(i, q) * fe_values.shape_grad(j, q) * dx;
+              if (with_mass_matrix)
+                for (const unsigned int j : fe_values.dof_indices())
                   copy.matrices[1](i, j) +=
                     phi_i * fe_values.shape_value(j, q) * dx;
-                }
               copy.vectors[0](i) += f1 * phi_i * dx;
               copy.vectors[1](i) += f2 * phi_i * dx;
               copy.vectors[2](i) += phi_i * dx;
@@ -527,7 +529,7 @@ namespace StepMembranes
       hanging_node_constraints.distribute_local_to_global(copy.vectors[2],
                                                           dofs,
                                                           lumped_mass);
-      if (fe.degree > 1)
+      if (with_mass_matrix)
         hanging_node_constraints.distribute_local_to_global(copy.matrices[1],
                                                             dofs,
                                                             mass_matrix);
@@ -543,7 +545,7 @@ namespace StepMembranes
     system_rhs.compress(VectorOperation::add);
     stiffness_matrix.compress(VectorOperation::add);
     lumped_mass.compress(VectorOperation::add);
-    if (fe.degree > 1)
+    if (with_mass_matrix)
       mass_matrix.compress(VectorOperation::add);
 
     // Coupling -D / +D in the rows of u1 / u2, and X3 = 0 as the row of each

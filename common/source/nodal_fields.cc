@@ -1,5 +1,9 @@
 #include <vi/nodal_fields.h>
 
+#include <algorithm>
+#include <iterator>
+#include <vector>
+
 namespace VI
 {
   namespace NodalFields
@@ -63,24 +67,43 @@ namespace VI
       // Every row of the scalar pattern, including the rows of ghost nodes
       // that assembly on this process writes into: Trilinos needs them to
       // set up the communication of those entries to their owners.
-      const IndexSet &rows = scalar_pattern.row_index_set();
-      for (const global_dof_index i : rows)
-        for (auto entry = scalar_pattern.begin(i);
-             entry != scalar_pattern.end(i);
-             ++entry)
-          for (const unsigned int field : {u1, u2})
-            system_pattern.add(index(i, field), index(entry->column(), field));
-
       // The node-local blocks (coupling and contact rows) are only written
-      // by the owner.
+      // by the owner. Each row goes in whole, its columns sorted (entry by
+      // entry, the pattern would search and grow its rows millions of
+      // times on a large mesh).
+      const IndexSet               &rows = scalar_pattern.row_index_set();
+      std::vector<global_dof_index> columns;
+      for (const global_dof_index i : rows)
+        {
+          const bool owned = owned_nodes.is_element(i);
+          for (const unsigned int field : {u1, u2})
+            {
+              columns.clear();
+              for (auto entry = scalar_pattern.begin(i);
+                   entry != scalar_pattern.end(i);
+                   ++entry)
+                columns.push_back(index(entry->column(), field));
+              if (owned)
+                columns.insert(std::upper_bound(columns.begin(),
+                                                columns.end(),
+                                                index(i, multiplier)),
+                               index(i, multiplier));
+              system_pattern.add_entries(index(i, field),
+                                         columns.begin(),
+                                         columns.end(),
+                                         /*indices_are_unique_and_sorted=*/
+                                         true);
+            }
+        }
       for (const global_dof_index i : owned_nodes)
         {
-          const global_dof_index x3 = index(i, multiplier);
-          for (const unsigned int field : {u1, u2, multiplier})
-            {
-              system_pattern.add(x3, index(i, field));
-              system_pattern.add(index(i, field), x3);
-            }
+          const global_dof_index node_block[] = {index(i, u1),
+                                                 index(i, u2),
+                                                 index(i, multiplier)};
+          system_pattern.add_entries(index(i, multiplier),
+                                     std::begin(node_block),
+                                     std::end(node_block),
+                                     /*indices_are_unique_and_sorted=*/true);
         }
     }
 
