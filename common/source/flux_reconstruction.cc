@@ -633,7 +633,23 @@ namespace VI
       set.add_indices(indices.begin(), indices.end());
       return set;
     };
-    const IndexSet patch_hats = index_set(hats.n_dofs(), mine.patch);
+    // The hats of the shares: all in relevant_hats, whose order marks them
+    // sorted (a sort of one entry per share would cost more).
+    IndexSet patch_hats(hats.n_dofs());
+    {
+      std::vector<bool> marked(relevant_hats.n_elements(), false);
+      for (const types::global_dof_index j : mine.patch)
+        {
+          AssertIndexRange(relevant_hats.index_within_set(j), marked.size());
+          marked[relevant_hats.index_within_set(j)] = true;
+        }
+      std::vector<types::global_dof_index> in_order;
+      auto                                 hat = relevant_hats.begin();
+      for (std::size_t k = 0; k < marked.size(); ++k, ++hat)
+        if (marked[k])
+          in_order.push_back(*hat);
+      patch_hats.add_indices(in_order.begin(), in_order.end());
+    }
     const std::vector<unsigned int> owners =
       Utilities::MPI::compute_index_owner(hats.locally_owned_dofs(),
                                           patch_hats,
