@@ -623,25 +623,18 @@ namespace VI
       }
 
     // The shares of patches solved elsewhere go to their ranks, with the
-    // data of their cells; the others stay.
-    // (IndexSet::add_index inserts into a sorted list: add sorted ranges.)
-    const auto index_set = [](const types::global_dof_index        size,
-                              std::vector<types::global_dof_index> indices) {
-      std::sort(indices.begin(), indices.end());
-      indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
-      IndexSet set(size);
-      set.add_indices(indices.begin(), indices.end());
-      return set;
-    };
-    // The hats of the shares: all in relevant_hats, whose order marks them
-    // sorted (a sort of one entry per share would cost more).
+    // data of their cells; the others stay. The hats of the shares are all
+    // in relevant_hats, whose order lists them sorted once marked (a sort
+    // of one entry per share would cost more; IndexSet::add_index inserts
+    // into a sorted list: sorted ranges go in at once).
     IndexSet patch_hats(hats.n_dofs());
     {
       std::vector<bool> marked(relevant_hats.n_elements(), false);
       for (const types::global_dof_index j : mine.patch)
         {
-          AssertIndexRange(relevant_hats.index_within_set(j), marked.size());
-          marked[relevant_hats.index_within_set(j)] = true;
+          const auto position = relevant_hats.index_within_set(j);
+          AssertIndexRange(position, marked.size());
+          marked[position] = true;
         }
       std::vector<types::global_dof_index> in_order;
       auto                                 hat = relevant_hats.begin();
@@ -1109,8 +1102,10 @@ namespace VI
     std::vector<types::global_dof_index> beyond;
     for (const PatchChunk &chunk : chunks)
       beyond.insert(beyond.end(), chunk.beyond.begin(), chunk.beyond.end());
+    std::sort(beyond.begin(), beyond.end());
+    beyond.erase(std::unique(beyond.begin(), beyond.end()), beyond.end());
     IndexSet writable_dofs = relevant_dofs;
-    writable_dofs.add_indices(index_set(dof_handler.n_dofs(), beyond));
+    writable_dofs.add_indices(beyond.begin(), beyond.end());
     writable_dofs.compress();
     const auto partitioner =
       std::make_shared<Utilities::MPI::Partitioner>(owned_dofs,

@@ -66,16 +66,17 @@ namespace VI
     {
       // Every row of the scalar pattern, including the rows of ghost nodes
       // that assembly on this process writes into: Trilinos needs them to
-      // set up the communication of those entries to their owners.
-      // The node-local blocks (coupling and contact rows) are only written
-      // by the owner. Each row goes in whole, its columns sorted (entry by
+      // set up the communication of those entries to their owners. The
+      // node-local blocks (coupling and contact rows) are only written by
+      // the owner. Each row goes in whole, its columns sorted (entry by
       // entry, the pattern would search and grow its rows millions of
       // times on a large mesh).
       const IndexSet               &rows = scalar_pattern.row_index_set();
       std::vector<global_dof_index> columns;
       for (const global_dof_index i : rows)
         {
-          const bool owned = owned_nodes.is_element(i);
+          const bool             owned = owned_nodes.is_element(i);
+          const global_dof_index x3    = index(i, multiplier);
           for (const unsigned int field : {u1, u2})
             {
               columns.clear();
@@ -84,10 +85,8 @@ namespace VI
                    ++entry)
                 columns.push_back(index(entry->column(), field));
               if (owned)
-                columns.insert(std::upper_bound(columns.begin(),
-                                                columns.end(),
-                                                index(i, multiplier)),
-                               index(i, multiplier));
+                columns.insert(
+                  std::upper_bound(columns.begin(), columns.end(), x3), x3);
               system_pattern.add_entries(index(i, field),
                                          columns.begin(),
                                          columns.end(),
@@ -97,10 +96,11 @@ namespace VI
         }
       for (const global_dof_index i : owned_nodes)
         {
+          const global_dof_index x3           = index(i, multiplier);
           const global_dof_index node_block[] = {index(i, u1),
                                                  index(i, u2),
-                                                 index(i, multiplier)};
-          system_pattern.add_entries(index(i, multiplier),
+                                                 x3};
+          system_pattern.add_entries(x3,
                                      std::begin(node_block),
                                      std::end(node_block),
                                      /*indices_are_unique_and_sorted=*/true);
