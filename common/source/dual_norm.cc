@@ -1,6 +1,9 @@
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/multithread_info.h>
+#include <deal.II/base/work_stream.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
+#include <deal.II/grid/filtered_iterator.h>
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/solver_cg.h>
@@ -11,9 +14,12 @@
 #include <vi/dual_norm.h>
 #include <vi/errors.h>
 #include <vi/linear_solvers.h>
+#include <vi/piola_divergence.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 
 namespace VI
 {
@@ -123,7 +129,9 @@ namespace VI
 
 
   // m(cell, q): the source at point q of the reconstruction's quadrature on
-  // the cell of that active index.
+  // the cell of that active index. The cell loops run on the threads of
+  // MultithreadInfo (m is only read); their sums are added in the order of
+  // the cells, so that the bound does not depend on the number of threads.
   template <int dim>
   template <typename Source>
   double
@@ -132,33 +140,89 @@ namespace VI
     const MPI_Comm         comm       = dof_handler.get_communicator();
     const IndexSet        &owned      = dof_handler.locally_owned_dofs();
     const Quadrature<dim> &quadrature = reconstruction.get_quadrature();
-    const unsigned int     n          = fe.n_dofs_per_cell();
+    const DoFHandler<dim> &flux_dofs  = reconstruction.get_dof_handler();
+    const unsigned int     n_tau      = flux_dofs.get_fe().n_dofs_per_cell();
+    const auto             owned_cells =
+      filter_iterators(dof_handler.active_cell_iterators(),
+                       IteratorFilters::LocallyOwnedCell());
+    using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
+
+    // One thread's work space: the Q1 values and Jacobians on a cell; the
+    // Raviart-Thomas values of rho come from their reference values, the
+    // Jacobians and the signs (no Raviart-Thomas FEValues).
+    struct Scratch
+    {
+      Scratch(const Mapping<dim>       &mapping,
+              const FiniteElement<dim> &fe,
+              const FiniteElement<dim> &flux_fe,
+              const Quadrature<dim>    &quadrature)
+          : flux_fe(flux_fe)
+          , values(mapping,
+                   fe,
+                   quadrature,
+                   PiolaDivergence<dim>::update_flags())
+          , piola(flux_fe, quadrature)
+          , coefficients(flux_fe.n_dofs_per_cell())
+          , rho_values(quadrature.size())
+          , rho_divergences(quadrature.size())
+          , c_values(quadrature.size())
+      {
+      }
+      Scratch(const Scratch &other)
+          : Scratch(other.values.get_mapping(),
+                    other.values.get_fe(),
+                    other.flux_fe,
+                    other.values.get_quadrature())
+      {
+      }
+      const FiniteElement<dim>   &flux_fe;
+      FEValues<dim>               values;
+      PiolaDivergence<dim>        piola;
+      std::vector<double>         coefficients;
+      std::vector<Tensor<1, dim>> rho_values;
+      std::vector<double>         rho_divergences, c_values;
+    };
+    const Scratch sample(mapping, fe, flux_dofs.get_fe(), quadrature);
 
     // The load (m, v_h) and the Friedrichs bound's |m|^2.
-    FEValues<dim>                        values(mapping,
-                         fe,
-                         quadrature,
-                         update_values | update_gradients | update_JxW_values);
-    TrilinosWrappers::MPI::Vector        load(owned, comm), z(owned, comm);
-    Vector<double>                       cell_load(n);
-    std::vector<types::global_dof_index> dofs(n);
-    double                               m_squared = 0;
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      if (cell->is_locally_owned())
-        {
-          const unsigned int K = cell->active_cell_index();
-          values.reinit(cell);
-          cell_load = 0;
-          for (const unsigned int q : values.quadrature_point_indices())
-            {
-              const double m_q = m(K, q);
-              m_squared += m_q * m_q * values.JxW(q);
-              for (unsigned int i = 0; i < n; ++i)
-                cell_load(i) += m_q * values.shape_value(i, q) * values.JxW(q);
-            }
-          cell->get_dof_indices(dofs);
-          constraints.distribute_local_to_global(cell_load, dofs, load);
-        }
+    struct LoadShare
+    {
+      Vector<double>                       cell_load;
+      std::vector<types::global_dof_index> dofs;
+      double                               m_squared = 0;
+    };
+    TrilinosWrappers::MPI::Vector load(owned, comm), z(owned, comm);
+    double                        m_squared = 0;
+    WorkStream::run(
+      owned_cells,
+      [&](const CellIterator &cell, Scratch &scratch, LoadShare &share) {
+        const unsigned int   K      = cell->active_cell_index();
+        const FEValues<dim> &values = scratch.values;
+        scratch.values.reinit(cell);
+        share.cell_load = 0;
+        share.m_squared = 0;
+        for (const unsigned int q : values.quadrature_point_indices())
+          {
+            const double m_q = m(K, q);
+            share.m_squared += m_q * m_q * values.JxW(q);
+            for (const unsigned int i : values.dof_indices())
+              share.cell_load(i) +=
+                m_q * values.shape_value(i, q) * values.JxW(q);
+          }
+        cell->get_dof_indices(share.dofs);
+      },
+      [&](const LoadShare &share) {
+        constraints.distribute_local_to_global(share.cell_load,
+                                               share.dofs,
+                                               load);
+        m_squared += share.m_squared;
+      },
+      sample,
+      LoadShare{Vector<double>(fe.n_dofs_per_cell()),
+                std::vector<types::global_dof_index>(fe.n_dofs_per_cell()),
+                0.},
+      /*queue_length=*/2 * MultithreadInfo::n_threads(),
+      /*chunk_size=*/32);
     load.compress(VectorOperation::add);
     m_squared = Utilities::MPI::sum(m_squared, comm);
     if (m_squared == 0.)
@@ -224,37 +288,52 @@ namespace VI
     TrilinosWrappers::MPI::Vector rho;
     reconstruction.reconstruct(sources, {&rho});
 
-    // ||rho|| and ||c_h||.
-    const DoFHandler<dim> &flux_dofs = reconstruction.get_dof_handler();
-    FEValues<dim>          flux_values(mapping,
-                              flux_dofs.get_fe(),
-                              quadrature,
-                              update_values);
-    const FEValuesExtractors::Vector sigma(0);
-    std::vector<Tensor<1, dim>>      rho_values(quadrature.size());
-    std::vector<double>              c_values(quadrature.size());
-    double                           local_sums[2] = {0., 0.}, sums[2];
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      if (cell->is_locally_owned())
-        {
-          typename DoFHandler<dim>::active_cell_iterator flux_cell(
-            &dof_handler.get_triangulation(),
-            cell->level(),
-            cell->index(),
-            &flux_dofs);
-          values.reinit(cell);
-          flux_values.reinit(flux_cell);
-          flux_values[sigma].get_function_values(rho, rho_values);
-          values.get_function_values(c_ghosted, c_values);
-          for (const unsigned int q : values.quadrature_point_indices())
-            {
-              local_sums[0] += rho_values[q].norm_square() * values.JxW(q);
-              local_sums[1] += c_values[q] * c_values[q] * values.JxW(q);
-            }
-        }
-    Utilities::MPI::sum(ArrayView<const double>(local_sums, 2),
+    // ||rho||^2 and ||c_h||^2.
+    const std::vector<std::int8_t> &signs = reconstruction.get_piola_signs();
+    std::array<double, 2>           local_sums{}, sums;
+    WorkStream::run(
+      owned_cells,
+      [&](const CellIterator    &cell,
+          Scratch               &scratch,
+          std::array<double, 2> &share) {
+        const FEValues<dim> &values = scratch.values;
+        scratch.values.reinit(cell);
+        scratch.piola.reinit(values,
+                             ArrayView<const std::int8_t>(
+                               signs.data() + cell->active_cell_index() * n_tau,
+                               n_tau));
+        const typename DoFHandler<dim>::active_cell_iterator flux_cell(
+          &dof_handler.get_triangulation(),
+          cell->level(),
+          cell->index(),
+          &flux_dofs);
+        flux_cell->get_dof_values(rho,
+                                  scratch.coefficients.begin(),
+                                  scratch.coefficients.end());
+        scratch.piola.function_values_and_divergences(make_array_view(
+                                                        scratch.coefficients),
+                                                      scratch.rho_values,
+                                                      scratch.rho_divergences);
+        values.get_function_values(c_ghosted, scratch.c_values);
+        share = {};
+        for (const unsigned int q : values.quadrature_point_indices())
+          {
+            share[0] += scratch.rho_values[q].norm_square() * values.JxW(q);
+            share[1] +=
+              scratch.c_values[q] * scratch.c_values[q] * values.JxW(q);
+          }
+      },
+      [&](const std::array<double, 2> &share) {
+        local_sums[0] += share[0];
+        local_sums[1] += share[1];
+      },
+      sample,
+      std::array<double, 2>{},
+      /*queue_length=*/2 * MultithreadInfo::n_threads(),
+      /*chunk_size=*/32);
+    Utilities::MPI::sum(ArrayView<const double>(local_sums),
                         comm,
-                        ArrayView<double>(sums, 2));
+                        ArrayView<double>(sums));
     const double equilibrated =
       std::sqrt(sums[0]) + friedrichs_constant * std::sqrt(sums[1]);
     return std::min(equilibrated, friedrichs_constant * std::sqrt(m_squared));
