@@ -196,11 +196,11 @@ namespace VI
     WorkStream::run(
       owned_cells,
       [&](const CellIterator &cell, Scratch &scratch, LoadShare &share) {
-        const unsigned int   K      = cell->active_cell_index();
-        const FEValues<dim> &values = scratch.values;
         scratch.values.reinit(cell);
-        share.cell_load = 0;
-        share.m_squared = 0;
+        const FEValues<dim> &values = scratch.values;
+        const unsigned int   K      = cell->active_cell_index();
+        share.cell_load             = 0;
+        share.m_squared             = 0;
         for (const unsigned int q : values.quadrature_point_indices())
           {
             const double m_q = m(K, q);
@@ -296,8 +296,8 @@ namespace VI
       [&](const CellIterator    &cell,
           Scratch               &scratch,
           std::array<double, 2> &share) {
-        const FEValues<dim> &values = scratch.values;
         scratch.values.reinit(cell);
+        const FEValues<dim> &values = scratch.values;
         scratch.piola.reinit(values,
                              ArrayView<const std::int8_t>(
                                signs.data() + cell->active_cell_index() * n_tau,

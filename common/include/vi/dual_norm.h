@@ -39,8 +39,9 @@ namespace VI
    * (doc/estimators.md).
    *
    * Per mesh: the Q1 degrees of freedom, the Laplacian and its AMG; per
-   * bound: one CG solve, one flux reconstruction and a cell loop. On any
-   * number of processes (collective calls).
+   * bound: one CG solve, one flux reconstruction and two cell loops (on
+   * the threads of MultithreadInfo). On any number of processes
+   * (collective calls).
    */
   template <int dim>
   class DualNormBound
