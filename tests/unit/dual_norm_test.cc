@@ -2,12 +2,14 @@
 // function: guaranteed (never below the exact value, nor below the Galerkin
 // value, which is a lower bound), sharp for a smooth m, and far below the
 // Friedrichs bound C_F |m| for an m on a thin band.
+#include <deal.II/base/multithread_info.h>
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_q.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping_q.h>
 #include <deal.II/grid/grid_generator.h>
+#include <deal.II/grid/grid_tools.h>
 #include <deal.II/grid/tria.h>
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
@@ -166,4 +168,32 @@ TEST(DualNormBound, ZeroIsZero)
   GridGenerator::hyper_cube(tria);
   tria.refine_global(3);
   EXPECT_EQ(equilibrated_dual_norm(tria, 1, std::vector<double>(64, 0.)), 0.);
+}
+
+
+TEST(DualNormBound, DoesNotDependOnTheNumberOfThreads)
+{
+  // The cell loops run on the threads; their sums are added in the order
+  // of the cells, so the bound is the same to the last bit. m varies from
+  // cell to cell, so that a different order of the sums would show. (The
+  // mesh is distorted: on one thread deal.II's FEValues reuses the
+  // geometry of a cell for the next one if it is a translate, which moves
+  // the last bits of JxW.)
+  Triangulation<2> tria;
+  GridGenerator::hyper_cube(tria);
+  tria.refine_global(6);
+  GridTools::distort_random(0.2, tria, /*keep_boundary=*/true, /*seed=*/7);
+  std::vector<double> m(tria.n_active_cells());
+  for (const auto &cell : tria.active_cell_iterators())
+    m[cell->active_cell_index()] =
+      std::sin(7. * cell->center()[0]) * std::cos(3. * cell->center()[1]);
+  double bounds[2];
+  for (const unsigned int threads : {1u, 4u})
+    {
+      MultithreadInfo::set_thread_limit(threads);
+      bounds[threads == 4] = equilibrated_dual_norm(tria, 1, m);
+    }
+  MultithreadInfo::set_thread_limit();
+  EXPECT_GT(bounds[0], 0.);
+  EXPECT_EQ(bounds[0], bounds[1]);
 }
