@@ -131,7 +131,8 @@ namespace VI
   // m(cell, q): the source at point q of the reconstruction's quadrature on
   // the cell of that active index. The cell loops run on the threads of
   // MultithreadInfo (m is only read); their sums are added in the order of
-  // the cells, so that the bound does not depend on the number of threads.
+  // the cells, so that the bound does not depend on the number of threads
+  // (see FluxReconstruction::reconstruct() for the one-thread caveat).
   template <int dim>
   template <typename Source>
   double

@@ -150,7 +150,10 @@ namespace VI
     /// sigma[c] = sum_a sigma_c^a for every field c, with ghost entries.
     /// The cells' right-hand sides and the patch problems are computed on
     /// the threads of MultithreadInfo; they are summed in a fixed order, so
-    /// the result does not depend on the number of threads. The second
+    /// the result does not depend on the number of threads (to the last bit
+    /// between runs on several threads; on one, deal.II's FEValues may
+    /// reuse the geometry of a translated cell, which moves the last bits
+    /// of JxW on uniform meshes). The second
     /// call on a mesh keeps products for the later ones (see the .cc
     /// file): calls must not overlap.
     void
