@@ -4,6 +4,7 @@
 #include <deal.II/base/timer.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
+#include <deal.II/grid/filtered_iterator.h>
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/full_matrix.h>
@@ -13,6 +14,9 @@
 #include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
+#include <deal.II/meshworker/copy_data.h>
+#include <deal.II/meshworker/mesh_loop.h>
+#include <deal.II/meshworker/scratch_data.h>
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/errors.h>
@@ -59,37 +63,55 @@ namespace StepMembranes
     matrix.reinit(owned, owned, pattern, comm);
     TrilinosWrappers::MPI::Vector rhs(owned, comm), solution(owned, comm);
 
-    FEValues<dim>       fe_values(mapping,
-                            dof_handler.get_fe(),
-                            quadrature,
-                            update_values | update_gradients |
-                              update_quadrature_points | update_JxW_values);
-    const unsigned int  n = dof_handler.get_fe().n_dofs_per_cell();
-    FullMatrix<double>  cell_matrix(n, n);
-    Vector<double>      cell_rhs(n);
-    std::vector<double> load(quadrature.size());
-    std::vector<types::global_dof_index> dofs(n);
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      if (cell->is_locally_owned())
+    // Assembled as the contact problem assembles (MeshWorker::mesh_loop:
+    // the cell integrals on all threads, the additions through the
+    // constraints in one), so that threads do not favour either side of
+    // the comparison.
+    using Iterator         = typename DoFHandler<dim>::active_cell_iterator;
+    using CopyData         = MeshWorker::CopyData<1, 1, 1>;
+    const auto cell_worker = [&](const Iterator               &cell,
+                                 MeshWorker::ScratchData<dim> &scratch,
+                                 CopyData                     &copy) {
+      const FEValues<dim> &fe_values   = scratch.reinit(cell);
+      const auto          &points      = fe_values.get_quadrature_points();
+      FullMatrix<double>  &cell_matrix = copy.matrices[0];
+      Vector<double>      &cell_rhs    = copy.vectors[0];
+      cell_matrix                      = 0;
+      cell_rhs                         = 0;
+      for (const unsigned int q : fe_values.quadrature_point_indices())
         {
-          fe_values.reinit(cell);
-          f.value_list(fe_values.get_quadrature_points(), load);
-          cell_matrix = 0;
-          cell_rhs    = 0;
-          for (const unsigned int q : fe_values.quadrature_point_indices())
-            for (unsigned int i = 0; i < n; ++i)
-              {
-                for (unsigned int j = 0; j < n; ++j)
-                  cell_matrix(i, j) += mu * fe_values.shape_grad(i, q) *
-                                       fe_values.shape_grad(j, q) *
-                                       fe_values.JxW(q);
-                cell_rhs(i) +=
-                  load[q] * fe_values.shape_value(i, q) * fe_values.JxW(q);
-              }
-          cell->get_dof_indices(dofs);
-          constraints.distribute_local_to_global(
-            cell_matrix, cell_rhs, dofs, matrix, rhs);
+          const double load = f.value(points[q]);
+          const double dx   = fe_values.JxW(q);
+          for (const unsigned int i : fe_values.dof_indices())
+            {
+              for (const unsigned int j : fe_values.dof_indices())
+                cell_matrix(i, j) += mu * fe_values.shape_grad(i, q) *
+                                     fe_values.shape_grad(j, q) * dx;
+              cell_rhs(i) += load * fe_values.shape_value(i, q) * dx;
+            }
         }
+      cell->get_dof_indices(copy.local_dof_indices[0]);
+    };
+    const auto copier = [&](const CopyData &copy) {
+      constraints.distribute_local_to_global(copy.matrices[0],
+                                             copy.vectors[0],
+                                             copy.local_dof_indices[0],
+                                             matrix,
+                                             rhs);
+    };
+    MeshWorker::ScratchData<dim> scratch(mapping,
+                                         dof_handler.get_fe(),
+                                         quadrature,
+                                         update_values | update_gradients |
+                                           update_quadrature_points |
+                                           update_JxW_values);
+    MeshWorker::mesh_loop(dof_handler.active_cell_iterators() |
+                            IteratorFilters::LocallyOwnedCell(),
+                          cell_worker,
+                          copier,
+                          scratch,
+                          CopyData(dof_handler.get_fe().n_dofs_per_cell()),
+                          MeshWorker::assemble_own_cells);
     matrix.compress(VectorOperation::add);
     rhs.compress(VectorOperation::add);
 
