@@ -1825,12 +1825,20 @@ namespace StepMembranes
         VI::Json reference = VI::Json::array();
         for (unsigned int a = 0; a < 2; ++a)
           {
+            // (a fresh copy of the data per thread, as for the loads of the
+            // contact problem, see on_cells_with_own_data())
+            const LoadFactory<dim> make_load = [this, a]() {
+              const VI::MembraneData<dim> copy =
+                VI::make_membrane_data<dim>(parameters.problem,
+                                            VI::geometry_center<dim>(geometry));
+              return a == 0 ? copy.f1 : copy.f2;
+            };
             const PoissonCost cost =
               reference_poisson_solve(*mapping,
                                       dof_handler,
                                       quadrature,
                                       a == 0 ? data.mu1 : data.mu2,
-                                      a == 0 ? *data.f1 : *data.f2,
+                                      make_load,
                                       a == 0 ? *data.g1 : *data.g2,
                                       comm);
             VI::Json membrane      = VI::Json::object();

@@ -23,20 +23,57 @@
 #include <vi/linear_solvers.h>
 
 #include <map>
+#include <memory>
+#include <mutex>
+#include <utility>
 
 namespace StepMembranes
 {
   using namespace dealii;
 
+  namespace
+  {
+    // The scratch of one thread: its FEValues and its own copy of f. The
+    // copies are made one at a time (parsing is not thread-safe); threads
+    // sharing one parsed function would wait for each other at every point.
+    template <int dim>
+    struct LoadScratch
+    {
+      LoadScratch(MeshWorker::ScratchData<dim> &&values,
+                  const LoadFactory<dim>        &make_load)
+          : values(std::move(values))
+          , make_load(make_load)
+          , f(make_load())
+      {
+      }
+
+      LoadScratch(const LoadScratch &other)
+          : values(other.values)
+          , make_load(other.make_load)
+          , f([&]() {
+            static std::mutex                 parsing;
+            const std::lock_guard<std::mutex> lock(parsing);
+            return make_load();
+          }())
+      {
+      }
+
+      MeshWorker::ScratchData<dim>         values;
+      LoadFactory<dim>                     make_load;
+      std::shared_ptr<const Function<dim>> f;
+    };
+  } // namespace
+
+
   template <int dim>
   PoissonCost
-  reference_poisson_solve(const Mapping<dim>    &mapping,
-                          const DoFHandler<dim> &dof_handler,
-                          const Quadrature<dim> &quadrature,
-                          const double           mu,
-                          const Function<dim>   &f,
-                          const Function<dim>   &g,
-                          const MPI_Comm         comm)
+  reference_poisson_solve(const Mapping<dim>     &mapping,
+                          const DoFHandler<dim>  &dof_handler,
+                          const Quadrature<dim>  &quadrature,
+                          const double            mu,
+                          const LoadFactory<dim> &make_load,
+                          const Function<dim>    &g,
+                          const MPI_Comm          comm)
   {
     Timer timer(comm, /*sync_lap_times=*/true);
 
@@ -65,33 +102,32 @@ namespace StepMembranes
 
     // Assembled as the contact problem assembles (MeshWorker::mesh_loop:
     // the cell integrals on all threads, the additions through the
-    // constraints in one), so that threads do not favour either side of
-    // the comparison.
-    using Iterator         = typename DoFHandler<dim>::active_cell_iterator;
-    using CopyData         = MeshWorker::CopyData<1, 1, 1>;
-    const auto cell_worker = [&](const Iterator               &cell,
-                                 MeshWorker::ScratchData<dim> &scratch,
-                                 CopyData                     &copy) {
-      const FEValues<dim> &fe_values   = scratch.reinit(cell);
-      const auto          &points      = fe_values.get_quadrature_points();
-      FullMatrix<double>  &cell_matrix = copy.matrices[0];
-      Vector<double>      &cell_rhs    = copy.vectors[0];
-      cell_matrix                      = 0;
-      cell_rhs                         = 0;
-      for (const unsigned int q : fe_values.quadrature_point_indices())
-        {
-          const double load = f.value(points[q]);
-          const double dx   = fe_values.JxW(q);
-          for (const unsigned int i : fe_values.dof_indices())
-            {
-              for (const unsigned int j : fe_values.dof_indices())
-                cell_matrix(i, j) += mu * fe_values.shape_grad(i, q) *
-                                     fe_values.shape_grad(j, q) * dx;
-              cell_rhs(i) += load * fe_values.shape_value(i, q) * dx;
-            }
-        }
-      cell->get_dof_indices(copy.local_dof_indices[0]);
-    };
+    // constraints in one; f evaluated by each thread through its own copy),
+    // so that threads favour neither side of the comparison.
+    using Iterator = typename DoFHandler<dim>::active_cell_iterator;
+    using CopyData = MeshWorker::CopyData<1, 1, 1>;
+    const auto cell_worker =
+      [&](const Iterator &cell, LoadScratch<dim> &scratch, CopyData &copy) {
+        const FEValues<dim> &fe_values   = scratch.values.reinit(cell);
+        const auto          &points      = fe_values.get_quadrature_points();
+        FullMatrix<double>  &cell_matrix = copy.matrices[0];
+        Vector<double>      &cell_rhs    = copy.vectors[0];
+        cell_matrix                      = 0;
+        cell_rhs                         = 0;
+        for (const unsigned int q : fe_values.quadrature_point_indices())
+          {
+            const double load = scratch.f->value(points[q]);
+            const double dx   = fe_values.JxW(q);
+            for (const unsigned int i : fe_values.dof_indices())
+              {
+                for (const unsigned int j : fe_values.dof_indices())
+                  cell_matrix(i, j) += mu * fe_values.shape_grad(i, q) *
+                                       fe_values.shape_grad(j, q) * dx;
+                cell_rhs(i) += load * fe_values.shape_value(i, q) * dx;
+              }
+          }
+        cell->get_dof_indices(copy.local_dof_indices[0]);
+      };
     const auto copier = [&](const CopyData &copy) {
       constraints.distribute_local_to_global(copy.matrices[0],
                                              copy.vectors[0],
@@ -99,12 +135,14 @@ namespace StepMembranes
                                              matrix,
                                              rhs);
     };
-    MeshWorker::ScratchData<dim> scratch(mapping,
-                                         dof_handler.get_fe(),
-                                         quadrature,
-                                         update_values | update_gradients |
-                                           update_quadrature_points |
-                                           update_JxW_values);
+    const LoadScratch<dim> scratch(
+      MeshWorker::ScratchData<dim>(mapping,
+                                   dof_handler.get_fe(),
+                                   quadrature,
+                                   update_values | update_gradients |
+                                     update_quadrature_points |
+                                     update_JxW_values),
+      make_load);
     MeshWorker::mesh_loop(dof_handler.active_cell_iterators() |
                             IteratorFilters::LocallyOwnedCell(),
                           cell_worker,
@@ -142,7 +180,7 @@ namespace StepMembranes
                           const DoFHandler<2> &,
                           const Quadrature<2> &,
                           const double,
-                          const Function<2> &,
+                          const LoadFactory<2> &,
                           const Function<2> &,
                           const MPI_Comm);
 } // namespace StepMembranes
