@@ -503,25 +503,22 @@ namespace StepMembranes
 
     std::vector<types::global_dof_index> system_dofs(fe.n_dofs_per_cell());
     FullMatrix<double>                   scaled_stiffness(fe.n_dofs_per_cell());
+    const double                         mu[2]  = {data.mu1, data.mu2};
     const auto                           copier = [&](const CopyData &copy) {
-      const auto  &dofs  = copy.local_dof_indices[0];
-      const double mu[2] = {data.mu1, data.mu2};
+      const auto &dofs = copy.local_dof_indices[0];
+      // The loads; the stiffness mu_alpha S moves the Dirichlet data g_j to
+      // the right-hand side of the unconstrained rows. (The blocks mu_alpha
+      // S themselves are copied from S below.)
       for (const unsigned int field :
            {VI::NodalFields::u1, VI::NodalFields::u2})
         {
           for (unsigned int i = 0; i < dofs.size(); ++i)
             system_dofs[i] = index(dofs[i], field);
           scaled_stiffness.equ(mu[field], copy.matrices[0]);
-          // With the inhomogeneities in the right-hand side, the row of a
-          // constrained node reads d X_i = d g_i: X satisfies every row of
-          // E X = F, and Newton updates vanish on the boundary.
-          system_constraints.distribute_local_to_global(
-            scaled_stiffness,
-            copy.vectors[field],
-            system_dofs,
-            system_matrix,
-            system_rhs,
-            /*use_inhomogeneities_for_rhs=*/true);
+          system_constraints.distribute_local_to_global(copy.vectors[field],
+                                                        system_dofs,
+                                                        system_rhs,
+                                                        scaled_stiffness);
         }
       u1_constraints.distribute_local_to_global(copy.matrices[0],
                                                 dofs,
@@ -541,12 +538,58 @@ namespace StepMembranes
                           scratch,
                           copy,
                           MeshWorker::assemble_own_cells);
-    system_matrix.compress(VectorOperation::add);
     system_rhs.compress(VectorOperation::add);
     stiffness_matrix.compress(VectorOperation::add);
     lumped_mass.compress(VectorOperation::add);
     if (with_mass_matrix)
       mass_matrix.compress(VectorOperation::add);
+
+    // The blocks of u1 and u2 are mu1 S and mu2 S (the constraints of u1
+    // and u2 constrain the same nodes, with the same weights), copied row
+    // by row instead of assembled twice more through the constraints. The
+    // row of a constrained node reads d X_i = d g_i: X satisfies every row
+    // of E X = F, and Newton updates vanish on the boundary.
+    // (S's rows read through Epetra: deal.II's row iterators copy a row
+    // at every step)
+    Assert(u1_constraints.n_constraints() == u2_constraints.n_constraints(),
+           ExcInternalError());
+    const Epetra_CrsMatrix              &S = stiffness_matrix.trilinos_matrix();
+    std::vector<types::global_dof_index> columns, system_columns;
+    std::vector<double>                  scaled_values;
+    for (int row = 0; row < S.NumMyRows(); ++row)
+      {
+        int     n_entries;
+        double *values;
+        int    *local_columns;
+        S.ExtractMyRowView(row, n_entries, values, local_columns);
+        const types::global_dof_index i =
+          TrilinosWrappers::global_row_index(S, row);
+        columns.resize(n_entries);
+        for (int k = 0; k < n_entries; ++k)
+          columns[k] =
+            TrilinosWrappers::global_column_index(S, local_columns[k]);
+        system_columns.resize(n_entries);
+        scaled_values.resize(n_entries);
+        for (const unsigned int field :
+             {VI::NodalFields::u1, VI::NodalFields::u2})
+          {
+            for (int k = 0; k < n_entries; ++k)
+              {
+                system_columns[k] = index(columns[k], field);
+                scaled_values[k]  = mu[field] * values[k];
+              }
+            const types::global_dof_index system_row = index(i, field);
+            system_matrix.set(system_row,
+                              n_entries,
+                              system_columns.data(),
+                              scaled_values.data());
+            if (system_constraints.is_inhomogeneously_constrained(system_row))
+              system_rhs(system_row) =
+                mu[field] * stiffness_matrix.diag_element(i) *
+                system_constraints.get_inhomogeneity(system_row);
+          }
+      }
+    system_rhs.compress(VectorOperation::insert);
 
     // Coupling -D / +D in the rows of u1 / u2, and X3 = 0 as the row of each
     // constrained node (boundary, hanging), where there is no contact row.
