@@ -4,8 +4,9 @@
 In one run of step-membranes per configuration, on globally refined meshes
 of the unit disk from about 1e4 to 7.9e5 unknowns per field (Q1; 3 fields,
 2.4e6 unknowns on the finest mesh), on one process with one thread, on one
-process with all cores (deal.II's default: the estimators run on threads,
-Trilinos' AMG and Krylov solvers on one) and on two processes:
+process with all cores (deal.II's default: in both solves the cell loops
+run on threads, Trilinos' AMG and Krylov solvers on one) and on two
+processes:
 the contact problem solved by adaptive inexact semismooth Newton-min with
 GMRES + AMG and nested iteration (set-up, assembly, Newton, linear solves
 and the estimators that stop them), against one CG + AMG Poisson solve of
