@@ -67,13 +67,14 @@ namespace StepMembranes
 
   template <int dim>
   PoissonCost
-  reference_poisson_solve(const Mapping<dim>     &mapping,
-                          const DoFHandler<dim>  &dof_handler,
-                          const Quadrature<dim>  &quadrature,
-                          const double            mu,
-                          const LoadFactory<dim> &make_load,
-                          const Function<dim>    &g,
-                          const MPI_Comm          comm)
+  reference_poisson_solve(const Mapping<dim>            &mapping,
+                          const DoFHandler<dim>         &dof_handler,
+                          const Quadrature<dim>         &quadrature,
+                          const double                   mu,
+                          const LoadFactory<dim>        &make_load,
+                          const Function<dim>           &g,
+                          const MPI_Comm                 comm,
+                          TrilinosWrappers::MPI::Vector *solution_out)
   {
     Timer timer(comm, /*sync_lap_times=*/true);
 
@@ -171,6 +172,8 @@ namespace StepMembranes
     constraints.distribute(solution);
 
     timer.stop();
+    if (solution_out != nullptr)
+      *solution_out = std::move(solution);
     return {timer.wall_time(), control.last_step()};
   }
 
@@ -182,5 +185,6 @@ namespace StepMembranes
                           const double,
                           const LoadFactory<2> &,
                           const Function<2> &,
-                          const MPI_Comm);
+                          const MPI_Comm,
+                          TrilinosWrappers::MPI::Vector *);
 } // namespace StepMembranes

@@ -9,6 +9,11 @@
 #include <memory>
 #include <mpi.h>
 
+namespace dealii::TrilinosWrappers::MPI
+{
+  class Vector;
+}
+
 namespace StepMembranes
 {
   /// What one reference Poisson solve cost.
@@ -37,14 +42,21 @@ namespace StepMembranes
    * integrals run on all threads, each evaluating f through its own copy
    * made by `make_load`. All of it is timed; the DoFs are
    * already distributed. Collective over the processes of the mesh.
+   *
+   * If `solution` is given, it receives u_h (reinitialised to the owned
+   * DoFs, constrained entries set), after the timer has stopped: the unit
+   * test checks with it that the cost unit solves the problem it claims
+   * to (tests/unit/reference_poisson_test.cc).
    */
   template <int dim>
   PoissonCost
-  reference_poisson_solve(const dealii::Mapping<dim>    &mapping,
-                          const dealii::DoFHandler<dim> &dof_handler,
-                          const dealii::Quadrature<dim> &quadrature,
-                          const double                   mu,
-                          const LoadFactory<dim>        &make_load,
-                          const dealii::Function<dim>   &g,
-                          const MPI_Comm                 comm);
+  reference_poisson_solve(
+    const dealii::Mapping<dim>            &mapping,
+    const dealii::DoFHandler<dim>         &dof_handler,
+    const dealii::Quadrature<dim>         &quadrature,
+    const double                           mu,
+    const LoadFactory<dim>                &make_load,
+    const dealii::Function<dim>           &g,
+    const MPI_Comm                         comm,
+    dealii::TrilinosWrappers::MPI::Vector *solution = nullptr);
 } // namespace StepMembranes
