@@ -4,6 +4,8 @@
 #include <vi/marking.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 namespace VI
 {
@@ -30,24 +32,33 @@ namespace VI
       AssertThrow(false,
                   ExcMessage("Unknown marking strategy \"" + strategy + "\""));
 
-    unsigned int n_marked = 0;
-    double       largest  = 0;
+    // A threshold inside a group of indicators equal to round-off (cells
+    // of a symmetry orbit) splits the group by the last digits of the
+    // indicators. The whole group is marked instead: the marked set then
+    // depends neither on round-off nor on the partition, and it still
+    // satisfies the criterion (it only grows). When nothing was marked,
+    // the group of the largest indicator is.
+    const MPI_Comm comm         = triangulation.get_communicator();
+    double         least_marked = std::numeric_limits<double>::infinity();
+    double         largest      = 0;
     for (const auto &cell : triangulation.active_cell_iterators())
       if (cell->is_locally_owned())
         {
-          n_marked += cell->refine_flag_set() ? 1 : 0;
-          largest =
-            std::max(largest, squared_indicators(cell->active_cell_index()));
+          const double indicator =
+            squared_indicators(cell->active_cell_index());
+          if (cell->refine_flag_set())
+            least_marked = std::min(least_marked, indicator);
+          largest = std::max(largest, indicator);
         }
-    const MPI_Comm comm = triangulation.get_communicator();
-    if (Utilities::MPI::sum(n_marked, comm) > 0)
-      return;
-    largest = Utilities::MPI::max(largest, comm);
-    if (largest > 0)
+    least_marked           = Utilities::MPI::min(least_marked, comm);
+    const double threshold = std::isfinite(least_marked) ?
+                               least_marked :
+                               Utilities::MPI::max(largest, comm);
+    if (threshold > 0)
       for (const auto &cell : triangulation.active_cell_iterators())
         if (cell->is_locally_owned() &&
             squared_indicators(cell->active_cell_index()) >=
-              (1. - 1e-10) * largest)
+              (1. - 1e-10) * threshold)
           cell->set_refine_flag();
   }
 

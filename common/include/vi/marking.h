@@ -21,11 +21,14 @@ namespace VI
    * Both set the refinement flags through
    * parallel::distributed::GridRefinement, whose global thresholds make the
    * marking independent of the partition; no coarsening. Their thresholds
-   * come from a bisection that can end inside a group of equal indicators
-   * (symmetric meshes: the 8 cells of an orbit of the square's symmetry
-   * group) and then mark none of them; when no cell at all is marked, the
-   * cells whose indicator equals the largest one (to round-off) are, so
-   * that an adaptive loop never solves on the same mesh again.
+   * come from a bisection that can end inside a group of indicators equal
+   * to round-off (symmetric meshes: the 8 cells of an orbit of the
+   * square's symmetry group) and then mark some of them, chosen by their
+   * last digits, or none. Such a group is marked whole: every cell whose
+   * indicator is within a relative 1e-10 of the least marked one is
+   * marked, and when no cell is marked, those within 1e-10 of the largest
+   * (so that an adaptive loop never solves on the same mesh again). The
+   * marked set only grows, so the criterion still holds.
    */
   template <int dim>
   void
