@@ -156,7 +156,9 @@ namespace VI
                         "cells that carry the Refinement fraction of the "
                         "squared estimate; fixed-fraction refines the "
                         "Refinement fraction of the cells with the largest "
-                        "indicators.");
+                        "indicators. Both also refine the cells whose "
+                        "indicators equal that of a refined cell to "
+                        "round-off.");
       prm.declare_entry("Refinement fraction",
                         "0.5",
                         Double(0., 1.),
