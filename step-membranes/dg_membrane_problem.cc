@@ -208,8 +208,10 @@ namespace StepMembranes
         owned_continuous = continuous_dof_handler.locally_owned_dofs();
         DoFTools::extract_locally_relevant_dofs(continuous_dof_handler,
                                                 relevant_continuous);
-        flux_reconstruction =
-          std::make_unique<VI::FluxReconstruction<dim>>(*mapping, fe.degree);
+        flux_reconstruction = std::make_unique<VI::FluxReconstruction<dim>>(
+          *mapping,
+          parameters.estimators.flux_degree_for(fe.degree),
+          fe.degree);
         flux_reconstruction->reinit(continuous_dof_handler);
         lifting = std::make_unique<VI::JumpLifting<dim>>(*mapping,
                                                          fe.degree,

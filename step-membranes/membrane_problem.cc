@@ -305,8 +305,10 @@ namespace StepMembranes
       {
         // The patch matrices: a cost of the estimators.
         TimerOutput::Scope t(timer, "estimators: patch matrices");
-        flux_reconstruction =
-          std::make_unique<VI::FluxReconstruction<dim>>(*mapping, fe.degree);
+        flux_reconstruction = std::make_unique<VI::FluxReconstruction<dim>>(
+          *mapping,
+          parameters.estimators.flux_degree_for(fe.degree),
+          fe.degree);
         flux_reconstruction->reinit(dof_handler);
         if (parameters.output.verbose)
           {

@@ -281,8 +281,10 @@ namespace StepParabolic
 
     if (parameters.estimators.enabled)
       {
-        flux_reconstruction =
-          std::make_unique<VI::FluxReconstruction<dim>>(*mapping, fe.degree);
+        flux_reconstruction = std::make_unique<VI::FluxReconstruction<dim>>(
+          *mapping,
+          parameters.estimators.flux_degree_for(fe.degree),
+          fe.degree);
         flux_reconstruction->reinit(dof_handler);
         vertex_dofs.assign(triangulation.n_vertices(),
                            numbers::invalid_dof_index);

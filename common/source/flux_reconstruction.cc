@@ -320,15 +320,22 @@ namespace VI
 
 
   template <int dim>
-  FluxReconstruction<dim>::FluxReconstruction(const Mapping<dim> &mapping,
-                                              const unsigned int  degree)
+  FluxReconstruction<dim>::FluxReconstruction(
+    const Mapping<dim> &mapping,
+    const unsigned int  degree,
+    const unsigned int  potential_degree)
       : mapping(mapping)
       , degree(degree)
       , fe_flux(degree)
       , fe_divergence(degree)
       , fe_hat(1)
-      , quadrature(quadrature_points(degree))
+      , quadrature(quadrature_points(
+          potential_degree == numbers::invalid_unsigned_int ? degree :
+                                                              potential_degree))
   {
+    AssertThrow(potential_degree == numbers::invalid_unsigned_int ||
+                  potential_degree >= degree,
+                ExcMessage("the flux degree exceeds the potential's"));
     // Q_p and the divergence moments on the reference cell: the values of
     // FE_DGQ do not depend on the cell, and (div tau_i, q_k)_K = s_i
     // (div^ tau^_i, q^_k) (see PiolaDivergence).

@@ -444,6 +444,17 @@ namespace VI
         "spreads a jump of the multiplier into the cells outside the "
         "contact set (doc/estimators.md).");
       prm.declare_entry(
+        "Flux degree",
+        "p",
+        Selection("p|p-1"),
+        "The Raviart-Thomas space of the equilibrated fluxes for elements "
+        "of degree p: 'p', RT_p x Q_p as in "
+        "[DMV20]; 'p-1', RT_(p-1) x Q_(p-1), whose patch problems are "
+        "smaller and cheaper to set up and solve. The flux is then "
+        "equilibrated in the Q_(p-1) moments: the bound stays guaranteed, "
+        "and the residual estimator takes the projection error of the "
+        "source, which is of higher order (doc/estimators.md).");
+      prm.declare_entry(
         "Equilibrated dual norms",
         "",
         MultipleSelection("undershoots|remainder"),
@@ -495,6 +506,7 @@ namespace VI
       enabled               = prm.get_bool("Enabled");
       every_check           = prm.get_bool("At every check");
       multiplier            = prm.get("Multiplier");
+      flux_degree           = prm.get("Flux degree");
       const auto dual_norms = dealii::Utilities::split_string_list(
         prm.get("Equilibrated dual norms"));
       const auto has = [&](const std::string &term) {

@@ -80,12 +80,13 @@ namespace
   /**
    * For degree p: build u_h, the residual vector R_i = (f, psi_i) -
    * (grad u_h, grad psi_i) on interior nodes, its representation r_h
-   * ((r_h, psi_i) = R_i: lumped for p = 1, consistent for p >= 2), the flux,
-   * and return the largest relative moment (div sigma - (f - r_h), q)_K over
-   * cells K and q in Q_p(K).
+   * ((r_h, psi_i) = R_i: lumped for p = 1, consistent for p >= 2), the flux
+   * in RT_k (k = p or p - 1), and return the largest relative moment
+   * (div sigma - (f - r_h), q)_K over cells K and q in Q_k(K).
    */
   double
   equilibration_defect(const unsigned int degree,
+                       const unsigned int flux_degree,
                        const bool         distorted,
                        const bool         hanging)
   {
@@ -181,7 +182,8 @@ namespace
           vertex_residual[cell->vertex_index(v)] =
             r(cell->vertex_dof_index(v, 0));
 
-    VI::FluxReconstruction<2> reconstruction(mapping, degree);
+    VI::FluxReconstruction<2> reconstruction(mapping, flux_degree, degree);
+    EXPECT_EQ(reconstruction.get_quadrature().size(), quadrature.size());
     reconstruction.reinit(dofs);
     typename VI::FluxReconstruction<2>::Sources sources;
     sources.make_cell_values = [&]() {
@@ -216,8 +218,8 @@ namespace
     reconstruction.reconstruct(sources, {&sigma});
 
     // Compare div sigma with the target f - r_h (p >= 2) or
-    // f - sum_a r_a psi_a (p = 1).
-    FE_DGQ<2>   fe_q(degree);
+    // f - sum_a r_a psi_a (p = 1), in the moments of Q_k.
+    FE_DGQ<2>   fe_q(flux_degree);
     FEValues<2> q_values(mapping, fe_q, quadrature, update_values);
     FEValues<2> sigma_values(mapping,
                              reconstruction.get_dof_handler().get_fe(),
@@ -247,7 +249,7 @@ namespace
             // f - r_h; for p = 1, r_h = sum_a r_a psi_a is the Q1 function r.
             target[q] = f.value(values.quadrature_point(q)) - r_at_q[q];
           }
-        // The moments (div sigma - target, q)_K for all q in Q_p(K), relative
+        // The moments (div sigma - target, q)_K for all q in Q_k(K), relative
         // to |target|_K |q|_K. (On non-affine cells div sigma is not in the
         // mapped Q_p, so the moments, not the functions, must agree.)
         double size = 0;
@@ -281,9 +283,23 @@ class FluxReconstructionTest
 TEST_P(FluxReconstructionTest, DivergenceEqualsTheProjectedSourceOnEveryCell)
 {
   const auto [degree, distorted, hanging] = GetParam();
-  const double defect = equilibration_defect(degree, distorted, hanging);
+  const double defect =
+    equilibration_defect(degree, degree, distorted, hanging);
   EXPECT_TRUE(std::isfinite(defect)) << "a patch problem was not solvable";
   EXPECT_LT(defect, 1e-10) << "p = " << degree;
+}
+
+
+// Estimators/Flux degree = p-1: fluxes in RT_(p-1) for Q_p data, on the
+// quadrature of Q_p, are equilibrated in the moments of Q_(p-1) (for p = 1
+// the cell means).
+TEST_P(FluxReconstructionTest, LowerDegreeFluxesAreEquilibratedInTheirMoments)
+{
+  const auto [degree, distorted, hanging] = GetParam();
+  const double defect =
+    equilibration_defect(degree, degree - 1, distorted, hanging);
+  EXPECT_TRUE(std::isfinite(defect)) << "a patch problem was not solvable";
+  EXPECT_LT(defect, 1e-10) << "p = " << degree << ", RT_" << degree - 1;
 }
 
 

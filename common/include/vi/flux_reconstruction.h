@@ -120,8 +120,18 @@ namespace VI
         vertex_source;
     };
 
+    /**
+     * Fluxes in RT_k x Q_k with k = `degree`, equilibrating the data of a
+     * potential of degree `potential_degree` (>= k; by default k), whose
+     * quadrature (quadrature_points(potential_degree)) they share. With k =
+     * p - 1 < p the patch problems are smaller and div sigma = Pi_(p-1) of
+     * the source: still an equilibrated flux, the projection's remainder
+     * going to the residual estimator.
+     */
     FluxReconstruction(const dealii::Mapping<dim> &mapping,
-                       const unsigned int          degree);
+                       const unsigned int          degree,
+                       const unsigned int          potential_degree =
+                         dealii::numbers::invalid_unsigned_int);
 
     /**
      * Gauss points per direction of the quadrature used for degree p: at

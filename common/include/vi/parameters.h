@@ -139,6 +139,15 @@ namespace VI
     bool every_check = true;
     /// "contact cells" (CellMultiplier) or "conforming" (M^(-1) m).
     std::string multiplier = "contact cells";
+    /// "p": fluxes in RT_p x Q_p for elements of degree p ([DMV20]);
+    /// "p-1": in RT_(p-1) x Q_(p-1).
+    std::string flux_degree = "p";
+    /// The degree k of the fluxes RT_k for elements of degree p.
+    unsigned int
+    flux_degree_for(const unsigned int p) const
+    {
+      return flux_degree == "p" ? p : p - 1;
+    }
     /// Dual norms bounded by equilibration (DualNormBound): of the cell
     /// means of the multiplier's undershoots, of the algebraic remainder.
     bool dual_norm_undershoots = false, dual_norm_remainder = false;
