@@ -20,6 +20,8 @@ Usage, from the repository root after ./demo.sh or ./test.sh:
 --quick stops at about 5e4 unknowns per field (a smoke test of the script).
 --c-function chooses the C-function of Newton (default min); for another
 one the files are doc/data/cost-<name>.{csv,md,png}.
+--flux-degree=p-1 reconstructs the fluxes in RT_0 instead of RT_1
+(Estimators/Flux degree); the files are then doc/data/cost[-<name>]-flux-p-1.*.
 --huge-pages runs the programs with glibc's heap in huge pages
 (GLIBC_TUNABLES=glibc.malloc.hugetlb=1, see README.md); the files are then
 doc/data/cost[-<name>]-huge-pages.{csv,md,png}.
@@ -39,7 +41,11 @@ OUT = os.path.join(ROOT, "output", "bench-cost")
 QUICK = "--quick" in sys.argv
 C_FUNCTION = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--c-function=")),
                   "min")
+FLUX_DEGREE = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--flux-degree=")),
+                   "p")
 STEM = "cost" if C_FUNCTION == "min" else f"cost-{C_FUNCTION}"
+if FLUX_DEGREE != "p":
+    STEM += f"-flux-{FLUX_DEGREE}"
 if "--huge-pages" in sys.argv:
     # the programs inherit the environment (vi_bench.run); other tunables
     # the caller set are kept
@@ -57,6 +63,7 @@ def run(np, threads):
     settings = {"Mesh/Initial refinements": 5, "Mesh/Cycles": CYCLES,
                 "Nonlinear solver/Strategy": "adaptive",
                 "Nonlinear solver/C-function": C_FUNCTION,
+                "Estimators/Flux degree": FLUX_DEGREE,
                 "Nonlinear solver/Nested iteration": "true",
                 "Linear solver/Preconditioner": "amg",
                 "Estimators/At every check": "false",
@@ -132,6 +139,8 @@ def main():
                         f"{row['estimator_seconds']} {row['poisson_seconds']}\n")
             f.write("\n\n")
     first = rows[0]
+    # the Raviart-Thomas space of the fluxes, named when it is not RT_p
+    FLUXES = "" if FLUX_DEGREE == "p" else f", Flux degree = {FLUX_DEGREE}"
     curves = []
     for (np, n_threads, index), colour in zip(groups, (1, 4, 6)):
         label = f"np = {np} x {n_threads} thread{'s' if n_threads > 1 else ''}"
@@ -152,7 +161,7 @@ set grid
 set key left top font ',9'
 set xlabel 'unknowns per field'
 set ylabel 'wall time (s)'
-set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG)\\nagainst two Poisson solves (CG + AMG)"
+set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG{FLUXES})\\nagainst two Poisson solves (CG + AMG)"
 plot """ + ", \\\n     ".join(curves) + "\n"
     subprocess.run(["gnuplot"], input=script.encode(), check=True)
     print(f"wrote {os.path.join(DATA, STEM)}.{{csv,md,png}}")
