@@ -453,7 +453,10 @@ namespace VI
         "smaller and cheaper to set up and solve. The flux is then "
         "equilibrated in the Q_(p-1) moments: the bound stays guaranteed, "
         "and the residual estimator takes the projection error of the "
-        "source, which is of higher order (doc/estimators.md).");
+        "source, which is of higher order. Meant for meshes without "
+        "hanging nodes: next to a hanging node the normal flux of RT_0 is "
+        "constant on the coarse face, and the estimate of Q1 on adaptive "
+        "meshes can be much less sharp (doc/estimators.md).");
       prm.declare_entry(
         "Equilibrated dual norms",
         "",
