@@ -454,9 +454,9 @@ namespace VI
         "equilibrated in the Q_(p-1) moments: the bound stays guaranteed, "
         "and the residual estimator takes the projection error of the "
         "source, which is of higher order. Meant for meshes without "
-        "hanging nodes: next to a hanging node the normal flux of RT_0 is "
-        "constant on the coarse face, and the estimate of Q1 on adaptive "
-        "meshes can be much less sharp (doc/estimators.md).");
+        "hanging nodes: with Q1 on adaptive meshes the estimate was found "
+        "much less sharp, the excess at the hanging nodes "
+        "(doc/estimators.md).");
       prm.declare_entry(
         "Equilibrated dual norms",
         "",
