@@ -325,7 +325,6 @@ namespace VI
     const unsigned int  degree,
     const unsigned int  potential_degree)
       : mapping(mapping)
-      , degree(degree)
       , fe_flux(degree)
       , fe_divergence(degree)
       , fe_hat(1)

@@ -281,7 +281,6 @@ namespace VI
                    double *const      rhs) const;
 
     const dealii::Mapping<dim>   &mapping;
-    const unsigned int            degree;
     dealii::FE_RaviartThomas<dim> fe_flux;
     dealii::FE_DGQ<dim>           fe_divergence;
     dealii::FE_Q<dim>             fe_hat;
