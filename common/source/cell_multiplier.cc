@@ -4,8 +4,12 @@
 #include <deal.II/fe/fe_q.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/vector.h>
 
 #include <vi/cell_multiplier.h>
+
+#include <algorithm>
+#include <cmath>
 
 namespace VI
 {
@@ -79,6 +83,30 @@ namespace VI
                   mass.end(),
                   inverse_mass.begin() + index * n_vertices * n_vertices);
       }
+
+    // The integrals of the nodal basis functions, plain and conforming
+    // (summed over the processes).
+    const MPI_Comm                comm  = dofs.get_communicator();
+    const IndexSet               &owned = dofs.locally_owned_dofs();
+    TrilinosWrappers::MPI::Vector plain(owned, comm), conforming(owned, comm);
+    std::vector<types::global_dof_index> cell_dofs(n_nodes);
+    dealii::Vector<double>               local(n_nodes);
+    for (const auto &cell : dofs.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          cell->get_dof_indices(cell_dofs);
+          for (unsigned int i = 0; i < n_nodes; ++i)
+            local(i) =
+              measure[cell->active_cell_index()] * reference_weights[i];
+          plain.add(cell_dofs, local);
+          constraints.distribute_local_to_global(local, cell_dofs, conforming);
+        }
+    plain.compress(VectorOperation::add);
+    conforming.compress(VectorOperation::add);
+    node_integral.reinit(owned, relevant, comm);
+    node_integral = plain;
+    conforming_integral.reinit(owned, relevant, comm);
+    conforming_integral = conforming;
   }
 
 
@@ -92,13 +120,6 @@ namespace VI
     const unsigned int n_nodes = dof_handler->get_fe().n_dofs_per_cell();
     std::vector<types::global_dof_index> dofs(n_nodes);
     std::vector<double>                  m(n_nodes);
-
-    // The dofs and moments of a cell (zero on the nodes that carry none).
-    const auto read_cell = [&](const auto &cell) {
-      cell->get_dof_indices(dofs);
-      for (unsigned int i = 0; i < n_nodes; ++i)
-        m[i] = no_moment->is_constrained(dofs[i]) ? 0. : moments(dofs[i]);
-    };
 
     // The denominators of the shares: sums of |K| (phi^_i, 1) over the
     // contact cells and over all cells at node i. All cells at a node of an
@@ -126,6 +147,84 @@ namespace VI
                 on_contact[k] += size * reference_weights[i];
             }
         }
+
+    // Which nodes have a contact cell (counted over the processes: the
+    // parents of a hanging node need not be nodes of an owned cell).
+    const MPI_Comm                comm  = moments.get_mpi_communicator();
+    const IndexSet               &owned = dof_handler->locally_owned_dofs();
+    TrilinosWrappers::MPI::Vector contact_cells(owned, comm);
+    std::vector<types::global_dof_index> at_contact_cells;
+    for (const auto &cell : dof_handler->active_cell_iterators())
+      if (cell->is_locally_owned() && is_contact[cell->active_cell_index()])
+        {
+          cell->get_dof_indices(dofs);
+          at_contact_cells.insert(at_contact_cells.end(),
+                                  dofs.begin(),
+                                  dofs.end());
+        }
+    contact_cells.add(at_contact_cells,
+                      std::vector<double>(at_contact_cells.size(), 1.));
+    contact_cells.compress(VectorOperation::add);
+    TrilinosWrappers::MPI::Vector contact_cells_at(owned, relevant, comm);
+    contact_cells_at = contact_cells;
+
+    // The moments of the hanging nodes back from their parents (see the
+    // class documentation): the densities m_i / (phi_i + sum_j c_ji phi_j,
+    // 1) at the nodes that carry a moment, then at each locally owned
+    // hanging node x_j its moment M_j, which its parents give up; not
+    // where a parent has a contact cell and x_j none (at the free
+    // boundary), since a moment on x_j would leave the contact cells and
+    // add a contact term.
+    TrilinosWrappers::MPI::Vector density(owned, comm), nodal(owned, comm);
+    for (const types::global_dof_index i : owned)
+      if (!no_moment->is_constrained(i) && conforming_integral(i) > 0)
+        density(i) = moments(i) / conforming_integral(i);
+    density.compress(VectorOperation::insert);
+    TrilinosWrappers::MPI::Vector parents_density(owned, relevant, comm);
+    parents_density = density;
+    std::vector<types::global_dof_index> parents;
+    std::vector<double>                  given_up;
+    for (const types::global_dof_index j : owned)
+      if (const auto *entries = no_moment->get_constraint_entries(j))
+        {
+          // Only where every parent carries a moment: the constraints of
+          // the Dirichlet nodes have no entries, and a hanging node next to
+          // them has lost those parents (its weights no longer sum to 1),
+          // whose hats, also conforming, would not see its moment.
+          double interpolated = 0, weights = 0;
+          for (const auto &[i, c] : *entries)
+            {
+              interpolated += c * parents_density(i);
+              weights += c;
+            }
+          if (std::abs(weights - 1.) > 1e-12)
+            continue;
+          if (!(contact_cells_at(j) > 0) &&
+              std::any_of(entries->begin(), entries->end(), [&](const auto &e) {
+                return contact_cells_at(e.first) > 0;
+              }))
+            continue;
+          nodal(j) = node_integral(j) * interpolated;
+          for (const auto &[i, c] : *entries)
+            {
+              parents.push_back(i);
+              given_up.push_back(-c * nodal(j));
+            }
+        }
+      else
+        nodal(j) = moments(j);
+    nodal.compress(VectorOperation::insert);
+    nodal.add(parents, given_up);
+    nodal.compress(VectorOperation::add);
+    TrilinosWrappers::MPI::Vector node_moments(owned, relevant, comm);
+    node_moments = nodal;
+
+    // The dofs and moments of a cell (zero on the nodes that carry none).
+    const auto read_cell = [&](const auto &cell) {
+      cell->get_dof_indices(dofs);
+      for (unsigned int i = 0; i < n_nodes; ++i)
+        m[i] = node_moments(dofs[i]);
+    };
 
     coefficients.assign(measure.size() * n_vertices, 0.);
     double cell_moments[n_vertices];

@@ -201,6 +201,55 @@ TEST(CellMultiplier, ReproducesAConstant)
 }
 
 
+// The same on a mesh with hanging nodes, where the moments are those
+// against the conforming basis functions, m_i = (c, phi_i + sum_j c_ji
+// phi_j) over the hanging nodes j constrained by x_i (the moments the
+// discrete system assembles through the constraints): the share of the
+// hanging nodes must go back to their cells.
+TEST(CellMultiplier, ReproducesAConstantAtHangingNodes)
+{
+  for (const unsigned int degree : {2u, 3u})
+    {
+      Setting s(degree, true);
+      s.no_moment.clear();
+      DoFTools::make_hanging_node_constraints(s.dofs, s.no_moment);
+      s.no_moment.close();
+      ASSERT_GT(s.no_moment.n_constraints(), 0u);
+      s.multiplier.reinit(s.mapping, s.dofs, s.no_moment, s.quadrature);
+
+      const double   c       = 2.5;
+      TrilinosVector moments = s.vector(), contact = s.vector();
+      FEValues<2>    values(s.mapping,
+                         s.fe,
+                         s.quadrature,
+                         update_values | update_JxW_values);
+      std::vector<types::global_dof_index> dofs(s.fe.n_dofs_per_cell());
+      dealii::Vector<double>               local(s.fe.n_dofs_per_cell());
+      for (const auto &cell : s.dofs.active_cell_iterators())
+        {
+          values.reinit(cell);
+          cell->get_dof_indices(dofs);
+          local = 0;
+          for (unsigned int i = 0; i < dofs.size(); ++i)
+            for (unsigned int q = 0; q < s.quadrature.size(); ++q)
+              local(i) += c * values.shape_value(i, q) * values.JxW(q);
+          s.no_moment.distribute_local_to_global(local, dofs, moments);
+        }
+      moments.compress(VectorOperation::add);
+      for (types::global_dof_index i = 0; i < s.dofs.n_dofs(); ++i)
+        contact(i) = 1;
+
+      std::vector<double> coefficients;
+      s.multiplier.distribute(moments, contact, coefficients);
+      const auto lambda = s.cell_values(coefficients);
+      for (const auto &cell : s.dofs.active_cell_iterators())
+        for (const double v : lambda[cell->active_cell_index()])
+          EXPECT_NEAR(v, c, 1e-12)
+            << "Q" << degree << ", cell at " << cell->center();
+    }
+}
+
+
 // Contact on the left half (x <= 1/2), a multiplier there: every node with
 // a moment has a contact cell, so lambda~ vanishes on the right half,
 // whose first layer of cells shares the nodes on x = 1/2.

@@ -30,6 +30,20 @@ namespace VI
    * the guaranteed bound holds for any such lambda~. This class builds one
    * cell by cell:
    *
+   * - at a hanging node x_j (constrained, x_j = sum_i c_ji x_i), the
+   *   moments of its parents x_i carry its part too: m_i is the moment of
+   *   the conforming basis function phi_i + sum_j c_ji phi_j. That part,
+   *   M_j = (phi_j, 1) sum_i c_ji m_i / (phi_i + sum_k c_ki phi_k, 1) (the
+   *   parents' densities interpolated at x_j), goes back to x_j: x_i keeps
+   *   m_i - sum_j c_ji M_j. (Not where a parent is a Dirichlet node, which
+   *   carries no moment to give up, nor where x_j has no contact cell and
+   *   a parent has one: at the free boundary the moment stays on the
+   *   contact cells, see below.) For a constant multiplier these are its
+   *   moments against phi_i and phi_j, so that the rules below reproduce
+   *   it on meshes with hanging nodes as well; without this, the coarse
+   *   cells at a hanging face received the share of the fine ones, and
+   *   the flux reconstruction carried the difference back (a flux
+   *   indicator hundreds of times the error of an accurate contact cell);
    * - each moment m_i is shared among the cells K that carry node x_i, in
    *   proportion to |K| (phi^_i, 1)_K^ (the reference integral of the
    *   local shape function: the exact split of (lambda, phi_i) for a
@@ -43,7 +57,8 @@ namespace VI
    *
    * Summing over the cells, (lambda~, psi_a) = sum_i m_i psi_a(x_i) =
    * <lambda_h, psi_a>_h for every conforming hat psi_a (on K it is a
-   * combination of the psi_v, also at hanging nodes). On a contact cell the
+   * combination of the psi_v, also at hanging nodes, where psi_a(x_j) =
+   * sum_i c_ji psi_a(x_i) since psi_a is conforming). On a contact cell the
    * Newton iterate's gap vanishes at every node of K (exactly once the
    * linear system is solved), hence on K (Q_p), and so does the contact
    * term; a constant multiplier is reproduced on parallelograms.
@@ -99,6 +114,10 @@ namespace VI
     dealii::Table<2, double> vertex_function_at_point;
     /// |K| of locally owned and ghost cells, by active cell index.
     std::vector<double> measure;
+    /// (phi_i, 1) and (phi_i + sum_j c_ji phi_j, 1) (the conforming basis
+    /// function, at the nodes that carry a moment), with |K| (phi^_i, 1)^
+    /// for (phi_i, 1)_K; on the locally relevant nodes.
+    dealii::TrilinosWrappers::MPI::Vector node_integral, conforming_integral;
     /// The inverse Q1 mass matrix of each locally owned cell, row by row.
     std::vector<double> inverse_mass;
   };
