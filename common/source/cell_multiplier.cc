@@ -182,8 +182,11 @@ namespace VI
     density.compress(VectorOperation::insert);
     TrilinosWrappers::MPI::Vector parents_density(owned, relevant, comm);
     parents_density = density;
-    std::vector<types::global_dof_index> parents;
-    std::vector<double>                  given_up;
+    // First the interpolated moments M_j and what each parent would give
+    // up, G_i = sum_j c_ji M_j.
+    std::vector<std::pair<types::global_dof_index, double>> interpolated;
+    std::vector<types::global_dof_index>                    parents;
+    std::vector<double>                                     given_up;
     for (const types::global_dof_index j : owned)
       if (const auto *entries = no_moment->get_constraint_entries(j))
         {
@@ -191,10 +194,10 @@ namespace VI
           // the Dirichlet nodes have no entries, and a hanging node next to
           // them has lost those parents (its weights no longer sum to 1),
           // whose hats, also conforming, would not see its moment.
-          double interpolated = 0, weights = 0;
+          double density_j = 0, weights = 0;
           for (const auto &[i, c] : *entries)
             {
-              interpolated += c * parents_density(i);
+              density_j += c * parents_density(i);
               weights += c;
             }
           if (std::abs(weights - 1.) > 1e-12)
@@ -204,15 +207,51 @@ namespace VI
                 return contact_cells_at(e.first) > 0;
               }))
             continue;
-          nodal(j) = node_integral(j) * interpolated;
+          interpolated.emplace_back(j, node_integral(j) * density_j);
           for (const auto &[i, c] : *entries)
             {
               parents.push_back(i);
-              given_up.push_back(-c * nodal(j));
+              given_up.push_back(c * interpolated.back().second);
             }
         }
-      else
-        nodal(j) = moments(j);
+    TrilinosWrappers::MPI::Vector give(owned, comm);
+    give.add(parents, given_up);
+    give.compress(VectorOperation::add);
+    // A parent whose moment would change sign (where the parents'
+    // densities differ much, at the free boundary) gives up only the part
+    // alpha_i G_i = m_i; a hanging node takes the least alpha of its
+    // parents. (alpha = 1 wherever the density varies little, and for a
+    // constant.)
+    TrilinosWrappers::MPI::Vector limit(owned, comm);
+    for (const types::global_dof_index i : owned)
+      {
+        const double m = no_moment->is_constrained(i) ? 0. : moments(i),
+                     g = give(i);
+        limit(i)       = (g * m > 0 && std::abs(g) > std::abs(m)) ? m / g :
+                         (g != 0 && m == 0)                       ? 0. :
+                                                                    1.;
+      }
+    limit.compress(VectorOperation::insert);
+    TrilinosWrappers::MPI::Vector parents_limit(owned, relevant, comm);
+    parents_limit = limit;
+
+    given_up.clear();
+    parents.clear();
+    for (const types::global_dof_index i : owned)
+      if (!no_moment->is_constrained(i))
+        nodal(i) = moments(i);
+    for (const auto &[j, moment] : interpolated)
+      {
+        double alpha = 1;
+        for (const auto &[i, c] : *no_moment->get_constraint_entries(j))
+          alpha = std::min(alpha, static_cast<double>(parents_limit(i)));
+        nodal(j) = alpha * moment;
+        for (const auto &[i, c] : *no_moment->get_constraint_entries(j))
+          {
+            parents.push_back(i);
+            given_up.push_back(-c * nodal(j));
+          }
+      }
     nodal.compress(VectorOperation::insert);
     nodal.add(parents, given_up);
     nodal.compress(VectorOperation::add);
