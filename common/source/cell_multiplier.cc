@@ -15,6 +15,22 @@ namespace VI
 {
   using namespace dealii;
 
+  namespace
+  {
+    // A copy of a vector of locally owned values with the ghost entries of
+    // `relevant` (after its compress()).
+    TrilinosWrappers::MPI::Vector
+    with_ghosts(const TrilinosWrappers::MPI::Vector &values,
+                const IndexSet                      &relevant)
+    {
+      TrilinosWrappers::MPI::Vector ghosted(values.locally_owned_elements(),
+                                            relevant,
+                                            values.get_mpi_communicator());
+      ghosted = values;
+      return ghosted;
+    }
+  } // namespace
+
   template <int dim>
   void
   CellMultiplier<dim>::reinit(const Mapping<dim>              &mapping,
@@ -103,10 +119,8 @@ namespace VI
         }
     plain.compress(VectorOperation::add);
     conforming.compress(VectorOperation::add);
-    node_integral.reinit(owned, relevant, comm);
-    node_integral = plain;
-    conforming_integral.reinit(owned, relevant, comm);
-    conforming_integral = conforming;
+    node_integral       = with_ghosts(plain, relevant);
+    conforming_integral = with_ghosts(conforming, relevant);
   }
 
 
@@ -165,8 +179,8 @@ namespace VI
     contact_cells.add(at_contact_cells,
                       std::vector<double>(at_contact_cells.size(), 1.));
     contact_cells.compress(VectorOperation::add);
-    TrilinosWrappers::MPI::Vector contact_cells_at(owned, relevant, comm);
-    contact_cells_at = contact_cells;
+    const TrilinosWrappers::MPI::Vector contact_cells_at =
+      with_ghosts(contact_cells, relevant);
 
     // The moments of the hanging nodes back from their parents (see the
     // class documentation): the densities m_i / (phi_i + sum_j c_ji phi_j,
@@ -180,13 +194,19 @@ namespace VI
       if (!no_moment->is_constrained(i) && conforming_integral(i) > 0)
         density(i) = moments(i) / conforming_integral(i);
     density.compress(VectorOperation::insert);
-    TrilinosWrappers::MPI::Vector parents_density(owned, relevant, comm);
-    parents_density = density;
+    const TrilinosWrappers::MPI::Vector parents_density =
+      with_ghosts(density, relevant);
     // First the interpolated moments M_j and what each parent would give
     // up, G_i = sum_j c_ji M_j.
-    std::vector<std::pair<types::global_dof_index, double>> interpolated;
-    std::vector<types::global_dof_index>                    parents;
-    std::vector<double>                                     given_up;
+    struct Interpolated
+    {
+      types::global_dof_index                                        j;
+      const std::vector<std::pair<types::global_dof_index, double>> *entries;
+      double                                                         moment;
+    };
+    std::vector<Interpolated>            interpolated;
+    std::vector<types::global_dof_index> parents;
+    std::vector<double>                  given_up;
     for (const types::global_dof_index j : owned)
       if (const auto *entries = no_moment->get_constraint_entries(j))
         {
@@ -207,11 +227,11 @@ namespace VI
                 return contact_cells_at(e.first) > 0;
               }))
             continue;
-          interpolated.emplace_back(j, node_integral(j) * density_j);
+          interpolated.push_back({j, entries, node_integral(j) * density_j});
           for (const auto &[i, c] : *entries)
             {
               parents.push_back(i);
-              given_up.push_back(c * interpolated.back().second);
+              given_up.push_back(c * interpolated.back().moment);
             }
         }
     TrilinosWrappers::MPI::Vector give(owned, comm);
@@ -232,21 +252,21 @@ namespace VI
                                                                     1.;
       }
     limit.compress(VectorOperation::insert);
-    TrilinosWrappers::MPI::Vector parents_limit(owned, relevant, comm);
-    parents_limit = limit;
+    const TrilinosWrappers::MPI::Vector parents_limit =
+      with_ghosts(limit, relevant);
 
     given_up.clear();
     parents.clear();
     for (const types::global_dof_index i : owned)
       if (!no_moment->is_constrained(i))
         nodal(i) = moments(i);
-    for (const auto &[j, moment] : interpolated)
+    for (const auto &[j, entries, moment] : interpolated)
       {
         double alpha = 1;
-        for (const auto &[i, c] : *no_moment->get_constraint_entries(j))
+        for (const auto &[i, c] : *entries)
           alpha = std::min(alpha, static_cast<double>(parents_limit(i)));
         nodal(j) = alpha * moment;
-        for (const auto &[i, c] : *no_moment->get_constraint_entries(j))
+        for (const auto &[i, c] : *entries)
           {
             parents.push_back(i);
             given_up.push_back(-c * nodal(j));
@@ -255,8 +275,8 @@ namespace VI
     nodal.compress(VectorOperation::insert);
     nodal.add(parents, given_up);
     nodal.compress(VectorOperation::add);
-    TrilinosWrappers::MPI::Vector node_moments(owned, relevant, comm);
-    node_moments = nodal;
+    const TrilinosWrappers::MPI::Vector node_moments =
+      with_ghosts(nodal, relevant);
 
     // The dofs and moments of a cell (zero on the nodes that carry none).
     const auto read_cell = [&](const auto &cell) {
