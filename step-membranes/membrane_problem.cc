@@ -923,6 +923,17 @@ namespace StepMembranes
     const auto criterion = [&](const VI::ContactEstimate &e) {
       return nonlinear.algebraic_error_small(e.eta_disc, e.eta_lin, e.eta_alg);
     };
+    // Estimators/Equilibrated dual norms = remainder: the sharper bound of
+    // the remainder is skipped where the test would fail with it too: a
+    // sharper bound lowers eta_alg to flux_alg at most and does not raise
+    // eta_disc or eta_lin. The decisions are those of the sharper estimate.
+    std::function<bool(const VI::ContactEstimate &)> sharpen_remainder;
+    if (adaptive)
+      sharpen_remainder = [&](const VI::ContactEstimate &e) {
+        return nonlinear.algebraic_error_small(e.eta_disc,
+                                               e.eta_lin,
+                                               e.flux_alg);
+      };
     std::optional<Iterate> previous;
     Iterate                current;
     bool                   accepted = false;
@@ -964,7 +975,8 @@ namespace StepMembranes
           add_fluxes(current);
         }
 
-      const VI::ContactEstimate own = estimate(current, current);
+      const VI::ContactEstimate own =
+        estimate(current, current, false, sharpen_remainder);
       remember_eta_disc(own);
       estimate_records.emplace_back(newton_step, i, false, own);
       if (adaptive && criterion(own))
@@ -974,7 +986,8 @@ namespace StepMembranes
         }
       if (previous)
         {
-          const VI::ContactEstimate e = estimate(*previous, current);
+          const VI::ContactEstimate e =
+            estimate(*previous, current, false, sharpen_remainder);
           estimate_records.emplace_back(newton_step,
                                         previous->linear_iteration,
                                         false,
@@ -1476,9 +1489,12 @@ namespace StepMembranes
 
   template <int dim>
   VI::ContactEstimate
-  MembraneProblem<dim>::estimate(const Iterate &it,
-                                 const Iterate &ahead,
-                                 const bool     equilibrated) const
+  MembraneProblem<dim>::estimate(
+    const Iterate                                          &it,
+    const Iterate                                          &ahead,
+    const bool                                              equilibrated,
+    const std::function<bool(const VI::ContactEstimate &)> &sharpen_remainder)
+    const
   {
     TimerOutput::Scope t(timer, "estimators: evaluation");
     const bool         undershoots =
@@ -1517,6 +1533,7 @@ namespace StepMembranes
     in.dual_norm             = dual_norm.get();
     in.dual_norm_undershoots = undershoots;
     in.dual_norm_remainder   = remainder;
+    in.sharpen_remainder     = sharpen_remainder;
     in.without_fluxes        = !it.has_fluxes;
     AssertThrow(it.has_fluxes || &ahead == &it, ExcInternalError());
     if (cell_multiplier)

@@ -32,6 +32,7 @@
 #include <vi/summary.h>
 #include <vi/test_cases.h>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -205,11 +206,14 @@ namespace StepMembranes
     contact_nodes(const Vector &X, Vector &indicator) const;
     /// With `equilibrated`, both dual norms (undershoots, remainder) are
     /// bounded by equilibration, whatever Estimators/Equilibrated dual norms
-    /// says.
+    /// says; `sharpen_remainder` (optional) says where the remainder's bound
+    /// is worth it (ContactEstimatorInput).
     VI::ContactEstimate
     estimate(const Iterate &iterate,
              const Iterate &ahead,
-             const bool     equilibrated = false) const;
+             const bool     equilibrated = false,
+             const std::function<bool(const VI::ContactEstimate &)>
+               &sharpen_remainder = {}) const;
     VI::ContactEstimate
     estimate(const Vector &X, const bool equilibrated = false) const;
     /// Estimators/Sharpen final estimate: replaces final_estimate by the

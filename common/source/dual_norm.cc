@@ -20,6 +20,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 
 namespace VI
 {
@@ -112,37 +113,46 @@ namespace VI
   double
   DualNormBound<dim>::bound(const std::vector<double> &m) const
   {
-    return equilibrate(
-      [&](const unsigned int cell, const unsigned int) { return m[cell]; });
+    const std::function<double(unsigned int, unsigned int)> cell_constant =
+      [&](const unsigned int cell, const unsigned int) { return m[cell]; };
+    return equilibrate(std::vector{cell_constant})[0];
   }
 
 
   template <int dim>
-  double
-  DualNormBound<dim>::bound_at_points(const std::vector<double> &values) const
+  std::vector<double>
+  DualNormBound<dim>::bounds_at_points(
+    const std::vector<const std::vector<double> *> &values) const
   {
     const unsigned int n_q = reconstruction.get_quadrature().size();
-    return equilibrate([&](const unsigned int cell, const unsigned int q) {
-      return values[cell * n_q + q];
-    });
+    std::vector<std::function<double(unsigned int, unsigned int)>> sources;
+    for (const std::vector<double> *m : values)
+      sources.emplace_back(
+        [m, n_q](const unsigned int cell, const unsigned int q) {
+          return (*m)[cell * n_q + q];
+        });
+    return equilibrate(sources);
   }
 
 
-  // m(cell, q): the source at point q of the reconstruction's quadrature on
-  // the cell of that active index. The cell loops run on the threads of
-  // MultithreadInfo (m is only read); their sums are added in the order of
-  // the cells, so that the bound does not depend on the number of threads
-  // (see FluxReconstruction::reconstruct() for the one-thread caveat).
+  // m[k](cell, q): source k at point q of the reconstruction's quadrature on
+  // the cell of that active index. All sources share the cell loops and one
+  // reconstruction (a field each); each has its own Poisson solve. The cell
+  // loops run on the threads of MultithreadInfo (the sources are only
+  // read); their sums are added in the order of the cells, so that the
+  // bounds do not depend on the number of threads (see
+  // FluxReconstruction::reconstruct() for the one-thread caveat).
   template <int dim>
   template <typename Source>
-  double
-  DualNormBound<dim>::equilibrate(const Source &m) const
+  std::vector<double>
+  DualNormBound<dim>::equilibrate(const std::vector<Source> &m) const
   {
     const MPI_Comm         comm       = dof_handler.get_communicator();
     const IndexSet        &owned      = dof_handler.locally_owned_dofs();
     const Quadrature<dim> &quadrature = reconstruction.get_quadrature();
     const DoFHandler<dim> &flux_dofs  = reconstruction.get_dof_handler();
     const unsigned int     n_tau      = flux_dofs.get_fe().n_dofs_per_cell();
+    const unsigned int     n_sources  = m.size();
     const auto             owned_cells =
       filter_iterators(dof_handler.active_cell_iterators(),
                        IteratorFilters::LocallyOwnedCell());
@@ -185,85 +195,107 @@ namespace VI
     };
     const Scratch sample(mapping, fe, flux_dofs.get_fe(), quadrature);
 
-    // The load (m, v_h) and the Friedrichs bound's |m|^2.
+    // The loads (m, v_h) and the Friedrichs bounds' |m|^2.
     struct LoadShare
     {
-      Vector<double>                       cell_load;
+      std::vector<Vector<double>>          cell_loads;
       std::vector<types::global_dof_index> dofs;
-      double                               m_squared = 0;
+      std::vector<double>                  m_squared;
     };
-    TrilinosWrappers::MPI::Vector load(owned, comm), z(owned, comm);
-    double                        m_squared = 0;
+    std::vector<TrilinosWrappers::MPI::Vector> loads(
+      n_sources, TrilinosWrappers::MPI::Vector(owned, comm));
+    std::vector<double> m_squared(n_sources, 0.);
     WorkStream::run(
       owned_cells,
       [&](const CellIterator &cell, Scratch &scratch, LoadShare &share) {
         scratch.values.reinit(cell);
         const FEValues<dim> &values = scratch.values;
         const unsigned int   K      = cell->active_cell_index();
-        share.cell_load             = 0;
-        share.m_squared             = 0;
-        for (const unsigned int q : values.quadrature_point_indices())
+        for (unsigned int k = 0; k < n_sources; ++k)
           {
-            const double m_q = m(K, q);
-            share.m_squared += m_q * m_q * values.JxW(q);
-            for (const unsigned int i : values.dof_indices())
-              share.cell_load(i) +=
-                m_q * values.shape_value(i, q) * values.JxW(q);
+            share.cell_loads[k] = 0;
+            share.m_squared[k]  = 0;
+            for (const unsigned int q : values.quadrature_point_indices())
+              {
+                const double m_q = m[k](K, q);
+                share.m_squared[k] += m_q * m_q * values.JxW(q);
+                for (const unsigned int i : values.dof_indices())
+                  share.cell_loads[k](i) +=
+                    m_q * values.shape_value(i, q) * values.JxW(q);
+              }
           }
         cell->get_dof_indices(share.dofs);
       },
       [&](const LoadShare &share) {
-        constraints.distribute_local_to_global(share.cell_load,
-                                               share.dofs,
-                                               load);
-        m_squared += share.m_squared;
+        for (unsigned int k = 0; k < n_sources; ++k)
+          {
+            constraints.distribute_local_to_global(share.cell_loads[k],
+                                                   share.dofs,
+                                                   loads[k]);
+            m_squared[k] += share.m_squared[k];
+          }
       },
       sample,
-      LoadShare{Vector<double>(fe.n_dofs_per_cell()),
+      LoadShare{std::vector<Vector<double>>(
+                  n_sources, Vector<double>(fe.n_dofs_per_cell())),
                 std::vector<types::global_dof_index>(fe.n_dofs_per_cell()),
-                0.},
+                std::vector<double>(n_sources, 0.)},
       /*queue_length=*/2 * MultithreadInfo::n_threads(),
       /*chunk_size=*/32);
-    load.compress(VectorOperation::add);
-    m_squared = Utilities::MPI::sum(m_squared, comm);
-    if (m_squared == 0.)
-      return 0.;
+    Utilities::MPI::sum(ArrayView<const double>(m_squared),
+                        comm,
+                        ArrayView<double>(m_squared));
+    std::vector<double> bounds(n_sources, 0.);
+    // The sources that do not vanish everywhere, a field each.
+    std::vector<unsigned int> fields;
+    for (unsigned int k = 0; k < n_sources; ++k)
+      if (m_squared[k] > 0.)
+        fields.push_back(k);
+    if (fields.empty())
+      return bounds;
 
     // z_h, solved well below the size of the bound (the residual enters it
-    // through c_h, not as an error).
-    SolverControl control(1000, 1e-10 * load.l2_norm());
-    SolverCG<TrilinosWrappers::MPI::Vector> cg(control);
-    try
+    // through c_h, not as an error); c_a = -r_a / (psi_a, 1) at the regular
+    // interior vertices, c_h the conforming Q1 function of these values.
+    std::vector<TrilinosWrappers::MPI::Vector> z_ghosted, c_ghosted;
+    for (const unsigned int k : fields)
       {
-        cg.solve(laplacian, z, load, amg);
+        TrilinosWrappers::MPI::Vector &load = loads[k];
+        load.compress(VectorOperation::add);
+        TrilinosWrappers::MPI::Vector z(owned, comm);
+        SolverControl                 control(1000, 1e-10 * load.l2_norm());
+        SolverCG<TrilinosWrappers::MPI::Vector> cg(control);
+        try
+          {
+            cg.solve(laplacian, z, load, amg);
+          }
+        catch (const SolverControl::NoConvergence &)
+          {
+            throw SolverFailure("the Poisson solve of a dual norm bound "
+                                "(CG + AMG) did not converge in 1000 "
+                                "iterations");
+          }
+        TrilinosWrappers::MPI::Vector residual(owned, comm);
+        laplacian.vmult(residual, z);
+        residual.sadd(-1., 1., load);
+        TrilinosWrappers::MPI::Vector c(owned, comm);
+        for (const auto i : owned)
+          if (!constraints.is_constrained(i))
+            c(i) = -residual(i) / hat_integrals(i);
+        c.compress(VectorOperation::insert);
+        constraints.distribute(z);
+        constraints.distribute(c);
+        z_ghosted.emplace_back(owned, relevant, comm);
+        c_ghosted.emplace_back(owned, relevant, comm);
+        z_ghosted.back() = z;
+        c_ghosted.back() = c;
       }
-    catch (const SolverControl::NoConvergence &)
-      {
-        throw SolverFailure("the Poisson solve of the multiplier's dual norm "
-                            "bound (CG + AMG) did not converge in 1000 "
-                            "iterations");
-      }
-    TrilinosWrappers::MPI::Vector residual(owned, comm);
-    laplacian.vmult(residual, z);
-    residual.sadd(-1., 1., load);
-    // c_a = -r_a / (psi_a, 1) at the regular interior vertices; c_h is the
-    // conforming Q1 function of these values.
-    TrilinosWrappers::MPI::Vector c(owned, comm);
-    for (const auto i : owned)
-      if (!constraints.is_constrained(i))
-        c(i) = -residual(i) / hat_integrals(i);
-    c.compress(VectorOperation::insert);
-    constraints.distribute(z);
-    constraints.distribute(c);
-    TrilinosWrappers::MPI::Vector z_ghosted(owned, relevant, comm),
-      c_ghosted(owned, relevant, comm);
-    z_ghosted = z;
-    c_ghosted = c;
 
     // rho: equilibrates m (+ c_h) with the flux grad z_h (div rho = m + c_h
-    // exactly where m is in Q_p on every cell).
+    // exactly where m is in Q_p on every cell), one field per source.
+    const unsigned int                        n_fields = fields.size();
     typename FluxReconstruction<dim>::Sources sources;
-    sources.n_fields         = 1;
+    sources.n_fields         = n_fields;
     sources.make_cell_values = [&]() {
       // per thread: FEValues of z_h
       const auto z_values = std::make_shared<FEValues<dim>>(mapping,
@@ -277,26 +309,34 @@ namespace VI
           cell->index(),
           &dof_handler);
         z_values->reinit(dof_cell);
-        z_values->get_function_gradients(z_ghosted, flux[0]);
-        for (unsigned int q = 0; q < source[0].size(); ++q)
-          source[0][q] = m(cell->active_cell_index(), q);
+        const unsigned int K = cell->active_cell_index();
+        for (unsigned int f = 0; f < n_fields; ++f)
+          {
+            z_values->get_function_gradients(z_ghosted[f], flux[f]);
+            for (unsigned int q = 0; q < source[f].size(); ++q)
+              source[f][q] = m[fields[f]](K, q);
+          }
       };
     };
-    sources.vertex_source = [&](const unsigned int vertex, const unsigned int) {
+    sources.vertex_source = [&](const unsigned int vertex,
+                                const unsigned int f) {
       const auto i = vertex_dofs[vertex];
-      return constraints.is_constrained(i) ? 0. : c_ghosted(i);
+      return constraints.is_constrained(i) ? 0. : c_ghosted[f](i);
     };
-    TrilinosWrappers::MPI::Vector rho;
-    reconstruction.reconstruct(sources, {&rho});
+    std::vector<TrilinosWrappers::MPI::Vector>   rho(n_fields);
+    std::vector<TrilinosWrappers::MPI::Vector *> rho_pointers;
+    for (auto &r : rho)
+      rho_pointers.push_back(&r);
+    reconstruction.reconstruct(sources, rho_pointers);
 
-    // ||rho||^2 and ||c_h||^2.
+    // ||rho||^2 and ||c_h||^2 of each field.
     const std::vector<std::int8_t> &signs = reconstruction.get_piola_signs();
-    std::array<double, 2>           local_sums{}, sums;
+    std::vector<double>             local_sums(2 * n_fields, 0.);
     WorkStream::run(
       owned_cells,
-      [&](const CellIterator    &cell,
-          Scratch               &scratch,
-          std::array<double, 2> &share) {
+      [&](const CellIterator  &cell,
+          Scratch             &scratch,
+          std::vector<double> &share) {
         scratch.values.reinit(cell);
         const FEValues<dim> &values = scratch.values;
         scratch.piola.reinit(values,
@@ -308,36 +348,48 @@ namespace VI
           cell->level(),
           cell->index(),
           &flux_dofs);
-        flux_cell->get_dof_values(rho,
-                                  scratch.coefficients.begin(),
-                                  scratch.coefficients.end());
-        scratch.piola.function_values_and_divergences(make_array_view(
-                                                        scratch.coefficients),
-                                                      scratch.rho_values,
-                                                      scratch.rho_divergences);
-        values.get_function_values(c_ghosted, scratch.c_values);
-        share = {};
-        for (const unsigned int q : values.quadrature_point_indices())
+        std::fill(share.begin(), share.end(), 0.);
+        for (unsigned int f = 0; f < n_fields; ++f)
           {
-            share[0] += scratch.rho_values[q].norm_square() * values.JxW(q);
-            share[1] +=
-              scratch.c_values[q] * scratch.c_values[q] * values.JxW(q);
+            flux_cell->get_dof_values(rho[f],
+                                      scratch.coefficients.begin(),
+                                      scratch.coefficients.end());
+            scratch.piola.function_values_and_divergences(
+              make_array_view(scratch.coefficients),
+              scratch.rho_values,
+              scratch.rho_divergences);
+            values.get_function_values(c_ghosted[f], scratch.c_values);
+            for (const unsigned int q : values.quadrature_point_indices())
+              {
+                share[2 * f] +=
+                  scratch.rho_values[q].norm_square() * values.JxW(q);
+                share[2 * f + 1] +=
+                  scratch.c_values[q] * scratch.c_values[q] * values.JxW(q);
+              }
           }
       },
-      [&](const std::array<double, 2> &share) {
-        local_sums[0] += share[0];
-        local_sums[1] += share[1];
+      [&](const std::vector<double> &share) {
+        for (unsigned int k = 0; k < share.size(); ++k)
+          local_sums[k] += share[k];
       },
       sample,
-      std::array<double, 2>{},
+      std::vector<double>(2 * n_fields, 0.),
       /*queue_length=*/2 * MultithreadInfo::n_threads(),
       /*chunk_size=*/32);
+    std::vector<double> sums(local_sums.size());
     Utilities::MPI::sum(ArrayView<const double>(local_sums),
                         comm,
                         ArrayView<double>(sums));
-    const double equilibrated =
-      std::sqrt(sums[0]) + friedrichs_constant * std::sqrt(sums[1]);
-    return std::min(equilibrated, friedrichs_constant * std::sqrt(m_squared));
+    for (unsigned int f = 0; f < n_fields; ++f)
+      {
+        const double equilibrated =
+          std::sqrt(sums[2 * f]) +
+          friedrichs_constant * std::sqrt(sums[2 * f + 1]);
+        bounds[fields[f]] =
+          std::min(equilibrated,
+                   friedrichs_constant * std::sqrt(m_squared[fields[f]]));
+      }
+    return bounds;
   }
 
 

@@ -498,30 +498,12 @@ namespace VI
                         ArrayView<double>(total.data(), n_sums));
 
     ContactEstimate &e = estimate;
-    // The dual norm bounds cost a Poisson solve and a reconstruction each:
-    // they are computed only where Friedrichs' bound is not negligible,
-    // above 1 % of the discretisation flux and residual estimator (either
-    // bound is guaranteed; below that, the sharper one changes eta by less
-    // than 1 %).
+    // (Below 1 % of the discretisation flux and residual estimator, the
+    // sharper bound of a dual norm changes eta by less than 1 %.)
     const double negligible = 1e-2 * std::sqrt(total[flux_residual_disc]);
     const double friedrichs_remainder =
       in.friedrichs_constant *
       std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
-    if (remainder && with_fluxes && friedrichs_remainder > negligible)
-      {
-        // (rho_alpha, w_alpha) <= ||rho_alpha||_{-1} |grad w_alpha|
-        const auto dual = [&](const unsigned int a) {
-          return total[remainder_1 + a] > 0. ?
-                   in.dual_norm->bound_at_points(remainders[a]) :
-                   0.;
-        };
-        const double rho_1 = dual(0), rho_2 = dual(1);
-        e.remainder =
-          std::sqrt(rho_1 * rho_1 / in.mu1 + rho_2 * rho_2 / in.mu2);
-      }
-    else
-      e.remainder = friedrichs_remainder;
-    e.eta_1       = std::sqrt(total[flux_residual_total]) + e.remainder;
     e.flux_disc   = std::sqrt(total[flux_disc_squared]);
     e.residual    = std::sqrt(total[residual_squared]);
     e.flux_alg    = std::sqrt(total[algebraic_squared]);
@@ -563,31 +545,52 @@ namespace VI
         e.contact_lin  = total[contact_linearised];
         e.contact_disc = e.contact_cone - e.contact_lin;
       }
+    e.dirichlet  = std::sqrt(total[dirichlet_squared]);
+    e.eta_1_disc = std::sqrt(total[flux_residual_disc]);
 
-    // |||e|||^2 <= a |||e||| + b, hence |||e||| <= a/2 + (a^2/4 + b)^(1/2).
-    const double a = e.eta_1 + e.nonc_1 + e.nonc_2;
-    const double b = (e.eta_1 + e.nonc_2) * e.nonc_1 + 0.5 * e.contact_cone;
-    // ... for u_h + G; and |||u - u_h||| <= |||u - (u_h + G)||| + |||G|||.
-    e.dirichlet = std::sqrt(total[dirichlet_squared]);
-    e.eta = 0.5 * a + std::sqrt(std::max(0.25 * a * a + b, 0.)) + e.dirichlet;
-
-    const double eta_1_disc = std::sqrt(total[flux_residual_disc]);
-    e.eta_1_disc            = eta_1_disc;
-    const auto cross        = [&](const double nonc_1_part) {
-      return std::sqrt((e.eta_1 + e.nonc_2) * nonc_1_part);
+    // The bound and its split for a bound of the remainder, which enters
+    // eta_1, the cross terms and eta_alg: all of them grow with it.
+    const auto bound_with_remainder = [&](const double remainder_bound) {
+      e.remainder = remainder_bound;
+      e.eta_1     = std::sqrt(total[flux_residual_total]) + remainder_bound;
+      // |||e|||^2 <= a |||e||| + b, hence |||e||| <= a/2 + (a^2/4 + b)^(1/2).
+      const double a = e.eta_1 + e.nonc_1 + e.nonc_2;
+      const double b = (e.eta_1 + e.nonc_2) * e.nonc_1 + 0.5 * e.contact_cone;
+      // ... for u_h + G; and |||u - u_h||| <= |||u - (u_h + G)||| + |||G|||.
+      e.eta = 0.5 * a + std::sqrt(std::max(0.25 * a * a + b, 0.)) + e.dirichlet;
+      const auto cross = [&](const double nonc_1_part) {
+        return std::sqrt((e.eta_1 + e.nonc_2) * nonc_1_part);
+      };
+      e.eta_disc = e.dirichlet + e.eta_1_disc + e.nonc_1_disc + e.nonc_2_disc +
+                   cross(e.nonc_1_disc) +
+                   std::sqrt(std::max(e.contact_disc, 0.) / 2.);
+      // Without the fluxes eta_1 is unknown, and so is the cross term:
+      // eta_lin is then a lower bound of the complete estimate's, and
+      // eta_alg = eta_rem (sigma_alg = 0 for an iterate that is its own
+      // look-ahead) with Friedrichs' inequality an upper bound (the complete
+      // estimate may bound the remainder by equilibration, the smaller
+      // bound).
+      e.eta_lin = e.nonc_1_lin + e.nonc_2_lin +
+                  (with_fluxes ? cross(e.nonc_1_lin) : 0.) +
+                  std::sqrt(std::max(e.contact_lin, 0.) / 2.);
+      e.eta_alg = e.flux_alg + e.remainder;
     };
-    e.eta_disc = e.dirichlet + eta_1_disc + e.nonc_1_disc + e.nonc_2_disc +
-                 cross(e.nonc_1_disc) +
-                 std::sqrt(std::max(e.contact_disc, 0.) / 2.);
-    // Without the fluxes eta_1 is unknown, and so is the cross term: eta_lin
-    // is then a lower bound of the complete estimate's, and eta_alg = eta_rem
-    // (sigma_alg = 0 for an iterate that is its own look-ahead) with
-    // Friedrichs' inequality an upper bound (the complete estimate may bound
-    // the remainder by equilibration, the smaller bound).
-    e.eta_lin = e.nonc_1_lin + e.nonc_2_lin +
-                (with_fluxes ? cross(e.nonc_1_lin) : 0.) +
-                std::sqrt(std::max(e.contact_lin, 0.) / 2.);
-    e.eta_alg = e.flux_alg + e.remainder;
+    bound_with_remainder(friedrichs_remainder);
+    // The dual norm bounds cost a Poisson solve and a reconstruction each
+    // (the remainder's two fields share one):
+    // they are computed only where Friedrichs' bound is not negligible,
+    // above 1 % of the discretisation flux and residual estimator (either
+    // bound is guaranteed; below that, the sharper one changes eta by less
+    // than 1 %), and where the caller finds them worth it.
+    if (remainder && with_fluxes && friedrichs_remainder > negligible &&
+        (!in.sharpen_remainder || in.sharpen_remainder(e)))
+      {
+        // (rho_alpha, w_alpha) <= ||rho_alpha||_{-1} |grad w_alpha|
+        const std::vector<double> rho =
+          in.dual_norm->bounds_at_points({&remainders[0], &remainders[1]});
+        bound_with_remainder(
+          std::sqrt(rho[0] * rho[0] / in.mu1 + rho[1] * rho[1] / in.mu2));
+      }
     if (!with_fluxes)
       {
         e.complete = false;

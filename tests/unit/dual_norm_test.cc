@@ -197,3 +197,53 @@ TEST(DualNormBound, DoesNotDependOnTheNumberOfThreads)
   EXPECT_GT(bounds[0], 0.);
   EXPECT_EQ(bounds[0], bounds[1]);
 }
+
+
+TEST(DualNormBound, SeveralSourcesShareOneReconstruction)
+{
+  // bounds_at_points() equilibrates several sources with one reconstruction
+  // (a field each, a Poisson solve each): each bound is the one of its
+  // source alone, and a vanishing source gets 0 without a field. Sources of
+  // different shapes (smooth, a band, zero) on a Q2 mesh with hanging
+  // nodes, given at the reconstruction's points.
+  Triangulation<2> tria;
+  GridGenerator::hyper_cube(tria);
+  tria.refine_global(4);
+  for (const auto &cell : tria.active_cell_iterators())
+    if (cell->center()[0] < 0.3)
+      cell->set_refine_flag();
+  tria.execute_coarsening_and_refinement();
+  MappingQ<2>   mapping(1);
+  FE_Q<2>       fe(2);
+  DoFHandler<2> potential(tria);
+  potential.distribute_dofs(fe);
+  VI::FluxReconstruction<2> reconstruction(mapping, 2);
+  reconstruction.reinit(potential);
+  VI::DualNormBound<2> dual_norm(mapping, reconstruction, friedrichs);
+  dual_norm.reinit(tria);
+
+  const Quadrature<2> &quadrature = reconstruction.get_quadrature();
+  FEValues<2>         values(mapping, fe, quadrature, update_quadrature_points);
+  const unsigned int  n_q = quadrature.size();
+  std::vector<double> smooth(tria.n_active_cells() * n_q), band(smooth.size()),
+    zero(smooth.size(), 0.);
+  for (const auto &cell : potential.active_cell_iterators())
+    {
+      values.reinit(cell);
+      for (unsigned int q = 0; q < n_q; ++q)
+        {
+          const Point<2> &x = values.quadrature_point(q);
+          const auto      k = cell->active_cell_index() * n_q + q;
+          smooth[k]         = x[0] * x[1] - 0.3 * x[1] * x[1];
+          band[k] = std::abs(cell->center()[1] - 0.5) < 0.07 ? -1. : 0.;
+        }
+    }
+  const std::vector<double> together =
+    dual_norm.bounds_at_points({&smooth, &zero, &band});
+  ASSERT_EQ(together.size(), 3u);
+  EXPECT_GT(together[0], 0.);
+  EXPECT_EQ(together[1], 0.);
+  EXPECT_GT(together[2], 0.);
+  EXPECT_DOUBLE_EQ(together[0], dual_norm.bounds_at_points({&smooth})[0]);
+  EXPECT_DOUBLE_EQ(together[2], dual_norm.bounds_at_points({&band})[0]);
+}

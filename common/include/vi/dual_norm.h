@@ -66,18 +66,20 @@ namespace VI
     bound(const std::vector<double> &m) const;
 
     /**
-     * The same for m given at the points of the reconstruction's quadrature,
-     * values[K n_q + q] on the cell of active index K, m in Q_p on every
-     * cell (e.g. a finite element function of the problem's degree), so
-     * that the equilibration is exact.
+     * The same for several m given at the points of the reconstruction's
+     * quadrature, (*values[k])[K n_q + q] on the cell of active index K, m in
+     * Q_p on every cell (e.g. a finite element function of the problem's
+     * degree), so that the equilibration is exact. One Poisson solve per m,
+     * one reconstruction for all (a field each).
      */
-    double
-    bound_at_points(const std::vector<double> &values) const;
+    std::vector<double>
+    bounds_at_points(
+      const std::vector<const std::vector<double> *> &values) const;
 
   private:
     template <typename Source>
-    double
-    equilibrate(const Source &m) const;
+    std::vector<double>
+    equilibrate(const std::vector<Source> &m) const;
 
     const dealii::Mapping<dim>       &mapping;
     const FluxReconstruction<dim>    &reconstruction;

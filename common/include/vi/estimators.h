@@ -9,6 +9,7 @@
 #include <deal.II/lac/vector.h>
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -168,6 +169,14 @@ namespace VI
     /// |grad w_alpha|. Each bound is the smaller of the two.
     const DualNormBound<dim> *dual_norm = nullptr;
     bool dual_norm_undershoots = false, dual_norm_remainder = false;
+    /// Optional, with dual_norm_remainder: whether the equilibrated bound of
+    /// the remainder (a Poisson solve and a reconstruction per field) is
+    /// worth computing, asked with the estimate whose remainder is bounded
+    /// by Friedrichs' inequality. Both bounds are guaranteed; the sharper
+    /// one can lower eta_alg to flux_alg at most, and eta_disc and eta_lin
+    /// not raise: a stopping test that no sharper bound could pass need not
+    /// pay for it. Empty: always.
+    std::function<bool(const ContactEstimate &)> sharpen_remainder;
 
     /// Only the terms that need no equilibrated flux (the fluxes may be
     /// empty; the iterate must be its own look-ahead, and the undershoots
