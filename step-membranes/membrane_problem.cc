@@ -927,13 +927,12 @@ namespace StepMembranes
     // the remainder is skipped where the test would fail with it too: a
     // sharper bound lowers eta_alg to flux_alg at most and does not raise
     // eta_disc or eta_lin. The decisions are those of the sharper estimate.
-    std::function<bool(const VI::ContactEstimate &)> sharpen_remainder;
-    if (adaptive)
-      sharpen_remainder = [&](const VI::ContactEstimate &e) {
-        return nonlinear.algebraic_error_small(e.eta_disc,
-                                               e.eta_lin,
-                                               e.flux_alg);
-      };
+    // The other strategies decide nothing at the checks: their records keep
+    // Friedrichs' bound.
+    const auto sharpen_remainder = [&](const VI::ContactEstimate &e) {
+      return adaptive &&
+             nonlinear.algebraic_error_small(e.eta_disc, e.eta_lin, e.flux_alg);
+    };
     std::optional<Iterate> previous;
     Iterate                current;
     bool                   accepted = false;

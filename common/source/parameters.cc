@@ -469,7 +469,8 @@ namespace VI
         "(doc/estimators.md): 'undershoots', the cell means of the "
         "undershoots lambda_h < 0 of a Newton iterate; 'remainder', the "
         "residuals rho_alpha that the look-ahead leaves (the algebraic "
-        "remainder). Empty: Friedrichs for both.");
+        "remainder; at GMRES checks only where it may decide the adaptive "
+        "strategy's test). Empty: Friedrichs for both.");
       prm.declare_entry(
         "Defer fluxes",
         "true",
