@@ -20,7 +20,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 
 namespace VI
 {
@@ -113,9 +112,9 @@ namespace VI
   double
   DualNormBound<dim>::bound(const std::vector<double> &m) const
   {
-    const std::function<double(unsigned int, unsigned int)> cell_constant =
-      [&](const unsigned int cell, const unsigned int) { return m[cell]; };
-    return equilibrate(std::vector{cell_constant})[0];
+    return equilibrate({[&](const unsigned int cell, const unsigned int) {
+      return m[cell];
+    }})[0];
   }
 
 
@@ -124,8 +123,8 @@ namespace VI
   DualNormBound<dim>::bounds_at_points(
     const std::vector<const std::vector<double> *> &values) const
   {
-    const unsigned int n_q = reconstruction.get_quadrature().size();
-    std::vector<std::function<double(unsigned int, unsigned int)>> sources;
+    const unsigned int  n_q = reconstruction.get_quadrature().size();
+    std::vector<Source> sources;
     for (const std::vector<double> *m : values)
       sources.emplace_back(
         [m, n_q](const unsigned int cell, const unsigned int q) {
@@ -143,7 +142,6 @@ namespace VI
   // bounds do not depend on the number of threads (see
   // FluxReconstruction::reconstruct() for the one-thread caveat).
   template <int dim>
-  template <typename Source>
   std::vector<double>
   DualNormBound<dim>::equilibrate(const std::vector<Source> &m) const
   {

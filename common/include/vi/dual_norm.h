@@ -11,6 +11,7 @@
 
 #include <vi/flux_reconstruction.h>
 
+#include <functional>
 #include <vector>
 
 namespace VI
@@ -77,7 +78,10 @@ namespace VI
       const std::vector<const std::vector<double> *> &values) const;
 
   private:
-    template <typename Source>
+    /// m(K, q): a source at point q of the reconstruction's quadrature on
+    /// the cell of active index K.
+    using Source = std::function<double(unsigned int, unsigned int)>;
+
     std::vector<double>
     equilibrate(const std::vector<Source> &m) const;
 

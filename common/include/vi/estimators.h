@@ -170,7 +170,7 @@ namespace VI
     const DualNormBound<dim> *dual_norm = nullptr;
     bool dual_norm_undershoots = false, dual_norm_remainder = false;
     /// Optional, with dual_norm_remainder: whether the equilibrated bound of
-    /// the remainder (a Poisson solve and a reconstruction per field) is
+    /// the remainder (a Poisson solve per field, one reconstruction) is
     /// worth computing, asked with the estimate whose remainder is bounded
     /// by Friedrichs' inequality. Both bounds are guaranteed; the sharper
     /// one can lower eta_alg to flux_alg at most, and eta_disc and eta_lin
