@@ -152,6 +152,8 @@ def main():
     first = rows[0]
     # the Raviart-Thomas space of the fluxes, named when it is not RT_p
     FLUXES = "" if FLUX_DEGREE == "p" else f", Flux degree = {FLUX_DEGREE}"
+    # and the start of the nested sequence, when it is not the default's
+    START = ", from 768 cells" if COARSE_START else ""
     curves = []
     for (np, n_threads, index), colour in zip(groups, (1, 4, 6)):
         label = f"np = {np} x {n_threads} thread{'s' if n_threads > 1 else ''}"
@@ -172,7 +174,7 @@ set grid
 set key left top font ',9'
 set xlabel 'unknowns per field'
 set ylabel 'wall time (s)'
-set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG{FLUXES})\\nagainst two Poisson solves (CG + AMG)"
+set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG{FLUXES}{START})\\nagainst two Poisson solves (CG + AMG)"
 plot """ + ", \\\n     ".join(curves) + "\n"
     subprocess.run(["gnuplot"], input=script.encode(), check=True)
     print(f"wrote {os.path.join(DATA, STEM)}.{{csv,md,png}}")
