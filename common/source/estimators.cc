@@ -4,6 +4,7 @@
 #include <deal.II/base/work_stream.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/filtered_iterator.h>
+#include <deal.II/lac/full_matrix.h>
 
 #include <vi/cell_function_values.h>
 #include <vi/cell_multiplier.h>
@@ -115,6 +116,10 @@ namespace VI
                                update_quadrature_points |
                                update_inverse_jacobians | update_jacobians |
                                update_JxW_values)
+          , lean_values(*in.mapping,
+                        in.potential->get_fe(),
+                        *in.quadrature,
+                        update_JxW_values)
           , divergence(in.flux->get_fe(), *in.quadrature)
           , sigma_coefficients(in.flux->get_fe().n_dofs_per_cell())
       {
@@ -133,7 +138,7 @@ namespace VI
             dt_u[a].assign(n_q, 0.);
             dt_u_ahead[a].assign(n_q, 0.);
           }
-        for (auto *v : {&f, &lambda, &lambda_nonnegative, &lambda_ahead})
+        for (auto *v : {&f, &lambda, &lambda_nonnegative, &lambda_ahead, &JxW})
           v->resize(n_q);
         if (lifting)
           for (const unsigned int f : GeometryInfo<dim>::face_indices())
@@ -155,13 +160,17 @@ namespace VI
       const ContactEstimatorInput<dim> &in;
       const bool                        lifting;
       FEValues<dim>                     potential_values;
-      PiolaDivergence<dim>              divergence;
-      std::vector<double> sigma_coefficients, potential_coefficients,
+      // the weights only: the flux-free terms of most cells (when they
+      // are not tabulated)
+      FEValues<dim>        lean_values;
+      PiolaDivergence<dim> divergence;
+      std::vector<double>  sigma_coefficients, potential_coefficients,
         unused_divergences;
       std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
         sigma_ahead[2], grad_G[2];
       std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], dt_u[2],
-        dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative, lambda_ahead;
+        dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative, lambda_ahead,
+        s_coefficients, JxW;
       std::vector<std::unique_ptr<FEValues<dim>>> face_values;
     };
     // The sums of one cell, added in the order of the cells (so that the
@@ -203,6 +212,76 @@ namespace VI
       for (auto &values : remainders)
         values.assign(std::size_t(tria.n_active_cells()) * n_q, 0.);
 
+    // The multiplier's sums of a cell: lambda_h = c_K lambda_h^pos + delta
+    // (and the same for the multiplier lambda~ of the nonnegative
+    // coefficients).
+    const auto add_multiplier_sums = [&](const std::vector<double>  &JxW,
+                                         const double                h_K,
+                                         const unsigned int          index,
+                                         Scratch                    &scratch,
+                                         std::array<double, n_sums> &cell) {
+      const MultiplierSplit split = split_multiplier(scratch.lambda, JxW),
+                            split_disc =
+                              split_multiplier(scratch.lambda_nonnegative, JxW);
+      const double poincare_squared = std::pow(h_K / numbers::PI, 2);
+      cell[multiplier_local] = poincare_squared * split.oscillation_squared;
+      cell[multiplier_mean]  = split.mean_squared;
+      cell[multiplier_local_disc] =
+        poincare_squared * split_disc.oscillation_squared;
+      cell[multiplier_mean_disc] = split_disc.mean_squared;
+      if (undershoots)
+        {
+          means[index]      = split.mean;
+          means_disc[index] = split_disc.mean;
+        }
+      return split;
+    };
+
+    // Without fluxes, only eta_lin (from below) and eta_alg (from above) are
+    // asked for: the remainder (the residual r_h, the iterate being its own
+    // look-ahead), the multiplier's sums and |||s_h - u_h|||, which vanishes
+    // on the cells where s_h = u_h at every node; and 2 (lambda_h, u1h -
+    // u2h) for p >= 2, which vanishes where lambda_h = 0. On the other cells
+    // these terms need values and weights only, not the gradients, the
+    // boundary lifting G and the loads: a fraction of the cost of a cell.
+    const bool contact_linearised_needed =
+      !in.mass_lumped && !in.cell_multiplier;
+    // (their values from the shape functions on the reference cell)
+    const FiniteElement<dim> &fe = in.potential->get_fe();
+    FullMatrix<double>        reference_values(n_q, fe.n_dofs_per_cell());
+    for (unsigned int q = 0; q < n_q; ++q)
+      for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+        reference_values(q, i) = fe.shape_value(i, quadrature.point(q));
+    const bool JxW_tabulated =
+      in.JxW_values &&
+      in.JxW_values->size() == std::size_t(tria.n_active_cells()) * n_q;
+    const auto lean_cell =
+      [&](const typename DoFHandler<dim>::active_cell_iterator &cell,
+          Scratch                                              &scratch) {
+        // (time derivatives: the remainder holds their change)
+        if (with_fluxes || dt_vectors[0])
+          return false;
+        std::vector<double> &c = scratch.potential_coefficients,
+                            &d = scratch.s_coefficients;
+        c.resize(cell->get_fe().n_dofs_per_cell());
+        d.resize(c.size());
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            cell->get_dof_values(*u_vectors[a], c.begin(), c.end());
+            cell->get_dof_values(*s_vectors[a], d.begin(), d.end());
+            if (c != d)
+              return false;
+          }
+        if (contact_linearised_needed)
+          {
+            cell->get_dof_values(*in.lambda, c.begin(), c.end());
+            for (const double value : c)
+              if (value != 0.)
+                return false;
+          }
+        return true;
+      };
+
     // Every cell writes its indicators (and means, remainders) at its own
     // index, and hands its sums to the copier.
     const auto worker = [&](const typename DoFHandler<dim>::active_cell_iterator
@@ -225,6 +304,61 @@ namespace VI
                           &lambda_nonnegative = scratch.lambda_nonnegative,
                           &lambda_ahead       = scratch.lambda_ahead;
       auto &face_values                       = scratch.face_values;
+
+      if (lean_cell(potential_cell, scratch))
+        {
+          const auto           index = potential_cell->active_cell_index();
+          std::vector<double> &JxW   = scratch.JxW;
+          if (JxW_tabulated)
+            std::copy_n(in.JxW_values->begin() + index * n_q, n_q, JxW.begin());
+          else
+            {
+              scratch.lean_values.reinit(potential_cell);
+              JxW = scratch.lean_values.get_JxW_values();
+            }
+          std::vector<double> &c = scratch.potential_coefficients;
+          const auto values      = [&](const TrilinosWrappers::MPI::Vector &v,
+                                  std::vector<double> &at_points) {
+            potential_cell->get_dof_values(v, c.begin(), c.end());
+            for (unsigned int q = 0; q < n_q; ++q)
+              {
+                double sum = 0;
+                for (unsigned int i = 0; i < c.size(); ++i)
+                  sum += reference_values(q, i) * c[i];
+                at_points[q] = sum;
+              }
+          };
+          auto &cell = share.cell;
+          cell.fill(0.);
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              std::vector<double> &r = scratch.r_ahead[a];
+              values(*r_vectors[a], r);
+              for (unsigned int q = 0; q < n_q; ++q)
+                {
+                  cell[remainder_1 + a] += r[q] * r[q] * JxW[q];
+                  if (remainder)
+                    remainders[a][index * n_q + q] = r[q];
+                }
+            }
+          if (in.cell_multiplier)
+            {
+              in.cell_multiplier->values(*in.lambda_cells,
+                                         index,
+                                         scratch.lambda);
+              in.cell_multiplier->values(*in.lambda_nonnegative_cells,
+                                         index,
+                                         scratch.lambda_nonnegative);
+            }
+          else
+            {
+              values(*in.lambda, scratch.lambda);
+              values(*in.lambda_nonnegative, scratch.lambda_nonnegative);
+            }
+          add_multiplier_sums(
+            JxW, potential_cell->diameter(), index, scratch, cell);
+          return;
+        }
 
       typename DoFHandler<dim>::active_cell_iterator flux_cell(
         &tria, potential_cell->level(), potential_cell->index(), in.flux);
@@ -417,23 +551,8 @@ namespace VI
         }
       cell[algebraic_squared] = algebraic;
 
-      // The multiplier: lambda_h = c_K lambda_h^pos + delta (and the same
-      // for the multiplier lambda~ of the nonnegative coefficients).
-      const std::vector<double> &JxW   = potential_values.get_JxW_values();
-      const MultiplierSplit      split = split_multiplier(lambda, JxW),
-                            split_disc =
-                              split_multiplier(lambda_nonnegative, JxW);
-      const double poincare_squared = std::pow(h_K / numbers::PI, 2);
-      cell[multiplier_local] = poincare_squared * split.oscillation_squared;
-      cell[multiplier_mean]  = split.mean_squared;
-      cell[multiplier_local_disc] =
-        poincare_squared * split_disc.oscillation_squared;
-      cell[multiplier_mean_disc] = split_disc.mean_squared;
-      if (undershoots)
-        {
-          means[potential_cell->active_cell_index()]      = split.mean;
-          means_disc[potential_cell->active_cell_index()] = split_disc.mean;
-        }
+      const MultiplierSplit split = add_multiplier_sums(
+        potential_values.get_JxW_values(), h_K, index, scratch, cell);
 
       // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
       // is in the cone; s - u_h vanishes once Newton has converged.
@@ -594,14 +713,31 @@ namespace VI
     if (!with_fluxes)
       {
         e.complete = false;
+        // (and the terms the cells without |||s_h - u_h||| skipped)
         for (double *unknown : {&e.eta,
                                 &e.eta_disc,
                                 &e.eta_1,
                                 &e.eta_1_disc,
                                 &e.flux_disc,
                                 &e.residual,
-                                &e.flux_alg})
+                                &e.flux_alg,
+                                &e.nonc_1,
+                                &e.nonc_1_disc,
+                                &e.nonc_3,
+                                &e.contact_pos,
+                                &e.contact_cone,
+                                &e.contact_disc,
+                                &e.dirichlet})
           *unknown = std::numeric_limits<double>::quiet_NaN();
+        for (auto *cell_values : {&e.cell_flux,
+                                  &e.cell_residual,
+                                  &e.cell_algebraic,
+                                  &e.cell_nonconformity,
+                                  &e.cell_contact,
+                                  &e.cell_total})
+          std::fill(cell_values->begin(),
+                    cell_values->end(),
+                    std::numeric_limits<double>::quiet_NaN());
       }
     return estimate;
   }

@@ -117,6 +117,10 @@ namespace VI
     /// owned cells, [active cell index * n_q + q] (tabulated once per mesh,
     /// they spare every estimate the evaluation of the load functions).
     const std::vector<double> *f1_values = nullptr, *f2_values = nullptr;
+    /// Optional: the weights JxW of `quadrature` on the locally owned cells,
+    /// in the same layout: the flux-free terms of most cells (see
+    /// without_fluxes) then need no mapping at all.
+    const std::vector<double> *JxW_values = nullptr;
     /// The Dirichlet data (with gradients): the discrete u_h carries their
     /// interpolant on the boundary, and the estimate accounts for the
     /// difference with a lifting (null: the data are exactly represented).
@@ -184,7 +188,11 @@ namespace VI
     /// incomplete: eta_lin without the cross term sqrt((eta_1 + eta_nonc2)
     /// eta_nonc1,lin), a lower bound of the complete estimate's, and
     /// eta_alg = the remainder with Friedrichs' inequality, an upper bound;
-    /// eta, eta_disc and the flux terms are NaN.
+    /// eta, eta_disc, the flux terms, nonc_1 and nonc_1_disc, the contact
+    /// terms but contact_lin, and the cellwise indicators are NaN. Only the
+    /// cells where s_h differs from u_h (and for p >= 2 those in contact)
+    /// are then evaluated in full; on the others the remainder and the
+    /// multiplier's terms need only values.
     bool without_fluxes = false;
   };
 
