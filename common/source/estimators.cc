@@ -246,9 +246,13 @@ namespace VI
     // boundary lifting G and the loads: a fraction of the cost of a cell.
     const bool contact_linearised_needed =
       !in.mass_lumped && !in.cell_multiplier;
-    // (their values from the shape functions on the reference cell)
+    // (their values from the shape functions on the reference cell, which
+    // a scalar Lagrange element keeps on every cell)
     const FiniteElement<dim> &fe = in.potential->get_fe();
-    FullMatrix<double>        reference_values(n_q, fe.n_dofs_per_cell());
+    AssertThrow(fe.n_components() == 1 &&
+                  fe.conforms(FiniteElementData<dim>::H1),
+                ExcMessage("The estimators need a scalar H^1 element."));
+    FullMatrix<double> reference_values(n_q, fe.n_dofs_per_cell());
     for (unsigned int q = 0; q < n_q; ++q)
       for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
         reference_values(q, i) = fe.shape_value(i, quadrature.point(q));
@@ -263,6 +267,7 @@ namespace VI
           return false;
         std::vector<double> &c = scratch.potential_coefficients,
                             &d = scratch.s_coefficients;
+        // (u_h and s_h: exactly equal where no node was averaged)
         c.resize(cell->get_fe().n_dofs_per_cell());
         d.resize(c.size());
         for (unsigned int a = 0; a < 2; ++a)
