@@ -356,17 +356,13 @@ namespace StepMembranes
         for (unsigned int a = 0; a < 2; ++a)
           load_values[a].assign(triangulation.n_active_cells() * points.size(),
                                 0.);
-        cell_JxW.assign(triangulation.n_active_cells() * points.size(), 0.);
         on_cells_with_own_data([&](const VI::MembraneData<dim> &d,
                                    const auto                  &cells,
                                    const std::size_t            begin,
                                    const std::size_t            end) {
           const Function<dim> *f[2] = {d.f1.get(), d.f2.get()};
-          FEValues<dim>        where(*mapping,
-                              fe,
-                              points,
-                              update_quadrature_points | update_JxW_values);
-          std::vector<double>  values(points.size());
+          FEValues<dim> where(*mapping, fe, points, update_quadrature_points);
+          std::vector<double> values(points.size());
           for (std::size_t c = begin; c < end; ++c)
             {
               where.reinit(cells[c]);
@@ -378,10 +374,6 @@ namespace StepMembranes
                             load_values[a].begin() +
                               cells[c]->active_cell_index() * points.size());
                 }
-              std::copy(where.get_JxW_values().begin(),
-                        where.get_JxW_values().end(),
-                        cell_JxW.begin() +
-                          cells[c]->active_cell_index() * points.size());
             }
         });
       }
@@ -1524,7 +1516,6 @@ namespace StepMembranes
     in.f2                    = data.f2.get();
     in.f1_values             = &load_values[0];
     in.f2_values             = &load_values[1];
-    in.JxW_values            = &cell_JxW;
     in.g1                    = data.g1.get();
     in.g2                    = data.g2.get();
     in.friedrichs_constant   = VI::friedrichs_constant(geometry);

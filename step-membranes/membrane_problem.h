@@ -305,8 +305,6 @@ namespace StepMembranes
     /// f1, f2 at the points of the flux quadrature of the owned cells,
     /// [active cell index * n_q + q]: needed by every estimate.
     std::vector<double> load_values[2];
-    // ... and the weights JxW at those points
-    std::vector<double> cell_JxW;
 
     // Solvers and estimators.
     std::unique_ptr<VI::LinearSolver>                  direct_solver;

@@ -4,7 +4,6 @@
 #include <deal.II/base/work_stream.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/filtered_iterator.h>
-#include <deal.II/lac/full_matrix.h>
 
 #include <vi/cell_function_values.h>
 #include <vi/cell_multiplier.h>
@@ -119,7 +118,7 @@ namespace VI
           , lean_values(*in.mapping,
                         in.potential->get_fe(),
                         *in.quadrature,
-                        update_JxW_values)
+                        update_values | update_JxW_values)
           , divergence(in.flux->get_fe(), *in.quadrature)
           , sigma_coefficients(in.flux->get_fe().n_dofs_per_cell())
       {
@@ -138,7 +137,7 @@ namespace VI
             dt_u[a].assign(n_q, 0.);
             dt_u_ahead[a].assign(n_q, 0.);
           }
-        for (auto *v : {&f, &lambda, &lambda_nonnegative, &lambda_ahead, &JxW})
+        for (auto *v : {&f, &lambda, &lambda_nonnegative, &lambda_ahead})
           v->resize(n_q);
         if (lifting)
           for (const unsigned int f : GeometryInfo<dim>::face_indices())
@@ -160,8 +159,7 @@ namespace VI
       const ContactEstimatorInput<dim> &in;
       const bool                        lifting;
       FEValues<dim>                     potential_values;
-      // the weights only: the flux-free terms of most cells (when they
-      // are not tabulated)
+      // values and weights only: the flux-free terms of most cells
       FEValues<dim>        lean_values;
       PiolaDivergence<dim> divergence;
       std::vector<double>  sigma_coefficients, potential_coefficients,
@@ -170,7 +168,7 @@ namespace VI
         sigma_ahead[2], grad_G[2];
       std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], dt_u[2],
         dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative, lambda_ahead,
-        s_coefficients, JxW;
+        s_coefficients;
       std::vector<std::unique_ptr<FEValues<dim>>> face_values;
     };
     // The sums of one cell, added in the order of the cells (so that the
@@ -246,19 +244,6 @@ namespace VI
     // boundary lifting G and the loads: a fraction of the cost of a cell.
     const bool contact_linearised_needed =
       !in.mass_lumped && !in.cell_multiplier;
-    // (their values from the shape functions on the reference cell, which
-    // a scalar Lagrange element keeps on every cell)
-    const FiniteElement<dim> &fe = in.potential->get_fe();
-    AssertThrow(fe.n_components() == 1 &&
-                  fe.conforms(FiniteElementData<dim>::H1),
-                ExcMessage("The estimators need a scalar H^1 element."));
-    FullMatrix<double> reference_values(n_q, fe.n_dofs_per_cell());
-    for (unsigned int q = 0; q < n_q; ++q)
-      for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
-        reference_values(q, i) = fe.shape_value(i, quadrature.point(q));
-    const bool JxW_tabulated =
-      in.JxW_values &&
-      in.JxW_values->size() == std::size_t(tria.n_active_cells()) * n_q;
     const auto lean_cell =
       [&](const typename DoFHandler<dim>::active_cell_iterator &cell,
           Scratch                                              &scratch) {
@@ -312,26 +297,16 @@ namespace VI
 
       if (lean_cell(potential_cell, scratch))
         {
-          const auto           index = potential_cell->active_cell_index();
-          std::vector<double> &JxW   = scratch.JxW;
-          if (JxW_tabulated)
-            std::copy_n(in.JxW_values->begin() + index * n_q, n_q, JxW.begin());
-          else
-            {
-              scratch.lean_values.reinit(potential_cell);
-              JxW = scratch.lean_values.get_JxW_values();
-            }
-          std::vector<double> &c = scratch.potential_coefficients;
-          const auto values      = [&](const TrilinosWrappers::MPI::Vector &v,
+          FEValues<dim> &lean = scratch.lean_values;
+          lean.reinit(potential_cell);
+          const auto index  = potential_cell->active_cell_index();
+          const auto values = [&](const TrilinosWrappers::MPI::Vector &v,
                                   std::vector<double> &at_points) {
-            potential_cell->get_dof_values(v, c.begin(), c.end());
-            for (unsigned int q = 0; q < n_q; ++q)
-              {
-                double sum = 0;
-                for (unsigned int i = 0; i < c.size(); ++i)
-                  sum += reference_values(q, i) * c[i];
-                at_points[q] = sum;
-              }
+            cell_function_values(lean,
+                                 potential_cell,
+                                 v,
+                                 scratch.potential_coefficients,
+                                 &at_points);
           };
           auto &cell = share.cell;
           cell.fill(0.);
@@ -341,7 +316,7 @@ namespace VI
               values(*r_vectors[a], r);
               for (unsigned int q = 0; q < n_q; ++q)
                 {
-                  cell[remainder_1 + a] += r[q] * r[q] * JxW[q];
+                  cell[remainder_1 + a] += r[q] * r[q] * lean.JxW(q);
                   if (remainder)
                     remainders[a][index * n_q + q] = r[q];
                 }
@@ -360,8 +335,11 @@ namespace VI
               values(*in.lambda, scratch.lambda);
               values(*in.lambda_nonnegative, scratch.lambda_nonnegative);
             }
-          add_multiplier_sums(
-            JxW, potential_cell->diameter(), index, scratch, cell);
+          add_multiplier_sums(lean.get_JxW_values(),
+                              potential_cell->diameter(),
+                              index,
+                              scratch,
+                              cell);
           return;
         }
 

@@ -117,10 +117,6 @@ namespace VI
     /// owned cells, [active cell index * n_q + q] (tabulated once per mesh,
     /// they spare every estimate the evaluation of the load functions).
     const std::vector<double> *f1_values = nullptr, *f2_values = nullptr;
-    /// Optional: the weights JxW of `quadrature` on the locally owned cells,
-    /// in the same layout: the flux-free terms of most cells (see
-    /// without_fluxes) then need no mapping at all.
-    const std::vector<double> *JxW_values = nullptr;
     /// The Dirichlet data (with gradients): the discrete u_h carries their
     /// interpolant on the boundary, and the estimate accounts for the
     /// difference with a lifting (null: the data are exactly represented).
