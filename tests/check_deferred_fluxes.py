@@ -8,7 +8,11 @@ and with Estimators/Defer fluxes = false, and checks that
     accepted) in summary.json's "iterations";
   - every check that skipped its fluxes ("fluxes": false) holds the
     flux-free terms of the complete estimate of the same iterate in the
-    other run: eta_lin from below and eta_alg from above;
+    other run: eta_lin from below and eta_alg from above, and eta_alg
+    exactly (to round-off) where the remainder is bounded by Friedrichs'
+    inequality in both (no 'remainder' in Estimators/Equilibrated dual
+    norms): the flux-free evaluation, which visits most cells for their
+    values only, must sum the same remainder as the complete one;
   - every other record and the final estimates agree;
   - at least one check of all the runs skipped its fluxes (the test would
     otherwise not test anything).
@@ -35,12 +39,23 @@ def close(a, b):
     return math.isclose(a, b, rel_tol=RELATIVE, abs_tol=1e-300)
 
 
+def equilibrated_remainder(prm):
+    """Whether the .prm bounds the remainder by equilibration."""
+    with open(prm) as f:
+        for line in f:
+            words = line.split("#", 1)[0].split("=", 1)
+            if len(words) == 2 and " ".join(words[0].split()) == "set Equilibrated dual norms":
+                return "remainder" in words[1]
+    return False
+
+
 def main():
     program, workdir, prms = (os.path.abspath(sys.argv[1]), sys.argv[2],
                               [os.path.abspath(p) for p in sys.argv[3:]])
     failures, deferred_checks = [], 0
     for prm in prms:
         name = os.path.basename(prm)
+        friedrichs = not equilibrated_remainder(prm)
         deferred = run(program, prm, os.path.join(workdir, name, "deferred"), "true")
         complete = run(program, prm, os.path.join(workdir, name, "complete"), "false")
         if len(deferred["cycles"]) != len(complete["cycles"]):
@@ -75,6 +90,10 @@ def main():
                 if r["eta_alg"] < s["eta_alg"] * (1 - RELATIVE):
                     failures.append(f"{at}: eta_alg {r['eta_alg']} without fluxes is "
                                     f"below the complete {s['eta_alg']}")
+                elif friedrichs and not close(r["eta_alg"], s["eta_alg"]):
+                    failures.append(f"{at}: eta_alg {r['eta_alg']} without fluxes is "
+                                    f"not the complete {s['eta_alg']} (the same "
+                                    "Friedrichs bound)")
     if deferred_checks == 0:
         failures.append("no check skipped its fluxes")
     for failure in failures:
