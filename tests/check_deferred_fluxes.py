@@ -75,7 +75,10 @@ def main():
                 failures.append(f"{where}: the estimate records differ")
                 continue
             for r, s in zip(d["iterations"], c["iterations"]):
-                at = f"{where}, Newton step {r['k']}, GMRES iteration {r['i']}"
+                # (the check that GMRES accepted and the Newton step's own
+                # record share their Newton step and GMRES iteration)
+                at = (f"{where}, Newton step {r['k']}, GMRES iteration {r['i']}"
+                      + (", accepted" if r["accepted"] else ""))
                 if r.get("fluxes", True):
                     for key in ("eta", "eta_disc", "eta_lin", "eta_alg"):
                         if not close(r[key], s[key]):
