@@ -18,6 +18,7 @@ Writes doc/data/cost.{csv,md} and doc/data/cost.png.
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/membranes_cost.py [--quick] [--c-function=fischer-burmeister]
                           [--flux-degree=p-1] [--coarse-start] [--huge-pages]
+                          [--tables-only]
 --quick stops at about 5e4 unknowns per field (a smoke test of the script).
 --c-function chooses the C-function of Newton (default min); for another
 one the files are doc/data/cost-<name>.{csv,md,png}.
@@ -30,10 +31,14 @@ are then doc/data/cost[-<name>][-flux-p-1]-coarse-start.*.
 --huge-pages runs the programs with glibc's heap in huge pages
 (GLIBC_TUNABLES=glibc.malloc.hugetlb=1, see README.md); the files are then
 doc/data/cost[-<name>]-huge-pages.{csv,md,png}.
+--tables-only writes the table and the plot again from the study's
+doc/data/<files>.csv (the same other options name the files), without
+running it.
 The full study takes about 8 minutes and 10 GB of memory.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
+import csv
 import math
 import os
 import subprocess
@@ -44,6 +49,7 @@ from vi_bench import DATA, ROOT, estimator_seconds, program, run as run_program,
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
 QUICK = "--quick" in sys.argv
+TABLES_ONLY = "--tables-only" in sys.argv
 C_FUNCTION = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--c-function=")),
                   "min")
 FLUX_DEGREE = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--flux-degree=")),
@@ -90,7 +96,24 @@ def run(np, threads):
     return n_threads, summary["cycles"]
 
 
-def main():
+def read_rows():
+    """The rows of an earlier run, from doc/data/<STEM>.csv, with the types
+    they were written with (so that the .csv is written again unchanged)."""
+    def value(text):
+        for kind in (int, float):
+            try:
+                return kind(text)
+            except ValueError:
+                pass
+        return text
+    path = os.path.join(DATA, STEM + ".csv")
+    if not os.path.isfile(path):
+        sys.exit(f"membranes_cost.py: no {path} to write the tables from; run the study first")
+    with open(path, newline="") as f:
+        return [{key: value(text) for key, text in row.items()} for row in csv.DictReader(f)]
+
+
+def run_study():
     rows = []
     for k, (np, threads) in enumerate(CONFIGURATIONS):
         previous = None
@@ -121,6 +144,11 @@ def main():
         serial = next(r for r in rows
                       if r["np"] == 1 and r["threads"] == 1 and r["cycle"] == row["cycle"])
         row["speedup"] = serial["solve_seconds"] / row["solve_seconds"]
+    return rows
+
+
+def main():
+    rows = read_rows() if TABLES_ONLY else run_study()
 
     header = ["np", "threads", "DoFs per field", "unknowns", "Newton",
               "of which without fluxes", "GMRES", "Poisson CG",
@@ -136,10 +164,11 @@ def main():
                ("growth", "{:.2f}"), ("speedup", "{:.2f}"), ("effectivity", "{:.3f}")]
     write_table(STEM, rows, header, formats)
 
+    os.makedirs(OUT, exist_ok=True)
     dat = os.path.join(OUT, f"{STEM}.dat")
     groups = []  # (np, threads, index in the .dat file)
     with open(dat, "w") as f:
-        for k in range(len(CONFIGURATIONS)):
+        for k in sorted({r["configuration"] for r in rows}):
             group = [r for r in rows if r["configuration"] == k]
             np, n_threads = group[0]["np"], group[0]["threads"]
             groups.append((np, n_threads, k))
@@ -149,7 +178,10 @@ def main():
                 f.write(f"{row['dofs_per_field']} {row['solve_seconds']} "
                         f"{row['estimator_seconds']} {row['poisson_seconds']}\n")
             f.write("\n\n")
-    first = rows[0]
+    # the line of linear growth through the first mesh of 1e4 unknowns per
+    # field or more (with --coarse-start the study's smaller meshes come
+    # first, and a line through them would lie far above the curves)
+    anchor = next((r for r in rows if r["dofs_per_field"] >= 10000), rows[0])
     # the Raviart-Thomas space of the fluxes, named when it is not RT_p
     FLUXES = "" if FLUX_DEGREE == "p" else f", Flux degree = {FLUX_DEGREE}"
     # and the start of the nested sequence, when it is not the default's
@@ -164,7 +196,7 @@ def main():
         if n_threads == 1:
             curves.append(f"'{dat}' index {index} using 1:4 with linespoints lw 2 pt 5 "
                           f"lc {colour + 1} title '2 Poisson solves, np = {np}'")
-    curves.append(f"{first['solve_seconds']}*x/{first['dofs_per_field']} with lines "
+    curves.append(f"{anchor['solve_seconds']}*x/{anchor['dofs_per_field']} with lines "
                   "lc rgb 'gray' dt 3 title 'linear growth'")
     script = f"""
 set terminal pngcairo size 900,650 font ',11'
