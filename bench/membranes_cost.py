@@ -38,13 +38,13 @@ The full study takes about 8 minutes and 10 GB of memory.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
-import csv
 import math
 import os
 import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, estimator_seconds, program, run as run_program, write_table
+from vi_bench import (DATA, ROOT, estimator_seconds, program, read_table,
+                      run as run_program, write_table)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
@@ -97,20 +97,11 @@ def run(np, threads):
 
 
 def read_rows():
-    """The rows of an earlier run, from doc/data/<STEM>.csv, with the types
-    they were written with (so that the .csv is written again unchanged)."""
-    def value(text):
-        for kind in (int, float):
-            try:
-                return kind(text)
-            except ValueError:
-                pass
-        return text
-    path = os.path.join(DATA, STEM + ".csv")
-    if not os.path.isfile(path):
-        sys.exit(f"membranes_cost.py: no {path} to write the tables from; run the study first")
-    with open(path, newline="") as f:
-        return [{key: value(text) for key, text in row.items()} for row in csv.DictReader(f)]
+    """The rows of an earlier run of this study, from doc/data/<STEM>.csv."""
+    if not os.path.isfile(os.path.join(DATA, STEM + ".csv")):
+        sys.exit(f"membranes_cost.py: no doc/data/{STEM}.csv to write the tables from; "
+                 "run the study first")
+    return read_table(STEM)
 
 
 def run_study():

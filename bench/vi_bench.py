@@ -1,6 +1,6 @@
 """What the studies in bench/ share: where the programs and the data are,
 running a program with --set overrides, and writing a table as CSV and
-Markdown (doc/data/<stem>.{csv,md})."""
+Markdown (doc/data/<stem>.{csv,md}) and reading the CSV back."""
 import csv
 import json
 import os
@@ -55,3 +55,18 @@ def write_table(stem, rows, header, formats):
                                        for key, fmt in formats) + " |")
     with open(os.path.join(DATA, stem + ".md"), "w") as f:
         f.write("\n".join(lines) + "\n")
+
+
+def read_table(stem):
+    """The rows write_table wrote to doc/data/<stem>.csv, each value with
+    the type it was written with (int, float or str), so that writing them
+    again gives the same file."""
+    def value(text):
+        for kind in (int, float):
+            try:
+                return kind(text)
+            except ValueError:
+                pass
+        return text
+    with open(os.path.join(DATA, stem + ".csv"), newline="") as f:
+        return [{key: value(text) for key, text in row.items()} for row in csv.DictReader(f)]
