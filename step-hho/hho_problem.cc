@@ -1332,6 +1332,7 @@ namespace StepHHO
     settings.max_iterations = p.max_iterations;
     settings.tolerance      = p.tolerance;
     settings.line_search    = C.has_smooth_merit_function();
+    settings.watchdog_steps = p.watchdog_steps;
     settings.name           = "semismooth Newton-" + C.name();
 
     jacobian_solver = std::make_unique<JacobianSolver>(parameters.linear_solver,

@@ -678,6 +678,7 @@ namespace StepMembranes
     settings.max_iterations = p.max_iterations;
     settings.tolerance      = p.tolerance;
     settings.line_search    = C.has_smooth_merit_function();
+    settings.watchdog_steps = p.watchdog_steps;
     settings.name           = "semismooth Newton-" + C.name();
     if (parameters.linear_solver.solver == "direct")
       direct_solver =

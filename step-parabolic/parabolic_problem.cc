@@ -635,6 +635,7 @@ namespace StepParabolic
     settings.max_iterations = p.max_iterations;
     settings.tolerance      = p.tolerance;
     settings.line_search    = C.has_smooth_merit_function();
+    settings.watchdog_steps = p.watchdog_steps;
     settings.name           = "semismooth Newton-" + C.name();
 
     estimate_records.clear();

@@ -275,6 +275,7 @@ namespace StepTwoPhase
     settings.max_iterations = p.max_iterations;
     settings.tolerance      = p.tolerance;
     settings.line_search    = C.has_smooth_merit_function();
+    settings.watchdog_steps = p.watchdog_steps;
     settings.name           = "semismooth Newton-" + C.name();
     VI::SemismoothNewton<Vector<double>> newton(settings);
 

@@ -272,6 +272,16 @@ namespace VI
                         "(balance equations relative to the load, "
                         "complementarity relative to the size of u and "
                         "lambda) are below it.");
+      prm.declare_entry("Watchdog steps",
+                        "0",
+                        Integer(0),
+                        "With a C-function that has a line search "
+                        "(Fischer-Burmeister): up to this many full Newton "
+                        "steps are taken without the Armijo test against "
+                        "the last iterate that passed it; if the merit "
+                        "function has not fallen below that iterate's by "
+                        "then, Newton returns to it and backtracks. 0: every "
+                        "step is tested.");
       prm.declare_entry("Nested iteration",
                         "true",
                         Bool(),
@@ -303,6 +313,7 @@ namespace VI
       forcing_term     = prm.get_double("Forcing term");
       max_iterations   = prm.get_integer("Maximum iterations");
       tolerance        = prm.get_double("Tolerance");
+      watchdog_steps   = prm.get_integer("Watchdog steps");
       nested_iteration = prm.get_bool("Nested iteration");
       initial_guess    = prm.get("Initial guess");
       require_positive(tolerance, "Nonlinear solver/Tolerance");

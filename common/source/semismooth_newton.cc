@@ -60,6 +60,13 @@ namespace VI
     report.initial_residual = norms;
 
     bool criterion_met = false;
+    // The watchdog's reference iterate and merit, and the full steps taken
+    // since it without the test (watchdog_steps + 1: backtrack next).
+    VectorType X_reference;
+    X_reference.reinit(X);
+    X_reference                  = X;
+    double       theta_reference = 0.5 * R.norm_sqr();
+    unsigned int relaxed_steps   = 0;
     for (unsigned int k = 1;; ++k)
       {
         if (!norms.is_finite())
@@ -108,26 +115,59 @@ namespace VI
             trial = X;
             trial.add(1., dX);
             const bool certified = accept_full_step && accept_full_step(trial);
-            for (unsigned int cuts = 0;; ++cuts)
+            if (!certified && relaxed_steps < data.watchdog_steps)
               {
-                norms = residual(trial, R);
-                if (certified)
-                  break;
-                const double theta_t = 0.5 * R.norm_sqr();
-                if (std::isfinite(theta_t) &&
-                    theta_t <=
-                      (1. - 2. * data.armijo_parameter * step_length) * theta_0)
-                  break;
-                if (cuts == data.max_line_search_steps)
-                  fail("the line search on the merit function found no "
-                       "decrease after " +
-                       std::to_string(cuts) + " step halvings at iteration " +
-                       std::to_string(k));
-                step_length *= 0.5;
-                trial = X;
-                trial.add(step_length, dX);
+                // Full steps may raise the merit function before they
+                // converge (Fischer-Burmeister from a transferred iterate):
+                // the watchdog takes them, and checks the sufficient
+                // decrease against the reference instead of every step.
+                X                  = trial;
+                norms              = residual(X, R);
+                const double theta = 0.5 * R.norm_sqr();
+                if (std::isfinite(theta) &&
+                    theta <=
+                      (1. - 2. * data.armijo_parameter) * theta_reference)
+                  {
+                    X_reference     = X;
+                    theta_reference = theta;
+                    relaxed_steps   = 0;
+                  }
+                else if (++relaxed_steps == data.watchdog_steps ||
+                         !std::isfinite(theta))
+                  {
+                    X             = X_reference;
+                    norms         = residual(X, R);
+                    step_length   = 0;
+                    relaxed_steps = data.watchdog_steps + 1;
+                  }
               }
-            X = trial;
+            else
+              {
+                for (unsigned int cuts = 0;; ++cuts)
+                  {
+                    norms = residual(trial, R);
+                    if (certified)
+                      break;
+                    const double theta_t = 0.5 * R.norm_sqr();
+                    if (std::isfinite(theta_t) &&
+                        theta_t <=
+                          (1. - 2. * data.armijo_parameter * step_length) *
+                            theta_0)
+                      break;
+                    if (cuts == data.max_line_search_steps)
+                      fail("the line search on the merit function found no "
+                           "decrease after " +
+                           std::to_string(cuts) +
+                           " step halvings at iteration " + std::to_string(k));
+                    step_length *= 0.5;
+                    trial = X;
+                    trial.add(step_length, dX);
+                  }
+                X               = trial;
+                X_reference     = X;
+                theta_reference = 0.5 * R.norm_sqr();
+                relaxed_steps   = 0;
+              }
           }
 
         step.iteration         = k;

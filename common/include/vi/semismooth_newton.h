@@ -101,6 +101,12 @@ namespace VI
       bool         line_search           = false;
       unsigned int max_line_search_steps = 30;
       double       armijo_parameter      = 1e-4;
+      /// Watchdog of the line search: up to this many full steps are taken
+      /// without the Armijo test against the reference iterate (the last
+      /// one that passed it); if the merit function has not fallen below
+      /// the reference's by then, the iteration returns to the reference
+      /// and backtracks from there. 0: every step is tested.
+      unsigned int watchdog_steps = 0;
       /// Used in failure messages, e.g. "semismooth Newton-min".
       std::string name = "semismooth Newton";
     };
