@@ -273,7 +273,7 @@ namespace VI
                         "complementarity relative to the size of u and "
                         "lambda) are below it.");
       prm.declare_entry("Watchdog steps",
-                        "0",
+                        "8",
                         Integer(0),
                         "With a C-function that has a line search "
                         "(Fischer-Burmeister): up to this many full Newton "
@@ -281,7 +281,10 @@ namespace VI
                         "the last iterate that passed it; if the merit "
                         "function has not fallen below that iterate's by "
                         "then, Newton returns to it and backtracks. 0: every "
-                        "step is tested.");
+                        "step is tested (Armijo backtracking alone, which "
+                        "cuts most steps from a transferred or a cold "
+                        "iterate; 5 was too few on the cold disk start, "
+                        "doc/performance.md).");
       prm.declare_entry("Nested iteration",
                         "true",
                         Bool(),

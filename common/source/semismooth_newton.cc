@@ -199,7 +199,9 @@ namespace VI
     if (step.linear_iterations > 0)
       line << ", " << step.linear_iterations << ' ' << linear_solver
            << " iterations";
-    if (step.step_length < 1)
+    if (step.step_length == 0)
+      line << ", back to the watchdog's reference iterate";
+    else if (step.step_length < 1)
       line << ", step " << step.step_length;
     if (step.has_active_set)
       {

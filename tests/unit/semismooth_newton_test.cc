@@ -11,6 +11,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
+#include <memory>
 
 using dealii::FullMatrix;
 using dealii::Vector;
@@ -272,4 +274,92 @@ TEST(SemismoothNewton, ActiveSetsOfTheLinearisationsAreReported)
   for (const VI::NewtonStep &step : report.steps)
     EXPECT_TRUE(step.has_active_set);
   EXPECT_EQ(report.steps.back().active_set.active, n_contact);
+}
+
+
+namespace
+{
+  /// R(x) = atan(x) from x0 = 3: full Newton steps run away (|x| grows at
+  /// every step from any |x0| > 1.39), so the merit 1/2 atan(x)^2 rises.
+  VI::SemismoothNewton<Vector<double>>
+  arctangent_newton(
+    const typename VI::SemismoothNewton<Vector<double>>::AdditionalData &data)
+  {
+    VI::SemismoothNewton<Vector<double>> newton(data);
+    auto                                 slope = std::make_shared<double>(1.);
+    newton.residual = [](const Vector<double> &X, Vector<double> &R) {
+      R(0) = std::atan(X(0));
+      return VI::ResidualNorms{std::abs(R(0)), 0.};
+    };
+    newton.setup_jacobian = [slope](const Vector<double> &X) {
+      *slope = 1. / (1. + X(0) * X(0));
+    };
+    newton.solve_with_jacobian = [slope](const Vector<double> &rhs,
+                                         Vector<double>       &dX) {
+      dX(0) = rhs(0) / *slope;
+      return 0u;
+    };
+    return newton;
+  }
+} // namespace
+
+
+TEST(SemismoothNewton, WatchdogReturnsToItsReferenceWhenFullStepsDiverge)
+{
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  data.tolerance      = 1e-12;
+  data.line_search    = true;
+  data.watchdog_steps = 3;
+  Vector<double> X(1);
+  X(0)              = 3.;
+  const auto report = arctangent_newton(data).solve(X);
+  EXPECT_LT(std::abs(X(0)), 1e-12);
+  // Three full steps away from the root (the merit never falls below the
+  // reference's), then back to x0 = 3 and a step cut by the line search.
+  ASSERT_GT(report.steps.size(), 4u);
+  for (unsigned int k = 0; k < 2; ++k)
+    {
+      EXPECT_EQ(report.steps[k].step_length, 1.);
+      EXPECT_GT(report.steps[k].residual.equations, std::atan(3.));
+    }
+  EXPECT_EQ(report.steps[2].step_length, 0.);
+  EXPECT_DOUBLE_EQ(report.steps[2].residual.equations, std::atan(3.));
+  EXPECT_LT(report.steps[3].step_length, 1.);
+  EXPECT_LT(report.steps[3].residual.equations, std::atan(3.));
+  EXPECT_NE(VI::describe(report.steps[2]).find("watchdog"), std::string::npos);
+
+  // Without the watchdog every step is cut from the start.
+  data.watchdog_steps = 0;
+  X(0)                = 3.;
+  const auto armijo   = arctangent_newton(data).solve(X);
+  EXPECT_LT(std::abs(X(0)), 1e-12);
+  EXPECT_LT(armijo.steps[0].step_length, 1.);
+  for (const VI::NewtonStep &step : armijo.steps)
+    EXPECT_GT(step.step_length, 0.);
+}
+
+
+TEST(SemismoothNewton, FischerBurmeisterWithWatchdogReachesTheSameSolution)
+{
+  // The watchdog changes the path, not the solution: Newton-min's, and no
+  // more steps than the Armijo test on every step takes.
+  ObstacleProblem problem_min(40, ComplementarityFunction());
+  ObstacleProblem problem_fb(
+    40,
+    ComplementarityFunction(ComplementarityFunction::Type::fischer_burmeister));
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  data.tolerance = 1e-13;
+  Vector<double> X_min(80), X_armijo(80), X_watchdog(80);
+  problem_min.make_newton(data).solve(X_min);
+  data.line_search    = true;
+  const auto armijo   = problem_fb.make_newton(data).solve(X_armijo);
+  data.watchdog_steps = 8;
+  const auto watchdog = problem_fb.make_newton(data).solve(X_watchdog);
+  expect_solution(problem_fb, X_watchdog);
+  for (unsigned int i = 0; i < 80; ++i)
+    EXPECT_NEAR(X_watchdog(i), X_min(i), 1e-10);
+  EXPECT_LE(watchdog.iterations, armijo.iterations);
+  std::cout << "Fischer-Burmeister on the obstacle problem: "
+            << armijo.iterations << " steps with the Armijo test, "
+            << watchdog.iterations << " with the watchdog" << std::endl;
 }

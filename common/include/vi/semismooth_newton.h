@@ -39,10 +39,12 @@ namespace VI
   /// What one semismooth Newton step did.
   struct NewtonStep
   {
-    unsigned int  iteration         = 0;  ///< k = 1, 2, ...
-    ResidualNorms residual          = {}; ///< after the step
-    double        step_length       = 1.; ///< < 1 when the line search cut it
-    unsigned int  linear_iterations = 0;
+    unsigned int  iteration = 0;  ///< k = 1, 2, ...
+    ResidualNorms residual  = {}; ///< after the step
+    /// < 1 when the line search cut it; 0 when the watchdog returned to
+    /// its reference iterate (AdditionalData::watchdog_steps)
+    double       step_length       = 1.;
+    unsigned int linear_iterations = 0;
     /// of the step's linearisation, if the problem reports it (active_set)
     bool            has_active_set = false;
     ActiveSetChange active_set     = {};
