@@ -80,7 +80,7 @@ namespace VI
     double       forcing_term     = 1e-2;
     unsigned int max_iterations   = 50;
     double       tolerance        = 1e-10;
-    unsigned int watchdog_steps   = 0;
+    unsigned int watchdog_steps   = 8;
     bool         nested_iteration = true;
     std::string  initial_guess    = "zero";
 
