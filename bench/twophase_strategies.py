@@ -52,6 +52,16 @@ RUNS = [
                                   "Nonlinear solver/gamma_alg": "1e-1",
                                   "Nonlinear solver/gamma_lin": "1e-1"},
      (100, 428)),
+    # the Armijo test on every step, as before the watchdog (4998727)
+    ("FB exact, no watchdog", {"Nonlinear solver/C-function": "fischer-burmeister",
+                               "Nonlinear solver/Strategy": "exact",
+                               "Nonlinear solver/Watchdog steps": "0"}, (757, 10089)),
+    ("FB adaptive (1e-1, 1e-1), no watchdog",
+     {"Nonlinear solver/C-function": "fischer-burmeister",
+      "Nonlinear solver/Strategy": "adaptive",
+      "Nonlinear solver/gamma_alg": "1e-1",
+      "Nonlinear solver/gamma_lin": "1e-1",
+      "Nonlinear solver/Watchdog steps": "0"}, (100, 428)),
     ("KINSOL FB exact", {"Nonlinear solver/Solver": "kinsol",
                          "Nonlinear solver/C-function": "fischer-burmeister",
                          "Nonlinear solver/Strategy": "exact"}, None),
@@ -147,17 +157,23 @@ def main():
             f"{r['newton_1e6']} | {r['gmres_1e6']} | {r['time_step_cuts']} "
             f"({r['rejected_newton']}) | {r['max_diff_S_g_x0']:.1e} | "
             f"{r['max_diff_P_g_x0']:.1e} | {r['wall_seconds']:.2f} |")
-    # What the text says about the runs: the damping of FB's line search,
-    # from when on the adaptive runs need one Newton iteration per step, and
-    # the residuals of Newton-min in a step while the gas front advances.
+    # What the text says about the runs: the damping of FB's line search
+    # (length 0: the watchdog went back to its reference iterate), from when
+    # on the adaptive runs need one Newton iteration per step, and the
+    # residuals of Newton-min in a step while the gas front advances.
     lines.append("")
-    for name in ("FB exact", "FB adaptive (1e-1, 1e-1)"):
+    for name in ("FB exact", "FB adaptive (1e-1, 1e-1)", "FB exact, no watchdog",
+                 "FB adaptive (1e-1, 1e-1), no watchdog"):
         lengths = sorted(it["step_length"] for s in results[name][0]["steps"]
                          for it in s["iterations"])
-        damped = [t for t in lengths if t < 1]
+        damped = [t for t in lengths if 0 < t < 1]
+        returns = sum(1 for t in lengths if t == 0)
+        median = (f", median damped length {damped[len(damped) // 2]:g}"
+                  if damped else "")
         lines.append(f"- {name}: {100 * len(damped) / len(lengths):.0f} % of the "
-                     f"Newton steps damped by the line search, median damped "
-                     f"length {damped[len(damped) // 2]:g}.")
+                     f"{len(lengths)} Newton steps damped by the line search"
+                     f"{median}; {returns} returns to the watchdog's reference "
+                     "iterate.")
     for name, _, _ in RUNS:
         if "min adaptive" not in name:
             continue
