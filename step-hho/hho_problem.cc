@@ -1327,13 +1327,8 @@ namespace StepHHO
   HHOProblem<dim>::solve()
   {
     const auto &p = parameters.nonlinear_solver;
-    typename VI::SemismoothNewton<TrilinosWrappers::MPI::Vector>::AdditionalData
-      settings;
-    settings.max_iterations = p.max_iterations;
-    settings.tolerance      = p.tolerance;
-    settings.line_search    = C.has_smooth_merit_function();
-    settings.watchdog_steps = p.watchdog_steps;
-    settings.name           = "semismooth Newton-" + C.name();
+    const typename VI::SemismoothNewton<
+      TrilinosWrappers::MPI::Vector>::AdditionalData settings(p, C);
 
     jacobian_solver = std::make_unique<JacobianSolver>(parameters.linear_solver,
                                                        constant_modes,

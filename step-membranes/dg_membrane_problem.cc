@@ -674,12 +674,7 @@ namespace StepMembranes
   DGMembraneProblem<dim>::solve()
   {
     const auto &p = parameters.nonlinear_solver;
-    typename VI::SemismoothNewton<Vector>::AdditionalData settings;
-    settings.max_iterations = p.max_iterations;
-    settings.tolerance      = p.tolerance;
-    settings.line_search    = C.has_smooth_merit_function();
-    settings.watchdog_steps = p.watchdog_steps;
-    settings.name           = "semismooth Newton-" + C.name();
+    const typename VI::SemismoothNewton<Vector>::AdditionalData settings(p, C);
     if (parameters.linear_solver.solver == "direct")
       direct_solver =
         std::make_unique<VI::LinearSolver>(parameters.linear_solver);

@@ -631,12 +631,7 @@ namespace StepParabolic
     system_constraints.distribute(solution);
 
     const auto &p = parameters.nonlinear_solver;
-    typename VI::SemismoothNewton<Vector>::AdditionalData settings;
-    settings.max_iterations = p.max_iterations;
-    settings.tolerance      = p.tolerance;
-    settings.line_search    = C.has_smooth_merit_function();
-    settings.watchdog_steps = p.watchdog_steps;
-    settings.name           = "semismooth Newton-" + C.name();
+    const typename VI::SemismoothNewton<Vector>::AdditionalData settings(p, C);
 
     estimate_records.clear();
     final_estimate.reset();

@@ -271,12 +271,8 @@ namespace StepTwoPhase
     const double relative_tolerance =
       VI::linear_tolerance(p, parameters.linear_solver);
 
-    typename VI::SemismoothNewton<Vector<double>>::AdditionalData settings;
-    settings.max_iterations = p.max_iterations;
-    settings.tolerance      = p.tolerance;
-    settings.line_search    = C.has_smooth_merit_function();
-    settings.watchdog_steps = p.watchdog_steps;
-    settings.name           = "semismooth Newton-" + C.name();
+    const typename VI::SemismoothNewton<Vector<double>>::AdditionalData
+                                         settings(p, C);
     VI::SemismoothNewton<Vector<double>> newton(settings);
 
     newton.residual = [&](const Vector<double> &X, Vector<double> &R) {

@@ -1,7 +1,9 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
 
+#include <vi/complementarity.h>
 #include <vi/errors.h>
+#include <vi/parameters.h>
 #include <vi/semismooth_newton.h>
 
 #include <cmath>
@@ -14,6 +16,19 @@ namespace VI
   ResidualNorms::is_finite() const
   {
     return std::isfinite(equations) && std::isfinite(complementarity);
+  }
+
+
+  template <typename VectorType>
+  SemismoothNewton<VectorType>::AdditionalData::AdditionalData(
+    const NonlinearSolverParameters &parameters,
+    const ComplementarityFunction   &C)
+      : max_iterations(parameters.max_iterations)
+      , tolerance(parameters.tolerance)
+      , line_search(C.has_smooth_merit_function())
+      , watchdog_steps(parameters.watchdog_steps)
+      , name("semismooth Newton-" + C.name())
+  {
   }
 
 
@@ -60,13 +75,15 @@ namespace VI
     report.initial_residual = norms;
 
     bool criterion_met = false;
-    // The watchdog's reference iterate and merit, and the full steps taken
-    // since it without the test (watchdog_steps + 1: backtrack next).
+    // The watchdog's reference iterate and merit, the full steps taken
+    // since it without the test, and whether the iteration has just
+    // returned to it (then the next step backtracks).
     VectorType X_reference;
     X_reference.reinit(X);
     X_reference                  = X;
     double       theta_reference = 0.5 * R.norm_sqr();
     unsigned int relaxed_steps   = 0;
+    bool         returned        = false;
     for (unsigned int k = 1;; ++k)
       {
         if (!norms.is_finite())
@@ -115,7 +132,7 @@ namespace VI
             trial = X;
             trial.add(1., dX);
             const bool certified = accept_full_step && accept_full_step(trial);
-            if (!certified && relaxed_steps < data.watchdog_steps)
+            if (!certified && !returned && data.watchdog_steps > 0)
               {
                 // Full steps may raise the merit function before they
                 // converge (Fischer-Burmeister from a transferred iterate):
@@ -135,10 +152,10 @@ namespace VI
                 else if (++relaxed_steps == data.watchdog_steps ||
                          !std::isfinite(theta))
                   {
-                    X             = X_reference;
-                    norms         = residual(X, R);
-                    step_length   = 0;
-                    relaxed_steps = data.watchdog_steps + 1;
+                    X           = X_reference;
+                    norms       = residual(X, R);
+                    step_length = 0;
+                    returned    = true;
                   }
               }
             else
@@ -167,6 +184,7 @@ namespace VI
                 X_reference     = X;
                 theta_reference = 0.5 * R.norm_sqr();
                 relaxed_steps   = 0;
+                returned        = false;
               }
           }
 

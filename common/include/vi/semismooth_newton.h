@@ -6,6 +6,9 @@
 
 namespace VI
 {
+  class ComplementarityFunction;
+  struct NonlinearSolverParameters;
+
   /**
    * Norms of the two parts of the semismooth Newton residual
    * R(X) = [E X - F ; C(X)], each made dimensionless by the problem:
@@ -98,6 +101,13 @@ namespace VI
   public:
     struct AdditionalData
     {
+      AdditionalData() = default;
+      /// What `Nonlinear solver` asks for: its iteration limit, tolerance
+      /// and watchdog, the line search if C has a smooth merit function
+      /// (Fischer-Burmeister), and the name "semismooth Newton-<C>".
+      AdditionalData(const NonlinearSolverParameters &parameters,
+                     const ComplementarityFunction   &C);
+
       unsigned int max_iterations        = 50;
       double       tolerance             = 1e-10;
       bool         line_search           = false;
