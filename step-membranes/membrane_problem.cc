@@ -344,38 +344,6 @@ namespace StepMembranes
           if (!cell->is_artificial())
             for (const unsigned int v : cell->vertex_indices())
               vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
-
-        t.stop();
-
-        // The loads at the quadrature points of the estimators, once per
-        // mesh (a parsed expression costs more than the rest of a cell's
-        // work in an estimate); the assembly reads them too (the same
-        // points: see `quadrature`).
-        TimerOutput::Scope     loads(timer, "estimators: loads");
-        const Quadrature<dim> &points = flux_reconstruction->get_quadrature();
-        for (unsigned int a = 0; a < 2; ++a)
-          load_values[a].assign(triangulation.n_active_cells() * points.size(),
-                                0.);
-        on_cells_with_own_data([&](const VI::MembraneData<dim> &d,
-                                   const auto                  &cells,
-                                   const std::size_t            begin,
-                                   const std::size_t            end) {
-          const Function<dim> *f[2] = {d.f1.get(), d.f2.get()};
-          FEValues<dim> where(*mapping, fe, points, update_quadrature_points);
-          std::vector<double> values(points.size());
-          for (std::size_t c = begin; c < end; ++c)
-            {
-              where.reinit(cells[c]);
-              for (unsigned int a = 0; a < 2; ++a)
-                {
-                  f[a]->value_list(where.get_quadrature_points(), values);
-                  std::copy(values.begin(),
-                            values.end(),
-                            load_values[a].begin() +
-                              cells[c]->active_cell_index() * points.size());
-                }
-            }
-        });
       }
   }
 
@@ -439,6 +407,35 @@ namespace StepMembranes
   {
     TimerOutput::Scope t(timer, "assembly");
 
+    // The loads f1, f2 at the quadrature points, tabulated once per mesh: the
+    // assembly integrates them, and the flux reconstruction and every
+    // estimate read them (a parsed expression costs more than the rest of a
+    // cell's work in an estimate). They are part of the assembly with or
+    // without estimators: the estimators add no evaluation of f.
+    for (unsigned int a = 0; a < 2; ++a)
+      load_values[a].assign(triangulation.n_active_cells() * quadrature.size(),
+                            0.);
+    on_cells_with_own_data([&](const VI::MembraneData<dim> &d,
+                               const auto                  &cells,
+                               const std::size_t            begin,
+                               const std::size_t            end) {
+      const Function<dim> *f[2] = {d.f1.get(), d.f2.get()};
+      FEValues<dim> where(*mapping, fe, quadrature, update_quadrature_points);
+      std::vector<double> values(quadrature.size());
+      for (std::size_t c = begin; c < end; ++c)
+        {
+          where.reinit(cells[c]);
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              f[a]->value_list(where.get_quadrature_points(), values);
+              std::copy(values.begin(),
+                        values.end(),
+                        load_values[a].begin() +
+                          cells[c]->active_cell_index() * quadrature.size());
+            }
+        }
+    });
+
     // (a mass matrix for p >= 2 only, see setup_system())
     const bool with_mass_matrix = fe.degree > 1;
     system_matrix               = 0;
@@ -460,7 +457,6 @@ namespace StepMembranes
                                          fe,
                                          quadrature,
                                          update_values | update_gradients |
-                                           update_quadrature_points |
                                            update_JxW_values);
     CopyData                     copy(fe.n_dofs_per_cell());
 
@@ -468,23 +464,17 @@ namespace StepMembranes
                                  MeshWorker::ScratchData<dim> &scratch,
                                  CopyData                     &copy) {
       const FEValues<dim> &fe_values = scratch.reinit(cell);
-      const auto          &points    = fe_values.get_quadrature_points();
       for (auto &m : copy.matrices)
         m = 0;
       for (auto &v : copy.vectors)
         v = 0;
       cell->get_dof_indices(copy.local_dof_indices[0]);
 
-      // the loads tabulated for the estimators at the same points, if any
       const std::size_t first = cell->active_cell_index() * quadrature.size();
-      const bool        tabulated = load_values[0].size() ==
-                             triangulation.n_active_cells() * quadrature.size();
       for (const unsigned int q : fe_values.quadrature_point_indices())
         {
-          const double f1 =
-            tabulated ? load_values[0][first + q] : data.f1->value(points[q]);
-          const double f2 =
-            tabulated ? load_values[1][first + q] : data.f2->value(points[q]);
+          const double f1 = load_values[0][first + q];
+          const double f2 = load_values[1][first + q];
           const double dx = fe_values.JxW(q);
           for (const unsigned int i : fe_values.dof_indices())
             {

@@ -302,8 +302,9 @@ namespace StepMembranes
     std::vector<double> stiffness_weight, multiplier_weight, row_weights;
     /// Global vertex index -> DoF of the vertex (the patch constants of p = 1).
     std::vector<types::global_dof_index> vertex_dofs;
-    /// f1, f2 at the points of the flux quadrature of the owned cells,
-    /// [active cell index * n_q + q]: needed by every estimate.
+    /// f1, f2 at the points of `quadrature` (the flux quadrature) of the
+    /// owned cells, [active cell index * n_q + q]: tabulated by the assembly,
+    /// read by it, the flux reconstruction and every estimate.
     std::vector<double> load_values[2];
 
     // Solvers and estimators.
