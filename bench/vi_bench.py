@@ -51,7 +51,7 @@ def write_table(stem, rows, header, formats):
         writer.writerows(rows)
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in rows:
-        lines.append("| " + " | ".join(fmt.format(row[key]).replace("nan", "-")
+        lines.append("| " + " | ".join(fmt.format(row.get(key, float("nan"))).replace("nan", "-")
                                        for key, fmt in formats) + " |")
     with open(os.path.join(DATA, stem + ".md"), "w") as f:
         f.write("\n".join(lines) + "\n")

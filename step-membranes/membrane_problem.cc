@@ -411,7 +411,9 @@ namespace StepMembranes
     // assembly integrates them, and the flux reconstruction and every
     // estimate read them (a parsed expression costs more than the rest of a
     // cell's work in an estimate). They are part of the assembly with or
-    // without estimators: the estimators add no evaluation of f.
+    // without estimators: the estimators add no evaluation of f. (Timed
+    // also on their own, inside the assembly.)
+    TimerOutput::Scope loads(timer, "assembly: loads");
     for (unsigned int a = 0; a < 2; ++a)
       load_values[a].assign(triangulation.n_active_cells() * quadrature.size(),
                             0.);
@@ -435,6 +437,7 @@ namespace StepMembranes
             }
         }
     });
+    loads.stop();
 
     // (a mass matrix for p >= 2 only, see setup_system())
     const bool with_mass_matrix = fe.degree > 1;
