@@ -13,16 +13,15 @@ doc/data/adaptivity.csv, without running them.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree can
 be rebuilt while the study runs).
 """
-import csv
 import json
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from vi_bench import DATA, ROOT, read_table, write_csv
+
 PROGRAM = os.environ.get("STEP_MEMBRANES",
                          os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
-DATA = os.path.join(ROOT, "doc", "data")
 OUT = os.path.join(ROOT, "output", "bench-adaptivity")
 # --tables-only: the table and the plots again from doc/data/adaptivity.csv
 TABLES_ONLY = "--tables-only" in sys.argv
@@ -71,12 +70,7 @@ def main():
     os.makedirs(DATA, exist_ok=True)
     rows = []
     if TABLES_ONLY:
-        with open(os.path.join(DATA, "adaptivity.csv"), newline="") as f:
-            for x in csv.DictReader(f):
-                rows.append({k: (v if k in ("case", "refinement") else
-                                 float(v) if k in ("error_energy", "eta", "effectivity",
-                                                   "wall_seconds") else int(v))
-                             for k, v in x.items()})
+        rows = read_table("adaptivity")
     for case, p, refinement, cycles in ([] if TABLES_ONLY else RUNS):
         for c in run(case, p, refinement, cycles):
             rows.append({"case": case, "p": p, "refinement": refinement,
@@ -87,10 +81,7 @@ def main():
                          "effectivity": c["effectivity"],
                          "wall_seconds": c["wall_seconds"]})
     if not TABLES_ONLY:
-        with open(os.path.join(DATA, "adaptivity.csv"), "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-            writer.writeheader()
-            writer.writerows(rows)
+        write_csv("adaptivity", rows)
 
     # The convergence order in DoFs over the last three cycles of each run,
     # and fitted over all its cycles from FIT_FROM unknowns on.

@@ -41,14 +41,19 @@ def estimator_seconds(timing):
                if section.startswith("estimators"))
 
 
-def write_table(stem, rows, header, formats):
-    """rows (dicts) to doc/data/<stem>.csv, all keys; and to <stem>.md, the
-    columns of formats ((key, format) pairs) under header, NaN as '-'."""
+def write_csv(stem, rows):
+    """rows (dicts) to doc/data/<stem>.csv, all keys (read_table reads it)."""
     os.makedirs(DATA, exist_ok=True)
     with open(os.path.join(DATA, stem + ".csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
         writer.writerows(rows)
+
+
+def write_table(stem, rows, header, formats):
+    """rows (dicts) to doc/data/<stem>.csv, all keys; and to <stem>.md, the
+    columns of formats ((key, format) pairs) under header, NaN as '-'."""
+    write_csv(stem, rows)
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in rows:
         lines.append("| " + " | ".join(fmt.format(row.get(key, float("nan"))).replace("nan", "-")
