@@ -15,7 +15,7 @@ Writes doc/data/parallel.{csv,md}.
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/membranes_parallel.py [--quick]
 --quick stops after 8 cycles (a smoke test of the script). The full study
-takes about 7 minutes.
+takes about 4 minutes (at 1db72e7).
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """

@@ -16,8 +16,8 @@ T = 0.3 (parameters/parabolic-ring.prm). Writes into doc/data/:
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/parabolic_ring.py [--quick]
 --quick runs coarser meshes to T = 0.1 (a smoke test of the script, not the
-published setting). The full study takes about an hour on a shared
-2-core machine. STEP_PARABOLIC names another binary (e.g. a copy, so that
+published setting). The full study takes about 20 minutes on a shared
+2-core machine (at 4998727). STEP_PARABOLIC names another binary (e.g. a copy, so that
 the build tree can be rebuilt while the study runs).
 """
 import csv
