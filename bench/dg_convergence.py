@@ -17,16 +17,15 @@ root, after ./demo.sh or ./test.sh has built the programs). --quick runs
 fewer cycles; --penalty only the penalty sweep (a minute). The whole study
 takes about 25 minutes on 2 cores.
 """
-import csv
 import json
 import math
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.path.join(ROOT, "build", "step-membranes", "step-membranes")
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+
+PROGRAM = program("membranes")
 QUICK = "--quick" in sys.argv
 
 # (degree, cycles) from 4 x 4 cells on, for both seed tests.
@@ -139,10 +138,7 @@ def main():
                     f"{results[test, 'nipg', degree][n]['newton_iterations']} |")
         sections.append("\n".join(lines))
 
-    with open(os.path.join(DATA, "dg-convergence.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv("dg-convergence", rows)
     with open(os.path.join(DATA, "dg-convergence.md"), "w") as f:
         f.write("\n\n".join(sections) + "\n")
 
@@ -175,7 +171,7 @@ set key outside right
 set grid
 plot {', '.join(plots)}
 """
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
     os.remove(dat)
 
     # GMRES + ILU(0): SIPG against NIPG (seed-smooth, exact strategy).

@@ -21,15 +21,13 @@ runs only those. The whole study takes about 12 minutes. The first two
 studies switch the estimators off (the scenes of step-membranes turn them
 on; step-hho has none): a scene computes only what it needs.
 """
-import csv
 import json
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BUILD = os.path.join(ROOT, "build")
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, gnuplot, program as vi_program, write_csv
+
 OUT = os.path.join(ROOT, "output", "bench-time")
 QUICK = "--quick" in sys.argv
 ONLY = [a for a in sys.argv[1:] if not a.startswith("--")]
@@ -42,7 +40,7 @@ def run(program, scene, name, settings, cycles):
     settings["Mesh/Cycles"] = max(cycles - (2 if QUICK else 0), 1)
     settings["Output/Write VTU"] = "false"
     settings["Output/Directory"] = directory
-    command = [os.path.join(BUILD, program, program),
+    command = [vi_program(program),
                os.path.join(ROOT, "parameters", scene)]
     for key, value in settings.items():
         command += ["--set", f"{key}={value}"]
@@ -67,10 +65,7 @@ def study(name, runs, title, with_estimate=False):
     rows = []
     for label, args in runs:
         rows += run(*args)
-    with open(os.path.join(DATA, name + ".csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(name, rows)
 
     dat = os.path.join(OUT, name + ".dat")
     with open(dat, "w") as f:
@@ -98,13 +93,13 @@ set ylabel 'energy error{" (points), estimate (dashed)" if with_estimate else ""
 set title '{title}'
 plot {", ".join(plots)}
 """
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
 
 
 def main():
     os.makedirs(DATA, exist_ok=True)
     os.makedirs(OUT, exist_ok=True)
-    membranes = "step-membranes"
+    membranes = "membranes"
 
     study("time-degrees",
           [(f"Q{p}", (membranes, "membranes-seed-smooth.prm", f"fem-p{p}",
@@ -121,10 +116,10 @@ def main():
                         {"Discretization/Method": "sipg",
                          "Discretization/Polynomial degree": 2,
                          "Mesh/Initial refinements": 2, **NO_ESTIMATES}, 5)),
-           ("HHO p = 2, condensed", ("step-hho", "hho-seed-smooth.prm", "method-hho",
+           ("HHO p = 2, condensed", ("hho", "hho-seed-smooth.prm", "method-hho",
                                      {"Discretization/Polynomial degree": 2,
                                       "Mesh/Initial refinements": 2}, 6)),
-           ("HHO p = 2, whole system", ("step-hho", "hho-seed-smooth.prm",
+           ("HHO p = 2, whole system", ("hho", "hho-seed-smooth.prm",
                                         "method-hho-uncondensed",
                                         {"Discretization/Polynomial degree": 2,
                                          "Discretization/Static condensation": "false",

@@ -27,12 +27,9 @@ import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-# STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
-# can be rebuilt while the study runs).
-PROGRAM = os.environ.get("STEP_MEMBRANES",
-                         os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, gnuplot, program, write_table
+
+PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-estimators")
 QUICK = "--quick" in sys.argv
 
@@ -51,24 +48,6 @@ def run(scene, name, settings):
         summary = json.load(f)
     print(f"  {name}: done", flush=True)
     return summary
-
-
-def write_table(name, rows, header, formats):
-    with open(os.path.join(DATA, name + ".csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
-    lines = ["| " + " | ".join(header) + " |",
-             "|" + "---|" * len(header)]
-    for row in rows:
-        lines.append("| " + " | ".join(fmt.format(row[key]) for key, fmt in formats)
-                     + " |")
-    with open(os.path.join(DATA, name + ".md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-
-
-def gnuplot(script):
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
 
 
 def comparison():

@@ -18,17 +18,16 @@ script stops if they differ).
 Usage: bench/hho_convergence.py [--quick]   (from the repository root, after
 the build; --quick runs fewer meshes for a smoke test).
 """
-import csv
 import json
 import math
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-HHO = os.path.join(ROOT, "build", "step-hho", "step-hho")
-FEM = os.path.join(ROOT, "build", "step-membranes", "step-membranes")
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+
+HHO = program("hho")
+FEM = program("membranes")
 QUICK = "--quick" in sys.argv
 DEGREES = [1, 2, 3, 4]
 TESTS = ["seed-smooth", "seed-jump"]
@@ -175,10 +174,7 @@ def main():
                 f" {totals[p][1] / totals[p][0]:.2f} | |" for p in DEGREES))
             tables.append("\n".join(lines))
 
-    with open(os.path.join(DATA, "hho-convergence.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv("hho-convergence", rows)
     with open(os.path.join(DATA, "hho-convergence.md"), "w") as f:
         f.write("\n\n".join(tables) + "\n")
 
@@ -219,7 +215,7 @@ set grid
 {panels[1]}
 unset multiplot
 """
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
     os.remove(dat)
     print(f"wrote {DATA}/hho-convergence.{{csv,md,png}}")
 

@@ -22,7 +22,6 @@ Writes doc/data/hho-timing.{csv,md}.
 Usage: bench/hho_timing.py [--repeat N] [--cycles N]   (from the repository
 root, after the build).
 """
-import csv
 import json
 import os
 import resource
@@ -30,10 +29,10 @@ import subprocess
 import sys
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.path.join(ROOT, "build", "step-hho", "step-hho")
+from vi_bench import DATA, ROOT, program, write_csv
+
+PROGRAM = program("hho")
 SCENE = os.path.join(ROOT, "parameters", "hho-timing.prm")
-DATA = os.path.join(ROOT, "doc", "data")
 
 
 def option(name, default):
@@ -139,10 +138,7 @@ def main():
                 seconds for s, seconds in timing.items() if s not in grouped), 3)
         rows.append(row)
 
-    with open(os.path.join(DATA, "hho-timing.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv("hho-timing", rows)
 
     lines = ["| | " + " | ".join(r["configuration"] for r in rows) + " |",
              "|---|" + "---:|" * len(rows)]

@@ -18,10 +18,9 @@ import os
 import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, read_table, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, read_table, write_csv
 
-PROGRAM = os.environ.get("STEP_MEMBRANES",
-                         os.path.join(ROOT, "build", "step-membranes", "step-membranes"))
+PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-adaptivity")
 # --tables-only: the table and the plots again from doc/data/adaptivity.csv
 TABLES_ONLY = "--tables-only" in sys.argv
@@ -150,7 +149,7 @@ set key bottom left
 set grid
 plot {', '.join(plots)}
 """
-        subprocess.run(["gnuplot"], input=script.encode(), check=True)
+        gnuplot(script)
         os.remove(dat)
     print(f"wrote {DATA}/adaptivity.*")
 

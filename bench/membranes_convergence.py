@@ -11,16 +11,15 @@ Usage: bench/membranes_convergence.py [--quick]   (from the repository root,
 after ./demo.sh or ./test.sh has built the programs). --quick runs fewer
 cycles for a smoke test.
 """
-import csv
 import json
 import math
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.path.join(ROOT, "build", "step-membranes", "step-membranes")
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+
+PROGRAM = program("membranes")
 QUICK = "--quick" in sys.argv
 
 # (scene, degree, cycles): cycles from 4x4 cells on.
@@ -82,10 +81,7 @@ def main():
             lines.append(line)
         tables.append("\n".join(lines))
 
-    with open(os.path.join(DATA, "membranes-convergence.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv("membranes-convergence", rows)
     with open(os.path.join(DATA, "membranes-convergence.md"), "w") as f:
         f.write("\n\n".join(tables) + "\n")
 
@@ -116,7 +112,7 @@ set key bottom left
 set grid
 plot {', '.join(plots)}
 """
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
     os.remove(dat)
     print(f"wrote {DATA}/membranes-convergence.{{csv,md,png}}")
 

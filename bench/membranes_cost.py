@@ -21,7 +21,8 @@ with or without estimators, and are also shown counted with the estimators
 Writes doc/data/cost.{csv,md} and doc/data/cost.png.
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/membranes_cost.py [--quick] [--c-function=fischer-burmeister]
-                          [--flux-degree=p-1] [--coarse-start] [--huge-pages]
+                          [--flux-degree=p-1] [--check-interval=N]
+                          [--coarse-start] [--repeat=N] [--huge-pages]
                           [--tables-only]
 --quick stops at about 5e4 unknowns per field (a smoke test of the script).
 --c-function chooses the C-function of Newton (default min); for another
@@ -32,6 +33,13 @@ one the files are doc/data/cost-<name>.{csv,md,png}.
 cells, about 8e2 unknowns per field), so that the mesh of 1e4 unknowns per
 field is reached by nested iteration instead of a cold start; the files
 are then doc/data/cost[-<name>][-flux-p-1]-coarse-start.*.
+--check-interval=N estimates every N GMRES iterations instead of the
+scene's 10 (Linear solver/Check interval); the files are then
+doc/data/cost[-<name>][-flux-p-1]-check-<N>[-coarse-start].*.
+--repeat=N runs every configuration N times, in rounds; the table then
+gives for each mesh the run of the median ratio, with the ranges of the
+ratio and of estimators / rest over the N runs beside it (the CSV has
+every run); the files are then doc/data/<stem>-median-of-<N>.*.
 --huge-pages runs the programs with glibc's heap in huge pages
 (GLIBC_TUNABLES=glibc.malloc.hugetlb=1, see README.md); the files are then
 doc/data/cost[-<name>]-huge-pages.{csv,md,png}.
@@ -43,13 +51,14 @@ various options) and 10 GB of memory.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
+import itertools
 import math
 import os
-import subprocess
 import sys
 
-from vi_bench import (DATA, ROOT, estimator_seconds, program, read_table,
-                      run as run_program, write_table)
+from vi_bench import (DATA, ROOT, estimator_seconds, gnuplot, program,
+                      read_table, run as run_program, write_csv, write_markdown,
+                      write_table)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
@@ -62,11 +71,23 @@ FLUX_DEGREE = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--flux
 STEM = "cost" if C_FUNCTION == "min" else f"cost-{C_FUNCTION}"
 if FLUX_DEGREE != "p":
     STEM += f"-flux-{FLUX_DEGREE}"
+# GMRES iterations between two estimates of the adaptive strategy (Linear
+# solver/Check interval; the scene's 10 by default)
+CHECK_INTERVAL = next((int(a.split("=", 1)[1]) for a in sys.argv
+                       if a.startswith("--check-interval=")), None)
+if CHECK_INTERVAL:
+    STEM += f"-check-{CHECK_INTERVAL}"
 # Two refinements fewer at the start and two cycles more: the same meshes
 # from 1e4 unknowns per field on, each reached by nested iteration.
 COARSE_START = 2 if "--coarse-start" in sys.argv else 0
 if COARSE_START:
     STEM += "-coarse-start"
+# Every configuration run this many times, in rounds (all configurations,
+# then again); the table gives, for each mesh, the run of the median ratio
+# and the range of the ratio over the runs.
+REPEAT = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--repeat=")), 1)
+if REPEAT > 1:
+    STEM += f"-median-of-{REPEAT}"
 if "--huge-pages" in sys.argv:
     # the programs inherit the environment (vi_bench.run); other tunables
     # the caller set are kept
@@ -81,7 +102,7 @@ CYCLES = (2 if QUICK else 4) + COARSE_START
 CONFIGURATIONS = [(1, 1), (1, None), (2, None)]
 
 
-def run(np, threads):
+def run(np, threads, repeat):
     settings = {"Mesh/Initial refinements": 5 - COARSE_START, "Mesh/Cycles": CYCLES,
                 "Nonlinear solver/Strategy": "adaptive",
                 "Nonlinear solver/C-function": C_FUNCTION,
@@ -93,8 +114,11 @@ def run(np, threads):
                 "Estimators/Sharpen final estimate": "false",
                 "Benchmark/Reference Poisson solve": "true",
                 "Output/Write VTU": "false"}
+    if CHECK_INTERVAL:
+        settings["Linear solver/Check interval"] = CHECK_INTERVAL
     summary = run_program(PROGRAM, "estimators-disk-p1.prm", settings,
-                          os.path.join(OUT, f"{STEM}-np{np}-threads{threads or 'all'}"),
+                          os.path.join(OUT, f"{STEM}-np{np}-threads{threads or 'all'}"
+                                            + (f"-run{repeat}" if REPEAT > 1 else "")),
                           np, threads)
     n_threads = summary["threads_per_rank"]
     print(f"  np = {np} x {n_threads} thread(s): done", flush=True)
@@ -111,16 +135,17 @@ def read_rows():
 
 def run_study():
     rows = []
-    for k, (np, threads) in enumerate(CONFIGURATIONS):
+    for repeat, (k, (np, threads)) in itertools.product(range(REPEAT),
+                                                        enumerate(CONFIGURATIONS)):
         previous = None
-        n_threads, cycles = run(np, threads)
+        n_threads, cycles = run(np, threads, repeat)
         for c in cycles:
             poisson = sum(m["seconds"] for m in c["reference_poisson"])
             estimators = estimator_seconds(c["timing"])
             # the tabulated f1, f2, part of the assembly since 2bd68de (with
             # or without estimators; before, counted with the estimators)
             loads = c["timing"].get("assembly: loads", float("nan"))
-            row = {"configuration": k, "np": np, "threads": n_threads,
+            row = {"repeat": repeat, "configuration": k, "np": np, "threads": n_threads,
                    "cycle": c["cycle"], "cells": c["cells"],
                    "dofs_per_field": c["dofs_per_field"], "unknowns": c["dofs"],
                    "newton": c["newton_iterations"], "gmres": c["linear_iterations"],
@@ -143,14 +168,39 @@ def run_study():
             rows.append(row)
             previous = c
     for row in rows:
-        serial = next(r for r in rows
-                      if r["np"] == 1 and r["threads"] == 1 and r["cycle"] == row["cycle"])
+        serial = next(r for r in rows if r["repeat"] == row["repeat"] and r["np"] == 1
+                      and r["threads"] == 1 and r["cycle"] == row["cycle"])
         row["speedup"] = serial["solve_seconds"] / row["solve_seconds"]
     return rows
 
 
+def median_runs(rows):
+    """For each configuration and mesh, the row of the run whose ratio is
+    the median of the runs', with the range of the ratio and of estimators
+    / rest over the runs (and whether the runs' counts agree)."""
+    medians = []
+    for key in dict.fromkeys((r["configuration"], r["cycle"]) for r in rows):
+        runs = sorted((r for r in rows if (r["configuration"], r["cycle"]) == key),
+                      key=lambda r: r["ratio"])
+        row = dict(runs[(len(runs) - 1) // 2])
+        row["ratio_range"] = f"{runs[0]['ratio']:.1f} - {runs[-1]['ratio']:.1f}"
+        fractions = [r["estimator_fraction"] for r in runs]
+        row["estimator_fraction_range"] = f"{min(fractions):.2f} - {max(fractions):.2f}"
+        row["same_counts"] = len({(r["newton"], r["gmres"], r["error_energy"])
+                                  for r in runs}) == 1
+        medians.append(row)
+    return medians
+
+
 def main():
     rows = read_rows() if TABLES_ONLY else run_study()
+    if REPEAT > 1:
+        write_csv(STEM, rows)
+        rows = median_runs(rows)
+        for row in rows:
+            if not row["same_counts"]:
+                print(f"warning: the runs of np = {row['np']} x {row['threads']}, "
+                      f"{row['dofs_per_field']} DoFs per field differ in counts or errors")
 
     header = ["np", "threads", "DoFs per field", "unknowns", "Newton",
               "of which without fluxes", "GMRES", "Poisson CG",
@@ -165,7 +215,17 @@ def main():
                ("ratio_without_estimators", "{:.1f}"), ("estimator_fraction", "{:.2f}"),
                ("estimator_fraction_with_loads", "{:.2f}"),
                ("growth", "{:.2f}"), ("speedup", "{:.2f}"), ("effectivity", "{:.3f}")]
-    write_table(STEM, rows, header, formats)
+    if REPEAT > 1:
+        # the median run's columns, and the ranges over all runs beside them
+        for after, key, title in (("ratio", "ratio_range", f"ratio, {REPEAT} runs"),
+                                  ("estimators / rest", "estimator_fraction_range",
+                                   f"estimators / rest, {REPEAT} runs")):
+            position = header.index(after) + 1
+            header.insert(position, title)
+            formats.insert(position, (key, "{}"))
+        write_markdown(STEM, rows, header, formats)
+    else:
+        write_table(STEM, rows, header, formats)
 
     os.makedirs(OUT, exist_ok=True)
     dat = os.path.join(OUT, f"{STEM}.dat")
@@ -189,6 +249,7 @@ def main():
     FLUXES = "" if FLUX_DEGREE == "p" else f", Flux degree = {FLUX_DEGREE}"
     # and the start of the nested sequence, when it is not the default's
     START = ", from 768 cells" if COARSE_START else ""
+    START += f", Check interval = {CHECK_INTERVAL}" if CHECK_INTERVAL else ""
     curves = []
     for (np, n_threads, index), colour in zip(groups, (1, 4, 6)):
         label = f"np = {np} x {n_threads} thread{'s' if n_threads > 1 else ''}"
@@ -211,7 +272,7 @@ set xlabel 'unknowns per field'
 set ylabel 'wall time (s)'
 set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG{FLUXES}{START})\\nagainst two Poisson solves (CG + AMG)"
 plot """ + ", \\\n     ".join(curves) + "\n"
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
     print(f"wrote {os.path.join(DATA, STEM)}.{{csv,md,png}}")
 
 

@@ -22,17 +22,15 @@ Usage, from the repository root after ./demo.sh or ./test.sh:
 full study takes about half an hour on a shared 2-core machine.
 STEP_PARABOLIC names another binary.
 """
-import csv
 import json
 import math
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.environ.get("STEP_PARABOLIC",
-                         os.path.join(ROOT, "build", "step-parabolic", "step-parabolic"))
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+
+PROGRAM = program("parabolic")
 OUT = os.path.join(ROOT, "output", "bench-parabolic-convergence")
 QUICK = "--quick" in sys.argv
 SCENE = os.path.join(ROOT, "parameters", "parabolic-expression.prm")
@@ -72,9 +70,6 @@ def rates(rows, key):
         out.append(math.log(a[key] / b[key]) / math.log(a["dt"] / b["dt"]))
     return out
 
-
-def gnuplot(script):
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
 
 
 def main():
@@ -125,14 +120,8 @@ def main():
         adaptive_rows.append(row("adaptive", s, 1, medium, None, ratio))
 
     keys = list(time_rows[0].keys())
-    with open(os.path.join(DATA, "parabolic-convergence.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=keys)
-        writer.writeheader()
-        writer.writerows(time_rows + joint_rows)
-    with open(os.path.join(DATA, "parabolic-adaptive-dt.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(adaptive_rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(adaptive_rows)
+    write_csv("parabolic-convergence", time_rows + joint_rows, keys)
+    write_csv("parabolic-adaptive-dt", adaptive_rows)
 
     def fmt_rate(x):
         return "-" if x is None else f"{x:.2f}"

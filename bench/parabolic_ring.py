@@ -20,16 +20,14 @@ published setting). The full study takes about 20 minutes on a shared
 2-core machine (at 4998727). STEP_PARABOLIC names another binary (e.g. a copy, so that
 the build tree can be rebuilt while the study runs).
 """
-import csv
 import json
 import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.environ.get("STEP_PARABOLIC",
-                         os.path.join(ROOT, "build", "step-parabolic", "step-parabolic"))
-DATA = os.path.join(ROOT, "doc", "data")
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+
+PROGRAM = program("parabolic")
 OUT = os.path.join(ROOT, "output", "bench-parabolic-ring")
 QUICK = "--quick" in sys.argv
 
@@ -71,9 +69,6 @@ def onset(summary):
                 times[ring] = step["time"]
     return times
 
-
-def gnuplot(script):
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
 
 
 def main():
@@ -136,15 +131,8 @@ def main():
                         "eta_step": step["estimate"]["eta"],
                         "eta_time": step["estimate"]["eta_time"]})
 
-    with open(os.path.join(DATA, "parabolic-ring.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
-    with open(os.path.join(DATA, "parabolic-ring-steps.csv"), "w", newline="") as f:
-        keys = list(step_rows[0].keys())
-        writer = csv.DictWriter(f, fieldnames=keys)
-        writer.writeheader()
-        writer.writerows(step_rows)
+    write_csv("parabolic-ring", rows)
+    write_csv("parabolic-ring-steps", step_rows)
 
     def published(value):
         return "-" if value is None else f"{value}"

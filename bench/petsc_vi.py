@@ -38,10 +38,10 @@ can be rebuilt while the study runs).
 """
 import json
 import os
-import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, estimator_seconds, program, run as run_program, write_table
+from vi_bench import (DATA, ROOT, estimator_seconds, gnuplot, program,
+                      run as run_program, write_table)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-petsc-vi")
@@ -166,7 +166,7 @@ plot '{dat}' index 0 using 1:2 with linespoints lw 2 pt 7 lc 1 title 'ours: adap
      '{dat}' index 3 using 1:2 with linespoints lw 1 pt 6 lc 1 dt 2 title 'ours: exact Newton-min, MUMPS, no estimators', \\
      '{dat}' index 3 using 1:3 with linespoints lw 1 pt 4 lc 2 dt 2 title 'RSLS, MUMPS'
 """
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
     print(f"wrote {os.path.join(DATA, 'petsc_vi')}.{{csv,md,png}}")
 
 

@@ -26,10 +26,10 @@ import os
 import subprocess
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.path.join(ROOT, "build", "step-twophase", "step-twophase")
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+
+PROGRAM = program("twophase")
 SCENE = os.path.join(ROOT, "parameters", "twophase-benchmark.prm")
-DATA = os.path.join(ROOT, "doc", "data")
 GAS = 1e-6  # gas present where S_g exceeds this (as in the program)
 
 
@@ -90,11 +90,7 @@ def main():
         path = os.path.join(out, f"profile-{n:03d}.csv")
         if os.path.exists(path):
             profiles += read_csv(path)
-    with open(os.path.join(DATA, "twophase-benchmark-profiles.csv"), "w",
-              newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(profiles[0].keys()))
-        writer.writeheader()
-        writer.writerows(profiles)
+    write_csv("twophase-benchmark-profiles", profiles)
 
     def at(rows, t, key):
         return next(r[key] for r in rows if abs(r["time_years"] - t) < 1e-6)
@@ -283,7 +279,7 @@ set ylabel ''
                        + f"plot '{estimator_dat}' index {index} using 1:{column} "
                        f"with impulses lw 2 notitle\n")
     script += "unset multiplot\n"
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
     os.remove(dat)
     os.remove(estimator_dat)
 

@@ -20,10 +20,10 @@ import math
 import os
 import subprocess
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.path.join(ROOT, "build", "step-twophase", "step-twophase")
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+
+PROGRAM = program("twophase")
 SCENE = os.path.join(ROOT, "parameters", "twophase-benchmark.prm")
-DATA = os.path.join(ROOT, "doc", "data")
 LEVELS = [(250, 20000), (500, 10000), (1000, 5000), (2000, 2500)]
 REFERENCE = (4000, 1250)
 GAS = 1e-6
@@ -91,10 +91,7 @@ def main():
                      "newton": totals["newton_iterations"] if totals else "",
                      "cuts": totals["time_step_cuts"] if totals else ""})
 
-    with open(os.path.join(DATA, "twophase-convergence.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv("twophase-convergence", rows)
 
     def rate(n, key):
         if n == 0 or n >= len(LEVELS):
@@ -153,7 +150,7 @@ set format y '%.2e'
 plot {pg}
 unset multiplot
 """
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
     os.remove(dat)
     print(f"wrote {DATA}/twophase-convergence.{{csv,md,png}}")
 

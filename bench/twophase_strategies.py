@@ -20,10 +20,10 @@ import json
 import os
 import subprocess
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAM = os.path.join(ROOT, "build", "step-twophase", "step-twophase")
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+
+PROGRAM = program("twophase")
 SCENE = os.path.join(ROOT, "parameters", "twophase-benchmark.prm")
-DATA = os.path.join(ROOT, "doc", "data")
 
 # name, settings, published (Newton, GMRES) to 5e5 years [BDMV20]
 RUNS = [
@@ -140,10 +140,7 @@ def main():
             "published_gmres_5e5": published[1] if published else "",
         })
 
-    with open(os.path.join(DATA, "twophase-strategies.csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv("twophase-strategies", rows)
 
     lines = ["| run | Newton to 5e5 yr | GMRES to 5e5 yr | published Newton / GMRES "
              "| Newton to 1e6 yr | GMRES to 1e6 yr | cuts (rejected Newton) | "
@@ -225,7 +222,7 @@ set ylabel 'GMRES iterations'
 plot {plots_gmres}
 unset multiplot
 """
-    subprocess.run(["gnuplot"], input=script.encode(), check=True)
+    gnuplot(script)
     os.remove(dat)
     print(f"wrote {DATA}/twophase-strategies.{{csv,md,png}}")
 

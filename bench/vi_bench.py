@@ -1,6 +1,7 @@
 """What the studies in bench/ share: where the programs and the data are,
-running a program with --set overrides, and writing a table as CSV and
-Markdown (doc/data/<stem>.{csv,md}) and reading the CSV back."""
+running a program with --set overrides, writing a table as CSV and
+Markdown (doc/data/<stem>.{csv,md}) and reading the CSV back, and running
+gnuplot."""
 import csv
 import json
 import os
@@ -41,25 +42,37 @@ def estimator_seconds(timing):
                if section.startswith("estimators"))
 
 
-def write_csv(stem, rows):
-    """rows (dicts) to doc/data/<stem>.csv, all keys (read_table reads it)."""
+def write_csv(stem, rows, columns=None):
+    """rows (dicts) to doc/data/<stem>.csv, the columns (default: the keys
+    of the first row) in that order (read_table reads it)."""
     os.makedirs(DATA, exist_ok=True)
     with open(os.path.join(DATA, stem + ".csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer = csv.DictWriter(f, fieldnames=columns or list(rows[0].keys()))
         writer.writeheader()
         writer.writerows(rows)
 
 
 def write_table(stem, rows, header, formats):
-    """rows (dicts) to doc/data/<stem>.csv, all keys; and to <stem>.md, the
-    columns of formats ((key, format) pairs) under header, NaN as '-'."""
+    """rows (dicts) to doc/data/<stem>.csv, all keys; and to <stem>.md (see
+    write_markdown)."""
     write_csv(stem, rows)
+    write_markdown(stem, rows, header, formats)
+
+
+def write_markdown(stem, rows, header, formats):
+    """rows (dicts) to doc/data/<stem>.md: the columns of formats ((key,
+    format) pairs) under header, NaN (or a missing key) as '-'."""
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in rows:
         lines.append("| " + " | ".join(fmt.format(row.get(key, float("nan"))).replace("nan", "-")
                                        for key, fmt in formats) + " |")
     with open(os.path.join(DATA, stem + ".md"), "w") as f:
         f.write("\n".join(lines) + "\n")
+
+
+def gnuplot(script):
+    """Run gnuplot on the script (a string); it writes the files it names."""
+    subprocess.run(["gnuplot"], input=script.encode(), check=True)
 
 
 def read_table(stem):
