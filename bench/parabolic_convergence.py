@@ -71,7 +71,6 @@ def rates(rows, key):
     return out
 
 
-
 def main():
     os.makedirs(DATA, exist_ok=True)
     base = {"Nonlinear solver/Strategy": "exact", "Linear solver/Solver": "direct",

@@ -70,7 +70,6 @@ def onset(summary):
     return times
 
 
-
 def main():
     os.makedirs(DATA, exist_ok=True)
     rows, onsets, step_rows = [], [], []
