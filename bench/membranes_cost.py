@@ -250,6 +250,7 @@ def main():
     # and the start of the nested sequence, when it is not the default's
     START = ", from 768 cells" if COARSE_START else ""
     START += f", Check interval = {CHECK_INTERVAL}" if CHECK_INTERVAL else ""
+    START += f", the median of {REPEAT} runs" if REPEAT > 1 else ""
     curves = []
     for (np, n_threads, index), colour in zip(groups, (1, 4, 6)):
         label = f"np = {np} x {n_threads} thread{'s' if n_threads > 1 else ''}"
