@@ -22,12 +22,10 @@ run takes 20 - 60 minutes on a 2-core machine (effectivity alone: a few,
 dual-norms about 5).
 """
 import csv
-import json
 import os
-import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_table
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_table
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-estimators")
@@ -35,17 +33,10 @@ QUICK = "--quick" in sys.argv
 
 
 def run(scene, name, settings):
-    directory = os.path.join(OUT, name)
-    command = [PROGRAM, os.path.join(ROOT, "parameters", scene)]
-    for key, value in settings.items():
-        command += ["--set", f"{key}={value}"]
-    if QUICK:
-        command += ["--set", "Mesh/Initial refinements=3"]
-    command += ["--set", f"Output/Directory={directory}",
-                "--set", "Output/Write VTU=false"]
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(directory, "summary.json")) as f:
-        summary = json.load(f)
+    quick = {"Mesh/Initial refinements": 3} if QUICK else {}
+    summary = run_program(PROGRAM, scene,
+                          {**settings, **quick, "Output/Write VTU": "false"},
+                          os.path.join(OUT, name))
     print(f"  {name}: done", flush=True)
     return summary
 

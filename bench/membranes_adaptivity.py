@@ -13,12 +13,10 @@ doc/data/adaptivity.csv, without running them.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree can
 be rebuilt while the study runs).
 """
-import json
 import os
-import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, read_table, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, read_table, run as run_program, write_csv
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-adaptivity")
@@ -50,17 +48,11 @@ FIT_FROM = (1000, 10000)
 
 def run(case, p, refinement, cycles):
     name = f"{case}-p{p}-{refinement}"
-    directory = os.path.join(OUT, name)
     settings = {"Discretization/Polynomial degree": p, "Mesh/Refinement": refinement,
                 "Mesh/Cycles": cycles, "Mesh/Initial refinements": CASES[case][1],
                 "Mesh/Marking": "dorfler", "Mesh/Refinement fraction": 0.5,
-                "Output/Write VTU": "false", "Output/Directory": directory}
-    command = [PROGRAM, os.path.join(ROOT, "parameters", CASES[case][0])]
-    for key, value in settings.items():
-        command += ["--set", f"{key}={value}"]
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(directory, "summary.json")) as f:
-        summary = json.load(f)
+                "Output/Write VTU": "false"}
+    summary = run_program(PROGRAM, CASES[case][0], settings, os.path.join(OUT, name))
     print(f"  {name}: done", flush=True)
     return summary["cycles"]
 

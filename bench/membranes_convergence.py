@@ -11,13 +11,11 @@ Usage: bench/membranes_convergence.py [--quick]   (from the repository root,
 after ./demo.sh or ./test.sh has built the programs). --quick runs fewer
 cycles for a smoke test.
 """
-import json
 import math
 import os
-import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
 
 PROGRAM = program("membranes")
 QUICK = "--quick" in sys.argv
@@ -30,17 +28,13 @@ RUNS = [("seed-smooth", 1, 6), ("seed-smooth", 2, 6), ("seed-smooth", 3, 5),
 def run(test, degree, cycles, nested):
     if QUICK:
         cycles = min(cycles, 3)
-    out = os.path.join(ROOT, "output", "bench", f"{test}-p{degree}-nested-{nested}")
-    subprocess.run([PROGRAM, os.path.join(ROOT, "parameters", f"membranes-{test}.prm"),
-                    "--set", f"Discretization/Polynomial degree={degree}",
-                    "--set", f"Mesh/Cycles={cycles}",
-                    "--set", f"Nonlinear solver/Nested iteration={nested}",
-                    # From zero, Newton-min needs O(1/h) iterations.
-                    "--set", "Nonlinear solver/Maximum iterations=500",
-                    "--set", f"Output/Directory={out}"],
-                   check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(out, "summary.json")) as f:
-        return json.load(f)["cycles"]
+    settings = {"Discretization/Polynomial degree": degree, "Mesh/Cycles": cycles,
+                "Nonlinear solver/Nested iteration": nested,
+                # From zero, Newton-min needs O(1/h) iterations.
+                "Nonlinear solver/Maximum iterations": 500}
+    return run_program(PROGRAM, f"membranes-{test}.prm", settings,
+                       os.path.join(ROOT, "output", "bench", f"{test}-p{degree}-nested-{nested}")
+                       )["cycles"]
 
 
 def rate(previous, current):

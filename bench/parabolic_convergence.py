@@ -28,24 +28,17 @@ import os
 import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
 
 PROGRAM = program("parabolic")
 OUT = os.path.join(ROOT, "output", "bench-parabolic-convergence")
 QUICK = "--quick" in sys.argv
-SCENE = os.path.join(ROOT, "parameters", "parabolic-expression.prm")
+SCENE = "parabolic-expression.prm"
 
 
 def run(name, settings):
-    directory = os.path.join(OUT, name)
-    command = [PROGRAM, SCENE]
-    for key, value in settings.items():
-        command += ["--set", f"{key}={value}"]
-    command += ["--set", f"Output/Directory={directory}",
-                "--set", "Output/Write VTU=false"]
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(directory, "summary.json")) as f:
-        summary = json.load(f)
+    summary = run_program(PROGRAM, SCENE, {**settings, "Output/Write VTU": "false"},
+                          os.path.join(OUT, name))
     t = summary["totals"]
     print(f"  {name}: {t['steps']} steps, error {t['error']:.4e}, "
           f"eta {t['eta']:.4e}", flush=True)

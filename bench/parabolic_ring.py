@@ -20,12 +20,10 @@ published setting). The full study takes about 20 minutes on a shared
 2-core machine (at 4998727). STEP_PARABOLIC names another binary (e.g. a copy, so that
 the build tree can be rebuilt while the study runs).
 """
-import json
 import os
-import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
 
 PROGRAM = program("parabolic")
 OUT = os.path.join(ROOT, "output", "bench-parabolic-ring")
@@ -45,16 +43,9 @@ PUBLISHED = {
 
 def run(name, settings):
     directory = os.path.join(OUT, name)
-    command = [PROGRAM, os.path.join(ROOT, "parameters", "parabolic-ring.prm")]
-    for key, value in settings.items():
-        command += ["--set", f"{key}={value}"]
-    if QUICK:
-        command += ["--set", "Time stepping/Final time=0.1"]
-    command += ["--set", f"Output/Directory={directory}",
-                "--set", "Output/Write VTU=false"]
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(directory, "summary.json")) as f:
-        summary = json.load(f)
+    quick = {"Time stepping/Final time": 0.1} if QUICK else {}
+    summary = run_program(PROGRAM, "parabolic-ring.prm",
+                          {**settings, **quick, "Output/Write VTU": "false"}, directory)
     print(f"  {name}: {summary['totals']['newton_iterations']} Newton, "
           f"{summary['totals']['linear_iterations']} GMRES", flush=True)
     return directory, summary
