@@ -176,8 +176,9 @@ def run_study():
 
 def median_runs(rows):
     """For each configuration and mesh, the row of the run whose ratio is
-    the median of the runs', with the range of the ratio and of estimators
-    / rest over the runs (and whether the runs' counts agree)."""
+    the median of the runs' (for an even number of runs the lower of the
+    two middle ones), with the range of the ratio and of estimators / rest
+    over the runs (and whether the runs' counts agree)."""
     medians = []
     for key in dict.fromkeys((r["configuration"], r["cycle"]) for r in rows):
         runs = sorted((r for r in rows if (r["configuration"], r["cycle"]) == key),
