@@ -18,13 +18,11 @@ script stops if they differ).
 Usage: bench/hho_convergence.py [--quick]   (from the repository root, after
 the build; --quick runs fewer meshes for a smoke test).
 """
-import json
 import math
 import os
-import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
 
 HHO = program("hho")
 FEM = program("membranes")
@@ -37,20 +35,15 @@ NEWTON_MESHES = 2 if QUICK else 4   # 64 ... 4096 cells
 
 def run(program, test, degree, cycles, nested):
     name = "hho" if program == HHO else "membranes"
-    out = os.path.join(ROOT, "output", "bench",
-                       f"{name}-{test}-p{degree}-nested-{nested}")
-    subprocess.run([program, os.path.join(ROOT, "parameters", f"{name}-{test}.prm"),
-                    "--set", "Mesh/Initial refinements=3",
-                    "--set", f"Mesh/Cycles={cycles}",
-                    "--set", f"Discretization/Polynomial degree={degree}",
-                    "--set", f"Nonlinear solver/Nested iteration={nested}",
-                    # From zero, Newton-min needs O(1/h) iterations.
-                    "--set", "Nonlinear solver/Maximum iterations=500",
-                    "--set", "Output/Write VTU=false",
-                    "--set", f"Output/Directory={out}"],
-                   check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(out, "summary.json")) as f:
-        return json.load(f)["cycles"]
+    settings = {"Mesh/Initial refinements": 3, "Mesh/Cycles": cycles,
+                "Discretization/Polynomial degree": degree,
+                "Nonlinear solver/Nested iteration": nested,
+                # From zero, Newton-min needs O(1/h) iterations.
+                "Nonlinear solver/Maximum iterations": 500,
+                "Output/Write VTU": "false"}
+    return run_program(program, f"{name}-{test}.prm", settings,
+                       os.path.join(ROOT, "output", "bench",
+                                    f"{name}-{test}-p{degree}-nested-{nested}"))["cycles"]
 
 
 def expected_dofs(cells, degree):

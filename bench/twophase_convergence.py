@@ -15,15 +15,13 @@ Usage: bench/twophase_convergence.py   (from the repository root, after the
 build).
 """
 import csv
-import json
 import math
 import os
-import subprocess
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
 
 PROGRAM = program("twophase")
-SCENE = os.path.join(ROOT, "parameters", "twophase-benchmark.prm")
+SCENE = "twophase-benchmark.prm"
 LEVELS = [(250, 20000), (500, 10000), (1000, 5000), (2000, 2500)]
 REFERENCE = (4000, 1250)
 GAS = 1e-6
@@ -32,18 +30,13 @@ GAS = 1e-6
 def run(cells, dt):
     out = os.path.join(ROOT, "output", "bench", "twophase-convergence",
                        f"{cells}-cells")
-    subprocess.run([PROGRAM, SCENE,
-                    "--set", f"Output/Directory={out}",
-                    "--set", "Output/Write VTU=false",
-                    "--set", "Output/Progress interval=100000",
-                    "--set", f"Mesh/Number of cells={cells}",
-                    "--set", f"Time stepping/Time step={dt}",
-                    "--set", "Time stepping/Output times=1000000"],
-                   check=True, stdout=subprocess.DEVNULL)
+    totals = run_program(PROGRAM, SCENE,
+                         {"Output/Write VTU": "false",
+                          "Output/Progress interval": 100000,
+                          "Mesh/Number of cells": cells, "Time stepping/Time step": dt,
+                          "Time stepping/Output times": 1000000}, out)["totals"]
     with open(os.path.join(out, "x0.csv")) as f:
         x0 = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
-    with open(os.path.join(out, "summary.json")) as f:
-        totals = json.load(f)["totals"]
     return x0, totals
 
 
