@@ -21,12 +21,10 @@ runs only those. The whole study takes about 12 minutes. The first two
 studies switch the estimators off (the scenes of step-membranes turn them
 on; step-hho has none): a scene computes only what it needs.
 """
-import json
 import os
-import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program as vi_program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
 
 OUT = os.path.join(ROOT, "output", "bench-time")
 QUICK = "--quick" in sys.argv
@@ -34,19 +32,12 @@ ONLY = [a for a in sys.argv[1:] if not a.startswith("--")]
 NO_ESTIMATES = {"Estimators/Enabled": "false"}
 
 
-def run(program, scene, name, settings, cycles):
-    directory = os.path.join(OUT, name)
-    settings = dict(settings)
-    settings["Mesh/Cycles"] = max(cycles - (2 if QUICK else 0), 1)
-    settings["Output/Write VTU"] = "false"
-    settings["Output/Directory"] = directory
-    command = [vi_program(program),
-               os.path.join(ROOT, "parameters", scene)]
-    for key, value in settings.items():
-        command += ["--set", f"{key}={value}"]
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(directory, "summary.json")) as f:
-        cycles = json.load(f)["cycles"]
+def run(step, scene, name, settings, cycles):
+    """Run step-<step> on parameters/<scene> as run `name`; its rows, with
+    the wall time summed over the meshes."""
+    settings = {**settings, "Mesh/Cycles": max(cycles - (2 if QUICK else 0), 1),
+                "Output/Write VTU": "false"}
+    cycles = run_program(program(step), scene, settings, os.path.join(OUT, name))["cycles"]
     print(f"  {name}: done", flush=True)
     rows, elapsed = [], 0.
     for c in cycles:
