@@ -24,8 +24,6 @@ import sys
 
 from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
 
-HHO = program("hho")
-FEM = program("membranes")
 QUICK = "--quick" in sys.argv
 DEGREES = [1, 2, 3, 4]
 TESTS = ["seed-smooth", "seed-jump"]
@@ -33,15 +31,15 @@ RATE_MESHES = 3 if QUICK else 5     # 64 ... 16384 cells
 NEWTON_MESHES = 2 if QUICK else 4   # 64 ... 4096 cells
 
 
-def run(program, test, degree, cycles, nested):
-    name = "hho" if program == HHO else "membranes"
+def run(name, test, degree, cycles, nested):
+    """step-<name> (hho or membranes) on parameters/<name>-<test>.prm."""
     settings = {"Mesh/Initial refinements": 3, "Mesh/Cycles": cycles,
                 "Discretization/Polynomial degree": degree,
                 "Nonlinear solver/Nested iteration": nested,
                 # From zero, Newton-min needs O(1/h) iterations.
                 "Nonlinear solver/Maximum iterations": 500,
                 "Output/Write VTU": "false"}
-    return run_program(program, f"{name}-{test}.prm", settings,
+    return run_program(program(name), f"{name}-{test}.prm", settings,
                        os.path.join(ROOT, "output", "bench",
                                     f"{name}-{test}-p{degree}-nested-{nested}"))["cycles"]
 
@@ -66,16 +64,16 @@ def main():
     rows, results = [], {}
     for test in TESTS:
         for degree in DEGREES:
-            runs = {("hho", "true"): run(HHO, test, degree, RATE_MESHES, "true"),
-                    ("hho", "false"): run(HHO, test, degree, NEWTON_MESHES, "false"),
-                    ("fem", "true"): run(FEM, test, degree, NEWTON_MESHES, "true"),
-                    ("fem", "false"): run(FEM, test, degree, NEWTON_MESHES, "false")}
+            runs = {("hho", "true"): run("hho", test, degree, RATE_MESHES, "true"),
+                    ("hho", "false"): run("hho", test, degree, NEWTON_MESHES, "false"),
+                    ("fem", "true"): run("membranes", test, degree, NEWTON_MESHES, "true"),
+                    ("fem", "false"): run("membranes", test, degree, NEWTON_MESHES, "false")}
             results[(test, degree)] = runs
             print(f"{test} p={degree}: done", flush=True)
-            for (program, nested), records in runs.items():
+            for (method, nested), records in runs.items():
                 for n, c in enumerate(records):
                     rows.append({
-                        "program": program, "test": test, "p": degree,
+                        "program": method, "test": test, "p": degree,
                         "nested": nested, "cycle": c["cycle"], "cells": c["cells"],
                         "dofs": c["dofs"], "dofs_condensed": c.get("dofs_condensed", ""),
                         "newton": c["newton_iterations"],

@@ -42,12 +42,12 @@ def estimator_seconds(timing):
                if section.startswith("estimators"))
 
 
-def write_csv(stem, rows, columns=None):
-    """rows (dicts) to doc/data/<stem>.csv, the columns (default: the keys
-    of the first row) in that order (read_table reads it)."""
+def write_csv(stem, rows):
+    """rows (dicts) to doc/data/<stem>.csv, the keys of the first row as the
+    columns (read_table reads it)."""
     os.makedirs(DATA, exist_ok=True)
     with open(os.path.join(DATA, stem + ".csv"), "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=columns or list(rows[0].keys()))
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
         writer.writerows(rows)
 
