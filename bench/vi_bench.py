@@ -18,17 +18,18 @@ def program(name):
                           os.path.join(ROOT, "build", f"step-{name}", f"step-{name}"))
 
 
-def run(binary, prm, settings, directory, np=1, threads=None):
+def run(binary, prm, settings, directory, np=1, threads=None, environment=None):
     """Run binary on parameters/<prm> with the settings (section/name:
     value) and Output/Directory = directory, on np processes of at most
     `threads` threads each (DEAL_II_NUM_THREADS; None: deal.II's default,
-    all cores shared by the processes); return its summary.json."""
+    all cores shared by the processes), with the variables of
+    `environment` added to the environment; return its summary.json."""
     command = [binary, os.path.join(ROOT, "parameters", prm)]
     for key, value in {**settings, "Output/Directory": directory}.items():
         command += ["--set", f"{key}={value}"]
     if np > 1:
         command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(np)] + command
-    env = dict(os.environ)
+    env = {**os.environ, **(environment or {})}
     if threads is not None:
         env["DEAL_II_NUM_THREADS"] = str(threads)
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL, env=env)

@@ -7,6 +7,11 @@ cd "$(dirname "$0")/.."
 
 packages=(
   libdeal.ii-dev   # deal.II 9.4 with Trilinos, p4est, PETSc, SUNDIALS, MPI
+  # An optimised BLAS for the dense kernels of the direct solvers (MUMPS);
+  # Debian's alternatives then prefer it to the reference BLAS that
+  # libdeal.ii-dev pulls in. The threaded build, not libopenblas0-serial,
+  # which is not safe to call from deal.II's threads (doc/performance.md).
+  libopenblas0-pthread
   openmpi-bin      # mpirun for parallel runs and the MPI tests
   numdiff          # tolerant comparison of test output
   libgtest-dev     # GoogleTest unit tests
