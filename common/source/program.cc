@@ -6,6 +6,7 @@
 #include <vi/program.h>
 #include <vi/version.h>
 
+#include <dlfcn.h>
 #include <filesystem>
 #include <fstream>
 #if defined(__GLIBC__)
@@ -105,6 +106,33 @@ namespace VI
     }
 
 
+    /**
+     * OpenBLAS's sequential build (Debian's libopenblas0-serial) is not
+     * safe to call from several threads at once, and deal.II's worker
+     * threads call LAPACK concurrently (the local solves of step-hho):
+     * with it, tests of step-hho failed on two threads and passed on one
+     * (doc/performance.md, "The BLAS of the direct solver"). OpenBLAS
+     * reports its threading model through openblas_get_parallel(), 0 for
+     * the sequential build; other BLAS libraries do not have the symbol.
+     * With that build, run on one thread per process and say so.
+     */
+    void
+    avoid_concurrent_calls_to_sequential_openblas(const MPI_Comm comm)
+    {
+      using Query = int (*)();
+      const auto query =
+        reinterpret_cast<Query>(dlsym(RTLD_DEFAULT, "openblas_get_parallel"));
+      if (query == nullptr || query() != 0 || MultithreadInfo::n_threads() == 1)
+        return;
+      MultithreadInfo::set_thread_limit(1);
+      if (Utilities::MPI::this_mpi_process(comm) == 0)
+        std::cerr << "Note: the BLAS is OpenBLAS's sequential build, which is "
+                     "not safe to call from several threads; running on one "
+                     "thread per process (libopenblas0-pthread allows more)"
+                  << std::endl;
+    }
+
+
     int
     report(const MPI_Comm comm, const std::string &message, const int status)
     {
@@ -168,6 +196,7 @@ namespace VI
 #endif
     Utilities::MPI::MPI_InitFinalize mpi(argc, argv);
     const MPI_Comm                   comm = MPI_COMM_WORLD;
+    avoid_concurrent_calls_to_sequential_openblas(comm);
 
     ParameterHandler prm;
     program.declare_parameters(prm);
