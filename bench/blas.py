@@ -37,6 +37,7 @@ machine). STEP_MEMBRANES names another binary.
 """
 import os
 import statistics
+import subprocess
 import sys
 
 from vi_bench import ROOT, program, run, write_table
@@ -86,6 +87,16 @@ def measure(scene, prm, settings, np, threads, blas, round_):
 def main():
     blas = system_blas()
     print(f"system BLAS: {blas}")
+    for library in ("blas/libblas.so.3", "lapack/liblapack.so.3"):
+        if not os.path.exists(f"{LIBRARIES}/{library}"):
+            sys.exit(f"no reference BLAS at {LIBRARIES}/{library} (Debian's "
+                     "libblas3 and liblapack3): nothing to compare with")
+    # The loader must take the reference BLAS from LD_LIBRARY_PATH.
+    loaded = subprocess.run(["ldd", PROGRAM], capture_output=True, text=True,
+                            env={**os.environ, **REFERENCE}).stdout
+    if f"{LIBRARIES}/blas/libblas.so.3" not in loaded:
+        sys.exit("LD_LIBRARY_PATH does not select the reference BLAS for "
+                 f"{PROGRAM}")
     if blas.startswith(f"{LIBRARIES}/blas/"):
         sys.exit("the system's BLAS is the reference BLAS: nothing to compare "
                  "(install libopenblas0-pthread, as scripts/setup.sh does)")
