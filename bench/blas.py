@@ -26,13 +26,15 @@ change.
                     of bench/error_vs_time.py), estimators off, one process
   disk Q1 AMG       the cost study's configuration (bench/membranes_cost.py
                     --c-function=fischer-burmeister --flux-degree=p-1
-                    --coarse-start), 5 meshes to 197121 unknowns per field,
-                    one process of one thread
+                    --coarse-start), 5 meshes to 197121 unknowns per field
+                    on one process of one thread, and 6 meshes to 787457
+                    on two processes (where OpenBLAS's threads could
+                    compete with the other rank for the two cores)
 
 Writes doc/data/blas.{csv,md}. Usage, from the repository root after
 ./demo.sh or ./test.sh:
   bench/blas.py [--rounds=N]
-N rounds (default 3) take about 3 minutes each (OpenBLAS on this
+N rounds (default 3) take about 4 minutes each (OpenBLAS on this
 machine). STEP_MEMBRANES names another binary.
 """
 import os
@@ -63,6 +65,15 @@ SCENES = [
       "Estimators/At every check": "false",
       "Estimators/Sharpen final estimate": "false",
       "Estimators/Flux degree": "p-1"}, 1, 1),
+    ("disk Q1 AMG", "estimators-disk-p1.prm",
+     {"Mesh/Initial refinements": 3, "Mesh/Cycles": 6,
+      "Nonlinear solver/Strategy": "adaptive",
+      "Nonlinear solver/Nested iteration": "true",
+      "Nonlinear solver/C-function": "fischer-burmeister",
+      "Linear solver/Preconditioner": "amg",
+      "Estimators/At every check": "false",
+      "Estimators/Sharpen final estimate": "false",
+      "Estimators/Flux degree": "p-1"}, 2, None),
 ]
 
 
