@@ -93,16 +93,15 @@ def measure(scene, prm, settings, np, threads, blas, round_):
 def main():
     blas = system_blas()
     print(f"system BLAS: {blas}")
-    for library in ("blas/libblas.so.3", "lapack/liblapack.so.3"):
-        if not os.path.exists(f"{LIBRARIES}/{library}"):
-            sys.exit(f"no reference BLAS at {LIBRARIES}/{library} (Debian's "
-                     "libblas3 and liblapack3): nothing to compare with")
-    # The loader must take the reference BLAS from LD_LIBRARY_PATH.
+    # The loader must take the reference BLAS and LAPACK from LD_LIBRARY_PATH
+    # (missing if Debian's libblas3, liblapack3 are not installed).
     loaded = subprocess.run(["ldd", PROGRAM], capture_output=True, text=True,
                             env={**os.environ, **REFERENCE}).stdout
-    if f"{LIBRARIES}/blas/libblas.so.3" not in loaded:
-        sys.exit("LD_LIBRARY_PATH does not select the reference BLAS for "
-                 f"{PROGRAM}")
+    for library in ("blas/libblas.so.3", "lapack/liblapack.so.3"):
+        if f"{LIBRARIES}/{library}" not in loaded:
+            sys.exit(f"LD_LIBRARY_PATH does not give {PROGRAM} the reference "
+                     f"{LIBRARIES}/{library} (Debian's libblas3, liblapack3): "
+                     "nothing to compare with")
     if blas.startswith(f"{LIBRARIES}/blas/"):
         sys.exit("the system's BLAS is the reference BLAS: nothing to compare "
                  "(install libopenblas0-pthread, as scripts/setup.sh does)")
