@@ -7,6 +7,7 @@ cd "$(dirname "$0")/.."
 
 packages=(
   libdeal.ii-dev   # deal.II 9.4 with Trilinos, p4est, PETSc, SUNDIALS, MPI
+  libmuparser-dev  # formulas of Problem/Expression (deal.II depends on it too)
   # An optimised BLAS for the dense kernels of the direct solvers (MUMPS);
   # Debian's alternatives then prefer it to the reference BLAS that
   # libdeal.ii-dev pulls in. The threaded build, not libopenblas0-serial,

@@ -1,8 +1,7 @@
 #include "membrane_problem.h"
 
-#include <deal.II/base/multithread_info.h>
+#include <deal.II/base/parallel.h>
 #include <deal.II/base/quadrature_lib.h>
-#include <deal.II/base/thread_management.h>
 #include <deal.II/base/utilities.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
@@ -350,10 +349,9 @@ namespace StepMembranes
 
   template <int dim>
   void
-  MembraneProblem<dim>::on_cells_with_own_data(
+  MembraneProblem<dim>::on_owned_cells_in_parallel(
     const std::function<
-      void(const VI::MembraneData<dim> &,
-           const std::vector<typename DoFHandler<dim>::active_cell_iterator> &,
+      void(const std::vector<typename DoFHandler<dim>::active_cell_iterator> &,
            const std::size_t,
            const std::size_t)> &work) const
   {
@@ -361,39 +359,13 @@ namespace StepMembranes
     for (const auto &cell : dof_handler.active_cell_iterators())
       if (cell->is_locally_owned())
         cells.push_back(cell);
-    const std::size_t n_parts =
-      std::clamp<std::size_t>(cells.size() / 1024,
-                              1,
-                              MultithreadInfo::n_threads());
-    // (made here, one after the other: parsing is not thread-safe)
-    std::vector<VI::MembraneData<dim>> copies;
-    for (std::size_t part = 1; part < n_parts; ++part)
-      copies.push_back(
-        VI::make_membrane_data<dim>(parameters.problem,
-                                    VI::geometry_center<dim>(geometry)));
-    const auto run = [&](const std::size_t part) {
-      work(part == 0 ? data : copies[part - 1],
-           cells,
-           cells.size() * part / n_parts,
-           cells.size() * (part + 1) / n_parts);
-    };
-    Threads::TaskGroup<void> parts;
-    for (std::size_t part = 1; part < n_parts; ++part)
-      parts += Threads::new_task([&run, part]() { run(part); });
-    // (the tasks use `run` and `cells`: wait for them before an exception
-    // of this part leaves the function; join_all rethrows theirs)
-    std::exception_ptr failure;
-    try
-      {
-        run(0);
-      }
-    catch (...)
-      {
-        failure = std::current_exception();
-      }
-    parts.join_all();
-    if (failure)
-      std::rethrow_exception(failure);
+    parallel::apply_to_subranges(
+      std::size_t(0),
+      cells.size(),
+      [&](const std::size_t begin, const std::size_t end) {
+        work(cells, begin, end);
+      },
+      /*grainsize=*/1024);
   }
 
 
@@ -417,26 +389,24 @@ namespace StepMembranes
     for (unsigned int a = 0; a < 2; ++a)
       load_values[a].assign(triangulation.n_active_cells() * quadrature.size(),
                             0.);
-    on_cells_with_own_data([&](const VI::MembraneData<dim> &d,
-                               const auto                  &cells,
-                               const std::size_t            begin,
-                               const std::size_t            end) {
-      const Function<dim> *f[2] = {d.f1.get(), d.f2.get()};
-      FEValues<dim> where(*mapping, fe, quadrature, update_quadrature_points);
-      std::vector<double> values(quadrature.size());
-      for (std::size_t c = begin; c < end; ++c)
-        {
-          where.reinit(cells[c]);
-          for (unsigned int a = 0; a < 2; ++a)
-            {
-              f[a]->value_list(where.get_quadrature_points(), values);
-              std::copy(values.begin(),
-                        values.end(),
-                        load_values[a].begin() +
-                          cells[c]->active_cell_index() * quadrature.size());
-            }
-        }
-    });
+    on_owned_cells_in_parallel(
+      [&](const auto &cells, const std::size_t begin, const std::size_t end) {
+        const Function<dim> *f[2] = {data.f1.get(), data.f2.get()};
+        FEValues<dim> where(*mapping, fe, quadrature, update_quadrature_points);
+        std::vector<double> values(quadrature.size());
+        for (std::size_t c = begin; c < end; ++c)
+          {
+            where.reinit(cells[c]);
+            for (unsigned int a = 0; a < 2; ++a)
+              {
+                f[a]->value_list(where.get_quadrature_points(), values);
+                std::copy(values.begin(),
+                          values.end(),
+                          load_values[a].begin() +
+                            cells[c]->active_cell_index() * quadrature.size());
+              }
+          }
+      });
     loads.stop();
 
     // (a mass matrix for p >= 2 only, see setup_system())
@@ -1638,49 +1608,49 @@ namespace StepMembranes
     const unsigned int     n_cells = triangulation.n_active_cells();
     dealii::Vector<double> cell_u1(n_cells), cell_u2(n_cells),
       cell_lambda(n_cells);
-    on_cells_with_own_data([&](const VI::MembraneData<dim> &d,
-                               const auto                  &cells,
-                               const std::size_t            begin,
-                               const std::size_t            end) {
-      FEValues<dim>               values(*mapping,
-                           fe,
-                           error_quadrature,
-                           update_values | update_gradients |
-                             update_quadrature_points | update_JxW_values);
-      const unsigned int          n_q = error_quadrature.size();
-      std::vector<double>         coefficients, lambda(n_q), exact_lambda(n_q);
-      std::vector<Tensor<1, dim>> gradient(n_q), exact_gradient(n_q);
-      const Vector               *u[2]  = {&u1_h, &u2_h};
-      const Function<dim>    *exact[2]  = {d.exact_u1.get(), d.exact_u2.get()};
-      dealii::Vector<double> *cell_u[2] = {&cell_u1, &cell_u2};
-      for (std::size_t c = begin; c < end; ++c)
-        {
-          const auto &cell = cells[c];
-          values.reinit(cell);
-          const auto &points = values.get_quadrature_points();
-          for (unsigned int a = 0; a < 2; ++a)
-            {
-              VI::cell_function_values(
-                values, cell, *u[a], coefficients, nullptr, &gradient);
-              exact[a]->gradient_list(points, exact_gradient);
-              double sum = 0;
-              for (unsigned int q = 0; q < n_q; ++q)
-                sum += (exact_gradient[q] - gradient[q]).norm_square() *
-                       values.JxW(q);
-              (*cell_u[a])[cell->active_cell_index()] = std::sqrt(sum);
-            }
-          if (d.exact_lambda)
-            {
-              VI::cell_function_values(
-                values, cell, lambda_h, coefficients, &lambda);
-              d.exact_lambda->value_list(points, exact_lambda);
-              double sum = 0;
-              for (unsigned int q = 0; q < n_q; ++q)
-                sum += std::pow(exact_lambda[q] - lambda[q], 2) * values.JxW(q);
-              cell_lambda[cell->active_cell_index()] = std::sqrt(sum);
-            }
-        }
-    });
+    on_owned_cells_in_parallel(
+      [&](const auto &cells, const std::size_t begin, const std::size_t end) {
+        FEValues<dim>       values(*mapping,
+                             fe,
+                             error_quadrature,
+                             update_values | update_gradients |
+                               update_quadrature_points | update_JxW_values);
+        const unsigned int  n_q = error_quadrature.size();
+        std::vector<double> coefficients, lambda(n_q), exact_lambda(n_q);
+        std::vector<Tensor<1, dim>> gradient(n_q), exact_gradient(n_q);
+        const Vector               *u[2]      = {&u1_h, &u2_h};
+        const Function<dim>        *exact[2]  = {data.exact_u1.get(),
+                                                 data.exact_u2.get()};
+        dealii::Vector<double>     *cell_u[2] = {&cell_u1, &cell_u2};
+        for (std::size_t c = begin; c < end; ++c)
+          {
+            const auto &cell = cells[c];
+            values.reinit(cell);
+            const auto &points = values.get_quadrature_points();
+            for (unsigned int a = 0; a < 2; ++a)
+              {
+                VI::cell_function_values(
+                  values, cell, *u[a], coefficients, nullptr, &gradient);
+                exact[a]->gradient_list(points, exact_gradient);
+                double sum = 0;
+                for (unsigned int q = 0; q < n_q; ++q)
+                  sum += (exact_gradient[q] - gradient[q]).norm_square() *
+                         values.JxW(q);
+                (*cell_u[a])[cell->active_cell_index()] = std::sqrt(sum);
+              }
+            if (data.exact_lambda)
+              {
+                VI::cell_function_values(
+                  values, cell, lambda_h, coefficients, &lambda);
+                data.exact_lambda->value_list(points, exact_lambda);
+                double sum = 0;
+                for (unsigned int q = 0; q < n_q; ++q)
+                  sum +=
+                    std::pow(exact_lambda[q] - lambda[q], 2) * values.JxW(q);
+                cell_lambda[cell->active_cell_index()] = std::sqrt(sum);
+              }
+          }
+      });
     const auto global = [&](const dealii::Vector<double> &cellwise) {
       return VectorTools::compute_global_error(triangulation,
                                                cellwise,
@@ -1879,20 +1849,12 @@ namespace StepMembranes
         VI::Json reference = VI::Json::array();
         for (unsigned int a = 0; a < 2; ++a)
           {
-            // (a fresh copy of the data per thread, as for the loads of the
-            // contact problem, see on_cells_with_own_data())
-            const LoadFactory<dim> make_load = [this, a]() {
-              const VI::MembraneData<dim> copy =
-                VI::make_membrane_data<dim>(parameters.problem,
-                                            VI::geometry_center<dim>(geometry));
-              return a == 0 ? copy.f1 : copy.f2;
-            };
             const PoissonCost cost =
               reference_poisson_solve(*mapping,
                                       dof_handler,
                                       quadrature,
                                       a == 0 ? data.mu1 : data.mu2,
-                                      make_load,
+                                      a == 0 ? *data.f1 : *data.f2,
                                       a == 0 ? *data.g1 : *data.g2,
                                       comm);
             VI::Json membrane      = VI::Json::object();

@@ -224,16 +224,12 @@ namespace StepMembranes
     postprocess();
     void
     compute_errors();
-    /// Call work(data, cells, begin, end) for parts [begin, end) of the
-    /// locally owned cells `cells`, concurrently on the threads, each part
-    /// with its own copy of the problem data. A parsed expression reaches its
-    /// parser through deal.II's thread-local storage, whose lock threads
-    /// sharing one FunctionParser take at every point; with a copy each they
-    /// share nothing (bench/parser_threads.cc measures both).
+    /// Call work(cells, begin, end) for parts [begin, end) of the locally
+    /// owned cells `cells`, concurrently on the threads (the problem data
+    /// may be evaluated from several threads at once).
     void
-    on_cells_with_own_data(
+    on_owned_cells_in_parallel(
       const std::function<void(
-        const VI::MembraneData<dim> &,
         const std::vector<typename DoFHandler<dim>::active_cell_iterator> &,
         const std::size_t,
         const std::size_t)> &work) const;

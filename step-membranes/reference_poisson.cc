@@ -23,47 +23,11 @@
 #include <vi/linear_solvers.h>
 
 #include <map>
-#include <memory>
-#include <mutex>
-#include <utility>
+#include <vector>
 
 namespace StepMembranes
 {
   using namespace dealii;
-
-  namespace
-  {
-    // The scratch of one thread: its FEValues and its own copy of f. The
-    // copies are made one at a time (parsing is not thread-safe); threads
-    // sharing one parsed function would wait for each other at every point.
-    template <int dim>
-    struct LoadScratch
-    {
-      LoadScratch(MeshWorker::ScratchData<dim> &&values,
-                  const LoadFactory<dim>        &make_load)
-          : values(std::move(values))
-          , make_load(make_load)
-          , f(make_load())
-      {
-      }
-
-      LoadScratch(const LoadScratch &other)
-          : values(other.values)
-          , make_load(other.make_load)
-          , f([&]() {
-            static std::mutex                 parsing;
-            const std::lock_guard<std::mutex> lock(parsing);
-            return make_load();
-          }())
-      {
-      }
-
-      MeshWorker::ScratchData<dim>         values;
-      LoadFactory<dim>                     make_load;
-      std::shared_ptr<const Function<dim>> f;
-    };
-  } // namespace
-
 
   template <int dim>
   PoissonCost
@@ -71,7 +35,7 @@ namespace StepMembranes
                           const DoFHandler<dim>         &dof_handler,
                           const Quadrature<dim>         &quadrature,
                           const double                   mu,
-                          const LoadFactory<dim>        &make_load,
+                          const Function<dim>           &f,
                           const Function<dim>           &g,
                           const MPI_Comm                 comm,
                           TrilinosWrappers::MPI::Vector *solution_out)
@@ -103,21 +67,26 @@ namespace StepMembranes
 
     // Assembled as the contact problem assembles (MeshWorker::mesh_loop:
     // the cell integrals on all threads, the additions through the
-    // constraints in one; f evaluated by each thread through its own copy),
+    // constraints in one; f at all points of a cell in one call),
     // so that threads favour neither side of the comparison.
     using Iterator = typename DoFHandler<dim>::active_cell_iterator;
     using CopyData = MeshWorker::CopyData<1, 1, 1>;
+    struct Scratch
+    {
+      MeshWorker::ScratchData<dim> values;
+      std::vector<double>          loads;
+    };
     const auto cell_worker =
-      [&](const Iterator &cell, LoadScratch<dim> &scratch, CopyData &copy) {
-        const FEValues<dim> &fe_values   = scratch.values.reinit(cell);
-        const auto          &points      = fe_values.get_quadrature_points();
-        FullMatrix<double>  &cell_matrix = copy.matrices[0];
-        Vector<double>      &cell_rhs    = copy.vectors[0];
-        cell_matrix                      = 0;
-        cell_rhs                         = 0;
+      [&](const Iterator &cell, Scratch &scratch, CopyData &copy) {
+        const FEValues<dim> &fe_values = scratch.values.reinit(cell);
+        f.value_list(fe_values.get_quadrature_points(), scratch.loads);
+        FullMatrix<double> &cell_matrix = copy.matrices[0];
+        Vector<double>     &cell_rhs    = copy.vectors[0];
+        cell_matrix                     = 0;
+        cell_rhs                        = 0;
         for (const unsigned int q : fe_values.quadrature_point_indices())
           {
-            const double load = scratch.f->value(points[q]);
+            const double load = scratch.loads[q];
             const double dx   = fe_values.JxW(q);
             for (const unsigned int i : fe_values.dof_indices())
               {
@@ -136,14 +105,13 @@ namespace StepMembranes
                                              matrix,
                                              rhs);
     };
-    const LoadScratch<dim> scratch(
-      MeshWorker::ScratchData<dim>(mapping,
-                                   dof_handler.get_fe(),
-                                   quadrature,
-                                   update_values | update_gradients |
-                                     update_quadrature_points |
-                                     update_JxW_values),
-      make_load);
+    const Scratch scratch{MeshWorker::ScratchData<dim>(
+                            mapping,
+                            dof_handler.get_fe(),
+                            quadrature,
+                            update_values | update_gradients |
+                              update_quadrature_points | update_JxW_values),
+                          std::vector<double>(quadrature.size())};
     MeshWorker::mesh_loop(dof_handler.active_cell_iterators() |
                             IteratorFilters::LocallyOwnedCell(),
                           cell_worker,
@@ -183,7 +151,7 @@ namespace StepMembranes
                           const DoFHandler<2> &,
                           const Quadrature<2> &,
                           const double,
-                          const LoadFactory<2> &,
+                          const Function<2> &,
                           const Function<2> &,
                           const MPI_Comm,
                           TrilinosWrappers::MPI::Vector *);

@@ -5,8 +5,6 @@
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/fe/mapping.h>
 
-#include <functional>
-#include <memory>
 #include <mpi.h>
 
 namespace dealii::TrilinosWrappers::MPI
@@ -23,11 +21,6 @@ namespace StepMembranes
     unsigned int iterations = 0; ///< CG iterations
   };
 
-  /// Makes a copy of the load f (one per thread).
-  template <int dim>
-  using LoadFactory =
-    std::function<std::shared_ptr<const dealii::Function<dim>>()>;
-
   /**
    * The cost unit of the cost benchmark (bench/membranes_cost.py,
    * doc/performance.md): one membrane without contact,
@@ -39,8 +32,8 @@ namespace StepMembranes
    * data), sparsity pattern, assembly through the constraints, AMG (Trilinos
    * ML, the settings of the contact preconditioner) and CG to a residual
    * 1e-8 times that of the zero vector. As in the contact problem, the cell
-   * integrals run on all threads, each evaluating f through its own copy
-   * made by `make_load`. All of it is timed; the DoFs are
+   * integrals run on all threads (f must be safe to evaluate from several
+   * threads at once, as the problem data are). All of it is timed; the DoFs are
    * already distributed. Collective over the processes of the mesh.
    *
    * If `solution` is given, it receives u_h (reinitialised to the owned
@@ -55,7 +48,7 @@ namespace StepMembranes
     const dealii::DoFHandler<dim>         &dof_handler,
     const dealii::Quadrature<dim>         &quadrature,
     const double                           mu,
-    const LoadFactory<dim>                &make_load,
+    const dealii::Function<dim>           &f,
     const dealii::Function<dim>           &g,
     const MPI_Comm                         comm,
     dealii::TrilinosWrappers::MPI::Vector *solution = nullptr);

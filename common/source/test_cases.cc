@@ -1,15 +1,14 @@
-#include <deal.II/base/function_parser.h>
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/utilities.h>
 #include <deal.II/fe/mapping.h>
 #include <deal.II/grid/tria.h>
 
 #include <vi/errors.h>
+#include <vi/expression_function.h>
 #include <vi/test_cases.h>
 
 #include <cmath>
 #include <functional>
-#include <iostream>
 #include <map>
 #include <sstream>
 
@@ -185,11 +184,9 @@ namespace VI
     }
 
 
-    /**
-     * A FunctionParser for one formula. Gradients (needed only for exact
-     * solutions) are fourth-order central differences with step 1e-4,
-     * accurate to about 1e-12 relative for smooth functions.
-     */
+    /// The function of one formula (ExpressionFunction: muparser, and
+    /// gradients by fourth-order differences with step 1e-4, accurate to
+    /// about 1e-12 relative for smooth functions).
     template <int dim>
     std::shared_ptr<Function<dim>>
     parse_expression(const std::string                   &parameter,
@@ -198,41 +195,17 @@ namespace VI
                      const Point<dim>                    &probe,
                      const bool time_dependent = false)
     {
-      auto function = std::make_shared<FunctionParser<dim>>(1, 0., /*h=*/1e-4);
-      function->set_formula(AutoDerivativeFunction<dim>::FourthOrder);
-      const std::string variables = std::string(dim == 1 ? "x" :
-                                                dim == 2 ? "x,y" :
-                                                           "x,y,z") +
-                                    (time_dependent ? ",t" : "");
-      // deal.II prints muparser's diagnosis to std::cerr before it throws;
-      // keep it out of the output: the exception carries the same message.
-      std::ostringstream    parser_diagnosis;
-      std::streambuf *const cerr_buffer =
-        std::cerr.rdbuf(parser_diagnosis.rdbuf());
-      const auto restore_cerr = [&]() { std::cerr.rdbuf(cerr_buffer); };
       try
         {
-          function->initialize(variables, formula, constants, time_dependent);
-          function->value(probe);
-          restore_cerr();
+          return std::make_shared<ExpressionFunction<dim>>(
+            formula, constants, probe, time_dependent, /*h=*/1e-4);
         }
-      catch (const ExceptionBase &exception)
+      catch (const InputError &error)
         {
-          restore_cerr();
-          std::ostringstream info;
-          exception.print_info(info);
           throw InputError("Problem/Expression/" + parameter +
                            ": cannot evaluate <" + formula +
-                           ">: " + Utilities::trim(info.str()));
+                           ">: " + error.what());
         }
-      catch (const std::exception &exception)
-        {
-          restore_cerr();
-          throw InputError("Problem/Expression/" + parameter +
-                           ": cannot evaluate <" + formula +
-                           ">: " + exception.what());
-        }
-      return function;
     }
   } // namespace
 
@@ -296,6 +269,13 @@ namespace VI
                        problem.test_case +
                        ">; accepted values: " + membrane_test_case_names());
     return data;
+  }
+
+
+  std::map<std::string, double>
+  parse_expression_constants(const std::string &constants)
+  {
+    return parse_constants(constants);
   }
 
 

@@ -5,6 +5,7 @@
 
 #include <vi/parameters.h>
 
+#include <map>
 #include <memory>
 #include <mpi.h>
 #include <string>
@@ -97,8 +98,17 @@ namespace VI
    * `time_dependent`, t (set with Function::set_time()), with pi and the
    * `constants` ("name=value, ..."). Evaluated once at `probe` (at t = 0):
    * a malformed formula or an undefined name throws InputError. Gradients
-   * by fourth-order differences, as in make_membrane_data().
+   * by fourth-order differences (ExpressionFunction).
    */
+  /**
+   * The named constants of Problem/Expression/Constants ("R=0.5, A=10"),
+   * with pi (and Pi) unless redefined. Throws InputError on a malformed
+   * item.
+   */
+  std::map<std::string, double>
+  parse_expression_constants(const std::string &constants);
+
+
   template <int dim>
   std::shared_ptr<dealii::Function<dim>>
   parse_expression_function(const std::string        &parameter,

@@ -1,0 +1,235 @@
+#include <vi/errors.h>
+#include <vi/expression_function.h>
+
+#include <cmath>
+#include <muParser.h>
+
+namespace VI
+{
+  using namespace dealii;
+
+  namespace
+  {
+    // The functions deal.II's FunctionParser defines beyond muparser's, with
+    // its meanings (a condition is true when it rounds to a nonzero integer).
+    double
+    round_to_int(const double x)
+    {
+      return static_cast<int>(x + (x >= 0 ? 0.5 : -0.5));
+    }
+    double
+    if_function(const double condition, const double a, const double b)
+    {
+      return round_to_int(condition) != 0 ? a : b;
+    }
+    double
+    ceil_function(const double x)
+    {
+      return std::ceil(x);
+    }
+    double
+    floor_function(const double x)
+    {
+      return std::floor(x);
+    }
+    double
+    cot_function(const double x)
+    {
+      return 1. / std::tan(x);
+    }
+    double
+    csc_function(const double x)
+    {
+      return 1. / std::sin(x);
+    }
+    double
+    sec_function(const double x)
+    {
+      return 1. / std::cos(x);
+    }
+    double
+    log_function(const double x)
+    {
+      return std::log(x);
+    }
+    double
+    pow_function(const double a, const double b)
+    {
+      return std::pow(a, b);
+    }
+    double
+    erf_function(const double x)
+    {
+      return std::erf(x);
+    }
+    double
+    erfc_function(const double x)
+    {
+      return std::erfc(x);
+    }
+
+    /// muparser's diagnosis on one line, with the place in the formula
+    /// when the message does not give it.
+    std::string
+    diagnosis(const mu::Parser::exception_type &e)
+    {
+      std::string message  = e.GetMsg();
+      const int   position = static_cast<int>(e.GetPos());
+      if (message.find("position") == std::string::npos && position >= 0)
+        message += position < static_cast<int>(e.GetExpr().size()) - 1 ?
+                     " (at position " + std::to_string(position) + ")" :
+                     " (at the end of the formula)";
+      return message;
+    }
+  } // namespace
+
+
+  template <int dim>
+  struct ExpressionFunction<dim>::Evaluator
+  {
+    mu::Parser parser;
+    /// x, y, z up to dim, then t.
+    double variables[dim + 1] = {};
+  };
+
+
+  template <int dim>
+  ExpressionFunction<dim>::ExpressionFunction(
+    const std::string                   &formula,
+    const std::map<std::string, double> &constants,
+    const Point<dim>                    &probe,
+    const bool                           time_dependent,
+    const double                         h)
+      : formula(formula)
+      , constants(constants)
+      , time_dependent(time_dependent)
+      , h(h)
+  {
+    // Compiled and evaluated once here: a bad formula is reported now, not
+    // on the first point of a worker thread.
+    try
+      {
+        evaluate(evaluator(), probe);
+      }
+    catch (const mu::Parser::exception_type &e)
+      {
+        throw InputError(diagnosis(e));
+      }
+  }
+
+
+  template <int dim>
+  ExpressionFunction<dim>::~ExpressionFunction() = default;
+
+
+  template <int dim>
+  typename ExpressionFunction<dim>::Evaluator &
+  ExpressionFunction<dim>::evaluator() const
+  {
+    std::unique_ptr<Evaluator> &e = evaluators.get();
+    if (!e)
+      {
+        auto        fresh    = std::make_unique<Evaluator>();
+        mu::Parser &parser   = fresh->parser;
+        const char *names[3] = {"x", "y", "z"};
+        for (unsigned int d = 0; d < dim; ++d)
+          parser.DefineVar(names[d], &fresh->variables[d]);
+        if (time_dependent)
+          parser.DefineVar("t", &fresh->variables[dim]);
+        for (const auto &[name, number] : constants)
+          parser.DefineConst(name, number);
+        parser.DefineFun("if", if_function);
+        parser.DefineFun("int", round_to_int);
+        parser.DefineFun("ceil", ceil_function);
+        parser.DefineFun("floor", floor_function);
+        parser.DefineFun("cot", cot_function);
+        parser.DefineFun("csc", csc_function);
+        parser.DefineFun("sec", sec_function);
+        parser.DefineFun("log", log_function);
+        parser.DefineFun("pow", pow_function);
+        parser.DefineFun("erf", erf_function);
+        parser.DefineFun("erfc", erfc_function);
+        parser.SetExpr(formula);
+        e = std::move(fresh);
+      }
+    return *e;
+  }
+
+
+  template <int dim>
+  inline double
+  ExpressionFunction<dim>::evaluate(Evaluator &e, const Point<dim> &p) const
+  {
+    for (unsigned int d = 0; d < dim; ++d)
+      e.variables[d] = p[d];
+    e.variables[dim] = this->get_time();
+    return e.parser.Eval();
+  }
+
+
+  template <int dim>
+  inline Tensor<1, dim>
+  ExpressionFunction<dim>::differentiate(Evaluator        &e,
+                                         const Point<dim> &p) const
+  {
+    Tensor<1, dim> gradient;
+    for (unsigned int i = 0; i < dim; ++i)
+      {
+        Tensor<1, dim> step;
+        step[i]               = h;
+        const Point<dim> near = p + step, far = near + step;
+        const Point<dim> near_below = p - step, far_below = near_below - step;
+        gradient[i] = (-evaluate(e, far) + 8 * evaluate(e, near) -
+                       8 * evaluate(e, near_below) + evaluate(e, far_below)) /
+                      (12 * h);
+      }
+    return gradient;
+  }
+
+
+  template <int dim>
+  double
+  ExpressionFunction<dim>::value(const Point<dim> &p, const unsigned int) const
+  {
+    return evaluate(evaluator(), p);
+  }
+
+
+  template <int dim>
+  void
+  ExpressionFunction<dim>::value_list(const std::vector<Point<dim>> &points,
+                                      std::vector<double>           &values,
+                                      const unsigned int) const
+  {
+    AssertDimension(points.size(), values.size());
+    Evaluator &e = evaluator();
+    for (std::size_t q = 0; q < points.size(); ++q)
+      values[q] = evaluate(e, points[q]);
+  }
+
+
+  template <int dim>
+  Tensor<1, dim>
+  ExpressionFunction<dim>::gradient(const Point<dim> &p,
+                                    const unsigned int) const
+  {
+    return differentiate(evaluator(), p);
+  }
+
+
+  template <int dim>
+  void
+  ExpressionFunction<dim>::gradient_list(const std::vector<Point<dim>> &points,
+                                         std::vector<Tensor<1, dim>> &gradients,
+                                         const unsigned int) const
+  {
+    AssertDimension(points.size(), gradients.size());
+    Evaluator &e = evaluator();
+    for (std::size_t q = 0; q < points.size(); ++q)
+      gradients[q] = differentiate(e, points[q]);
+  }
+
+
+  template class ExpressionFunction<1>;
+  template class ExpressionFunction<2>;
+} // namespace VI

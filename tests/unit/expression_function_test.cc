@@ -1,0 +1,143 @@
+// VI::ExpressionFunction gives the values and gradients of deal.II's
+// FunctionParser (fourth-order differences) to the last bit, also when two
+// threads share one object, and reports bad formulas as InputError.
+#include <deal.II/base/function_parser.h>
+#include <deal.II/base/point.h>
+#include <deal.II/base/thread_management.h>
+
+#include <vi/errors.h>
+#include <vi/expression_function.h>
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+using dealii::Point;
+using dealii::Tensor;
+
+namespace
+{
+  // The exact solution of the [DMV20] disk scene: both branches, the
+  // ternary and powers of subexpressions; and one with deal.II's extra
+  // functions, atan2 and t.
+  const std::string disk =
+    "x^2+y^2 >= R^2 ? (x^2+y^2-R^2)^3 : -A*(R^2-x^2-y^2)^2";
+  const std::string extras =
+    "if(x > y, pow(x, 3), floor(4*y)) + erfc(x) + atan2(-x, y) + log(2+y) "
+    "+ t*sec(x)";
+  const std::map<std::string, double> constants = {{"R", 0.5},
+                                                   {"A", 10},
+                                                   {"pi", M_PI}};
+
+  std::vector<Point<2>>
+  points()
+  {
+    std::vector<Point<2>> p;
+    for (unsigned int i = 0; i < 400; ++i)
+      p.emplace_back(0.9 * std::sin(0.37 * i), 0.9 * std::cos(0.61 * i));
+    return p;
+  }
+
+  std::unique_ptr<dealii::FunctionParser<2>>
+  deal_ii_parser(const std::string &formula, const bool time_dependent)
+  {
+    auto parser = std::make_unique<dealii::FunctionParser<2>>(1, 0., 1e-4);
+    parser->set_formula(dealii::AutoDerivativeFunction<2>::FourthOrder);
+    parser->initialize(time_dependent ? "x,y,t" : "x,y",
+                       formula,
+                       constants,
+                       time_dependent);
+    return parser;
+  }
+} // namespace
+
+
+TEST(ExpressionFunction, EqualsFunctionParserBitForBit)
+{
+  for (const bool time_dependent : {false, true})
+    {
+      const std::string formula   = time_dependent ? extras : disk;
+      const auto        parser    = deal_ii_parser(formula, time_dependent);
+      auto             &reference = *parser;
+      VI::ExpressionFunction<2> f(
+        formula, constants, Point<2>(), time_dependent, 1e-4);
+      reference.set_time(0.25);
+      f.set_time(0.25);
+
+      const auto                p = points();
+      std::vector<double>       values(p.size());
+      std::vector<Tensor<1, 2>> gradients(p.size());
+      f.value_list(p, values);
+      f.gradient_list(p, gradients);
+      for (std::size_t q = 0; q < p.size(); ++q)
+        {
+          EXPECT_EQ(values[q], reference.value(p[q])) << formula;
+          EXPECT_EQ(f.value(p[q]), values[q]);
+          const Tensor<1, 2> g = reference.gradient(p[q]);
+          EXPECT_EQ(gradients[q][0], g[0]) << formula;
+          EXPECT_EQ(gradients[q][1], g[1]) << formula;
+          EXPECT_EQ(f.gradient(p[q]), gradients[q]);
+        }
+    }
+}
+
+
+TEST(ExpressionFunction, TwoThreadsSharingOneObjectGetTheSameNumbers)
+{
+  const VI::ExpressionFunction<2> f(disk, constants, Point<2>(), false, 1e-4);
+  const auto                      p = points();
+  std::vector<Tensor<1, 2>>       alone(p.size());
+  f.gradient_list(p, alone);
+
+  // Both threads evaluate all points, list by list, at the same time.
+  std::vector<Tensor<1, 2>> first(p.size()), second(p.size());
+  const auto                work = [&](std::vector<Tensor<1, 2>> &result) {
+    std::vector<Point<2>>     cell(16);
+    std::vector<Tensor<1, 2>> g(16);
+    for (std::size_t begin = 0; begin + 16 <= p.size(); begin += 16)
+      {
+        std::copy(p.begin() + begin, p.begin() + begin + 16, cell.begin());
+        f.gradient_list(cell, g);
+        std::copy(g.begin(), g.end(), result.begin() + begin);
+      }
+  };
+  dealii::Threads::Task<void> other =
+    dealii::Threads::new_task([&]() { work(second); });
+  work(first);
+  other.join();
+  for (std::size_t q = 0; q < p.size(); ++q)
+    {
+      EXPECT_EQ(first[q], alone[q]);
+      EXPECT_EQ(second[q], alone[q]);
+    }
+}
+
+
+TEST(ExpressionFunction, BadFormulasAreInputErrorsWithMuparsersDiagnosis)
+{
+  const auto message = [](const std::string &formula) -> std::string {
+    try
+      {
+        VI::ExpressionFunction<2> f(
+          formula, constants, Point<2>(), false, 1e-4);
+      }
+    catch (const VI::InputError &error)
+      {
+        return error.what();
+      }
+    return "no error";
+  };
+  EXPECT_EQ(message("sin(x"),
+            "Missing parenthesis (at the end of the formula)");
+  EXPECT_EQ(message("x + (y"),
+            "Missing parenthesis (at the end of the formula)");
+  EXPECT_EQ(message("(x + y)) * 2"),
+            "Unexpected parenthesis \")\" at position 7");
+  EXPECT_EQ(message("x + q"), "Unexpected token \"q\" found at position 4.");
+  // t is a variable only of time-dependent functions
+  EXPECT_EQ(message("x + t"), "Unexpected token \"t\" found at position 4.");
+  EXPECT_EQ(message(""), "Expression is empty.");
+}
