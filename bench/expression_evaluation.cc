@@ -142,8 +142,10 @@ main(int argc, char **argv)
       const VI::ExpressionFunction<2> expression_u(
         differentiated, constants, Point<2>(), false, 1e-4);
 
-      std::cout << "Problem/Expression of " << file << ", " << n
-                << " points in lists of " << list_size
+      std::cout << "Problem/Expression of "
+                << (argc > 1 ? file :
+                               std::string("parameters/estimators-disk-p1.prm"))
+                << ", " << n << " points in lists of " << list_size
                 << " (best of 5 runs, seconds)\n\n"
                 << "| evaluation | threads | FunctionParser | "
                    "ExpressionFunction | ratio |\n"
