@@ -177,7 +177,7 @@ namespace StepMembranes
                             coupling,
                             mass_matrix,
                             hanging_node_constraints,
-                            relevant_nodes)
+                            ghosted_nodes)
   {
   }
 
@@ -228,6 +228,7 @@ namespace StepMembranes
     dof_handler.distribute_dofs(fe);
     owned_nodes = dof_handler.locally_owned_dofs();
     DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_nodes);
+    ghosted_nodes.reinit(owned_nodes, relevant_nodes, comm);
     owned_system    = VI::NodalFields::system_index_set(owned_nodes);
     relevant_system = VI::NodalFields::system_index_set(relevant_nodes);
 
@@ -1286,8 +1287,7 @@ namespace StepMembranes
       s2(owned_nodes, comm), moments(owned_nodes, comm),
       function(owned_nodes, comm);
     const auto ghosted = [&](const Vector &v, Vector &target) {
-      target.reinit(owned_nodes, relevant_nodes, comm);
-      target = v;
+      ghosted_nodes.copy(v, target);
     };
 
     VI::NodalFields::extract(X, VI::NodalFields::u1, u1);

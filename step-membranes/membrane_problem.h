@@ -272,7 +272,10 @@ namespace StepMembranes
 
     // Nodes (scalar DoFs) and the node-interleaved unknowns X.
     IndexSet owned_nodes, relevant_nodes;
-    IndexSet owned_system, relevant_system;
+    /// Copies owned node vectors into ghosted ones (map and import built
+    /// once per mesh).
+    VI::GhostedCopy ghosted_nodes;
+    IndexSet        owned_system, relevant_system;
 
     AffineConstraints<double> hanging_node_constraints;
     /// Hanging node constraints of u1 and u2 in the system numbering.

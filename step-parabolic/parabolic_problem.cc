@@ -111,7 +111,7 @@ namespace StepParabolic
                             coupling,
                             mass_matrix,
                             hanging_node_constraints,
-                            relevant_nodes)
+                            ghosted_nodes)
   {
   }
 
@@ -224,6 +224,7 @@ namespace StepParabolic
     dof_handler.distribute_dofs(fe);
     owned_nodes = dof_handler.locally_owned_dofs();
     DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_nodes);
+    ghosted_nodes.reinit(owned_nodes, relevant_nodes, comm);
     owned_system    = VI::NodalFields::system_index_set(owned_nodes);
     relevant_system = VI::NodalFields::system_index_set(relevant_nodes);
 
@@ -841,8 +842,7 @@ namespace StepParabolic
       function(owned_nodes, comm);
     // (The layout of u1_h, copied, is much cheaper than a new one.)
     const auto ghosted = [&](const Vector &v, Vector &target) {
-      target.reinit(u1_h, true);
-      target = v;
+      ghosted_nodes.copy(v, target);
     };
 
     VI::NodalFields::extract(X, VI::NodalFields::u1, u1);

@@ -278,6 +278,9 @@ namespace StepParabolic
     QGauss<dim>                               quadrature;
 
     IndexSet owned_nodes, relevant_nodes, owned_system, relevant_system;
+    /// Copies owned node vectors into ghosted ones (map and import built
+    /// once per mesh).
+    VI::GhostedCopy           ghosted_nodes;
     AffineConstraints<double> hanging_node_constraints;
     AffineConstraints<double> u1_constraints, u2_constraints;
     AffineConstraints<double> system_constraints;

@@ -478,6 +478,7 @@ namespace VI
     dof_handler.distribute_dofs(fe_flux);
     owned_dofs = dof_handler.locally_owned_dofs();
     DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_dofs);
+    ghosted_fluxes.reinit(owned_dofs, relevant_dofs, comm);
     AffineConstraints<double> hanging_constraints(relevant_dofs);
     DoFTools::make_hanging_node_constraints(dof_handler, hanging_constraints);
     hanging_constraints.close();
@@ -1700,8 +1701,7 @@ namespace VI
         // The owned entries come first, in the order of owned_dofs, as in
         // the Trilinos vector; the ghosts of sigma from their owners.
         std::copy_n(values, sum.locally_owned_size(), owned.begin());
-        sigma[f]->reinit(owned_dofs, relevant_dofs, comm);
-        *sigma[f] = owned;
+        ghosted_fluxes.copy(owned, *sigma[f]);
       }
   }
 

@@ -16,13 +16,13 @@ namespace VI
     const Vector                         &coupling,
     const TrilinosWrappers::SparseMatrix &mass_matrix,
     const AffineConstraints<double>      &hanging_nodes,
-    const IndexSet                       &relevant)
+    const GhostedCopy                    &ghosts)
       : degree(degree)
       , contact_rows(contact_rows)
       , coupling(coupling)
       , mass_matrix(mass_matrix)
       , hanging_nodes(hanging_nodes)
-      , relevant(relevant)
+      , ghosts(ghosts)
   {
   }
 
@@ -62,14 +62,12 @@ namespace VI
     const MPI_Comm comm  = moments.get_mpi_communicator();
     Vector         function(owned, comm);
     from_moments(moments, function);
-    lambda.reinit(owned, relevant, comm);
-    lambda = function;
+    ghosts.copy(function, lambda);
 
     Vector nonnegative(moments);
     for (double &m : nonnegative)
       m = std::max(m, 0.);
     from_moments(nonnegative, function);
-    lambda_nonnegative.reinit(owned, relevant, comm);
-    lambda_nonnegative = function;
+    ghosts.copy(function, lambda_nonnegative);
   }
 } // namespace VI

@@ -11,6 +11,8 @@
 #include <deal.II/fe/mapping.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <vi/ghosted_copy.h>
+
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -311,7 +313,9 @@ namespace VI
     std::vector<double>      cell_metric;
     dealii::DoFHandler<dim>  dof_handler;
     dealii::IndexSet         owned_dofs, relevant_dofs;
-    std::vector<Patch>       patches;
+    /// Copies the owned fluxes into ghosted ones.
+    GhostedCopy        ghosted_fluxes;
+    std::vector<Patch> patches;
     /// The unknowns of all patches, as local indices of flux_partitioner,
     /// and their cells' (psi_a, q_k)_K, in blocks of consecutive patches.
     std::vector<unsigned int>        patch_positions;

@@ -1,11 +1,11 @@
 #pragma once
 
-#include <deal.II/base/index_set.h>
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <vi/contact_rows.h>
+#include <vi/ghosted_copy.h>
 
 namespace VI
 {
@@ -24,16 +24,16 @@ namespace VI
   public:
     using Vector = dealii::TrilinosWrappers::MPI::Vector;
 
-    /// `mass_matrix` is used for p >= 2 only; `relevant` are the locally
-    /// relevant nodes (the ghosts of the functions with_nonnegative_part()
-    /// returns).
+    /// `mass_matrix` is used for p >= 2 only; `ghosts` copies into the
+    /// layout with the locally relevant nodes (that of the functions
+    /// with_nonnegative_part() returns).
     MultiplierFunction(
       const unsigned int                            degree,
       const ContactRows                            &contact_rows,
       const Vector                                 &coupling,
       const dealii::TrilinosWrappers::SparseMatrix &mass_matrix,
       const dealii::AffineConstraints<double>      &hanging_nodes,
-      const dealii::IndexSet                       &relevant);
+      const GhostedCopy                            &ghosts);
 
     /// v with <v, psi_i>_h = m_i (m = 0 on constrained nodes); v owned.
     void
@@ -52,6 +52,6 @@ namespace VI
     const Vector                                 &coupling;
     const dealii::TrilinosWrappers::SparseMatrix &mass_matrix;
     const dealii::AffineConstraints<double>      &hanging_nodes;
-    const dealii::IndexSet                       &relevant;
+    const GhostedCopy                            &ghosts;
   };
 } // namespace VI
