@@ -10,62 +10,11 @@ namespace VI
 
   namespace
   {
-    // The functions deal.II's FunctionParser defines beyond muparser's, with
-    // its meanings (a condition is true when it rounds to a nonzero integer).
+    /// deal.II's FunctionParser rounds a condition to an integer.
     double
     round_to_int(const double x)
     {
       return static_cast<int>(x + (x >= 0 ? 0.5 : -0.5));
-    }
-    double
-    if_function(const double condition, const double a, const double b)
-    {
-      return round_to_int(condition) != 0 ? a : b;
-    }
-    double
-    ceil_function(const double x)
-    {
-      return std::ceil(x);
-    }
-    double
-    floor_function(const double x)
-    {
-      return std::floor(x);
-    }
-    double
-    cot_function(const double x)
-    {
-      return 1. / std::tan(x);
-    }
-    double
-    csc_function(const double x)
-    {
-      return 1. / std::sin(x);
-    }
-    double
-    sec_function(const double x)
-    {
-      return 1. / std::cos(x);
-    }
-    double
-    log_function(const double x)
-    {
-      return std::log(x);
-    }
-    double
-    pow_function(const double a, const double b)
-    {
-      return std::pow(a, b);
-    }
-    double
-    erf_function(const double x)
-    {
-      return std::erf(x);
-    }
-    double
-    erfc_function(const double x)
-    {
-      return std::erfc(x);
     }
 
     /// muparser's diagnosis on one line, with the place in the formula
@@ -138,17 +87,33 @@ namespace VI
           parser.DefineVar("t", &fresh->variables[dim]);
         for (const auto &[name, number] : constants)
           parser.DefineConst(name, number);
-        parser.DefineFun("if", if_function);
+        // The functions deal.II's FunctionParser defines beyond muparser's,
+        // with its meanings (a condition holds when it rounds to a nonzero
+        // integer; log is the natural logarithm).
+        parser.DefineFun(
+          "if", +[](const double condition, const double a, const double b) {
+            return round_to_int(condition) != 0 ? a : b;
+          });
         parser.DefineFun("int", round_to_int);
-        parser.DefineFun("ceil", ceil_function);
-        parser.DefineFun("floor", floor_function);
-        parser.DefineFun("cot", cot_function);
-        parser.DefineFun("csc", csc_function);
-        parser.DefineFun("sec", sec_function);
-        parser.DefineFun("log", log_function);
-        parser.DefineFun("pow", pow_function);
-        parser.DefineFun("erf", erf_function);
-        parser.DefineFun("erfc", erfc_function);
+        parser.DefineFun(
+          "ceil", +[](const double x) { return std::ceil(x); });
+        parser.DefineFun(
+          "floor", +[](const double x) { return std::floor(x); });
+        parser.DefineFun(
+          "cot", +[](const double x) { return 1. / std::tan(x); });
+        parser.DefineFun(
+          "csc", +[](const double x) { return 1. / std::sin(x); });
+        parser.DefineFun(
+          "sec", +[](const double x) { return 1. / std::cos(x); });
+        parser.DefineFun(
+          "log", +[](const double x) { return std::log(x); });
+        parser.DefineFun(
+          "pow",
+          +[](const double a, const double b) { return std::pow(a, b); });
+        parser.DefineFun(
+          "erf", +[](const double x) { return std::erf(x); });
+        parser.DefineFun(
+          "erfc", +[](const double x) { return std::erfc(x); });
         parser.SetExpr(formula);
         e = std::move(fresh);
       }

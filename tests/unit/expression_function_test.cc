@@ -2,6 +2,7 @@
 // FunctionParser (fourth-order differences) to the last bit, also when two
 // threads share one object, and reports bad formulas as InputError.
 #include <deal.II/base/function_parser.h>
+#include <deal.II/base/numbers.h>
 #include <deal.II/base/point.h>
 #include <deal.II/base/thread_management.h>
 
@@ -30,7 +31,7 @@ namespace
     "+ t*sec(x)";
   const std::map<std::string, double> constants = {{"R", 0.5},
                                                    {"A", 10},
-                                                   {"pi", M_PI}};
+                                                   {"pi", dealii::numbers::PI}};
 
   std::vector<Point<2>>
   points()
