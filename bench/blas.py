@@ -42,7 +42,7 @@ import statistics
 import subprocess
 import sys
 
-from vi_bench import ROOT, program, run, write_table
+from vi_bench import ROOT, cost_study_settings, program, run, write_table
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-blas")
@@ -52,14 +52,7 @@ REFERENCE = {"LD_LIBRARY_PATH": f"{LIBRARIES}/blas:{LIBRARIES}/lapack"}
 
 # The cost study's configuration (bench/membranes_cost.py
 # --c-function=fischer-burmeister --flux-degree=p-1 --coarse-start).
-COST_STUDY = {"Mesh/Initial refinements": 3,
-              "Nonlinear solver/Strategy": "adaptive",
-              "Nonlinear solver/Nested iteration": "true",
-              "Nonlinear solver/C-function": "fischer-burmeister",
-              "Linear solver/Preconditioner": "amg",
-              "Estimators/At every check": "false",
-              "Estimators/Sharpen final estimate": "false",
-              "Estimators/Flux degree": "p-1"}
+COST_STUDY = cost_study_settings("fischer-burmeister", "p-1", 3)
 
 SCENES = [
     ("disk Q2", "membranes-disk.prm", {}, 1, None),

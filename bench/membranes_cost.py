@@ -56,7 +56,7 @@ import math
 import os
 import sys
 
-from vi_bench import (DATA, ROOT, estimator_seconds, gnuplot, program,
+from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, gnuplot, program,
                       read_table, run as run_program, write_csv, write_markdown,
                       write_table)
 
@@ -103,15 +103,8 @@ CONFIGURATIONS = [(1, 1), (1, None), (2, None)]
 
 
 def run(np, threads, repeat):
-    settings = {"Mesh/Initial refinements": 5 - COARSE_START, "Mesh/Cycles": CYCLES,
-                "Nonlinear solver/Strategy": "adaptive",
-                "Nonlinear solver/C-function": C_FUNCTION,
-                "Estimators/Flux degree": FLUX_DEGREE,
-                "Nonlinear solver/Nested iteration": "true",
-                "Linear solver/Preconditioner": "amg",
-                "Estimators/At every check": "false",
-                # the scene's sharper final error bar is not part of the solve
-                "Estimators/Sharpen final estimate": "false",
+    settings = {**cost_study_settings(C_FUNCTION, FLUX_DEGREE, 5 - COARSE_START),
+                "Mesh/Cycles": CYCLES,
                 "Benchmark/Reference Poisson solve": "true",
                 "Output/Write VTU": "false"}
     if CHECK_INTERVAL:

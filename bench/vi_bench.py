@@ -37,6 +37,22 @@ def run(binary, prm, settings, directory, np=1, threads=None, environment=None):
         return json.load(f)
 
 
+def cost_study_settings(c_function, flux_degree, initial_refinements):
+    """The contact solve of the cost study (bench/membranes_cost.py) on
+    parameters/estimators-disk-p1.prm: adaptive inexact Newton with the
+    given C-function and nested iteration, GMRES + AMG, estimates at the
+    end of the Newton steps with fluxes of the given degree, without the
+    scene's sharper final error bar (not part of the solve)."""
+    return {"Mesh/Initial refinements": initial_refinements,
+            "Nonlinear solver/Strategy": "adaptive",
+            "Nonlinear solver/C-function": c_function,
+            "Estimators/Flux degree": flux_degree,
+            "Nonlinear solver/Nested iteration": "true",
+            "Linear solver/Preconditioner": "amg",
+            "Estimators/At every check": "false",
+            "Estimators/Sharpen final estimate": "false"}
+
+
 def estimator_seconds(timing):
     """The estimators' share of a TimerOutput split ("timing" in summary.json)."""
     return sum(seconds for section, seconds in timing.items()

@@ -1286,9 +1286,6 @@ namespace StepMembranes
     Vector u1(owned_nodes, comm), u2(owned_nodes, comm), s1(owned_nodes, comm),
       s2(owned_nodes, comm), moments(owned_nodes, comm),
       function(owned_nodes, comm);
-    const auto ghosted = [&](const Vector &v, Vector &target) {
-      ghosted_nodes.copy(v, target);
-    };
 
     VI::NodalFields::extract(X, VI::NodalFields::u1, u1);
     VI::NodalFields::extract(X, VI::NodalFields::u2, u2);
@@ -1300,10 +1297,10 @@ namespace StepMembranes
     // (hanging nodes follow the averaged values of their parents)
     hanging_node_constraints.distribute(s1);
     hanging_node_constraints.distribute(s2);
-    ghosted(u1, it.u1);
-    ghosted(u2, it.u2);
-    ghosted(s1, it.s1);
-    ghosted(s2, it.s2);
+    ghosted_nodes.copy(u1, it.u1);
+    ghosted_nodes.copy(u2, it.u2);
+    ghosted_nodes.copy(s1, it.s1);
+    ghosted_nodes.copy(s2, it.s2);
 
     // lambda_h: <lambda_h, psi_i>_h = D_i X3_i = m_i.
     VI::NodalFields::extract(X, multiplier, moments);
@@ -1315,11 +1312,11 @@ namespace StepMembranes
         gap -= u2;
         it.complementarity = 2. * (moments * gap);
         Vector m;
-        ghosted(moments, m);
+        ghosted_nodes.copy(moments, m);
         cell_multiplier->distribute(m, contact, it.lambda_cells);
         for (double &value : moments)
           value = std::max(value, 0.);
-        ghosted(moments, m);
+        ghosted_nodes.copy(moments, m);
         cell_multiplier->distribute(m, contact, it.lambda_nonnegative_cells);
       }
     else
@@ -1340,7 +1337,7 @@ namespace StepMembranes
             moments(i) = 0;
         moments.compress(VectorOperation::insert);
         multiplier_function.from_moments(moments, function);
-        ghosted(function, *r[field]);
+        ghosted_nodes.copy(function, *r[field]);
       }
   }
 

@@ -841,17 +841,14 @@ namespace StepParabolic
       s2(owned_nodes, comm), moments(owned_nodes, comm),
       function(owned_nodes, comm);
     // (The layout of u1_h, copied, is much cheaper than a new one.)
-    const auto ghosted = [&](const Vector &v, Vector &target) {
-      ghosted_nodes.copy(v, target);
-    };
 
     VI::NodalFields::extract(X, VI::NodalFields::u1, u1);
     VI::NodalFields::extract(X, VI::NodalFields::u2, u2);
     VI::average_at_violated_nodes(data.mu1, data.mu2, u1, u2, s1, s2);
-    ghosted(u1, it.u1);
-    ghosted(u2, it.u2);
-    ghosted(s1, it.s1);
-    ghosted(s2, it.s2);
+    ghosted_nodes.copy(u1, it.u1);
+    ghosted_nodes.copy(u2, it.u2);
+    ghosted_nodes.copy(s1, it.s1);
+    ghosted_nodes.copy(s2, it.s2);
     it.owned[0] = u1;
     it.owned[1] = u2;
     it.owned[2] = s1;
@@ -867,7 +864,7 @@ namespace StepParabolic
         for (const types::global_dof_index i : owned_nodes)
           function(i) = ((*u)(i) - (*old)(i)) / time_step;
         function.compress(VectorOperation::insert);
-        ghosted(function, *target);
+        ghosted_nodes.copy(function, *target);
       }
 
     VI::NodalFields::extract(X, multiplier, moments);
@@ -888,7 +885,7 @@ namespace StepParabolic
             moments(i) = 0;
         moments.compress(VectorOperation::insert);
         multiplier_function.from_moments(moments, function);
-        ghosted(function, *r[field]);
+        ghosted_nodes.copy(function, *r[field]);
       }
 
     // The mass term enters the source at the quadrature points, as in the

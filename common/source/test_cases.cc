@@ -153,37 +153,6 @@ namespace VI
     }
 
 
-    /// "R=0.3333, N=6" -> {R: 0.3333, N: 6}, plus pi (unless redefined).
-    std::map<std::string, double>
-    parse_constants(const std::string &text)
-    {
-      std::map<std::string, double> constants = {{"pi", numbers::PI},
-                                                 {"Pi", numbers::PI}};
-      for (const std::string &item : Utilities::split_string_list(text, ','))
-        {
-          const auto        equal  = item.find('=');
-          const std::string name   = Utilities::trim(item.substr(0, equal));
-          const std::string value  = equal == std::string::npos ?
-                                       "" :
-                                       Utilities::trim(item.substr(equal + 1));
-          char             *end    = nullptr;
-          const double      number = std::strtod(value.c_str(), &end);
-          const bool        valid_name =
-            !name.empty() && (std::isalpha(name[0]) || name[0] == '_') &&
-            name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQ"
-                                   "RSTUVWXYZ0123456789_") == std::string::npos;
-          if (!valid_name || value.empty() || *end != '\0' ||
-              !std::isfinite(number))
-            throw InputError("Problem/Expression/Constants: cannot read <" +
-                             item +
-                             ">; expected name=number pairs separated "
-                             "by commas");
-          constants[name] = number;
-        }
-      return constants;
-    }
-
-
     /// The function of one formula (ExpressionFunction: muparser, and
     /// gradients by fourth-order differences with step 1e-4, accurate to
     /// about 1e-12 relative for smooth functions).
@@ -210,6 +179,36 @@ namespace VI
   } // namespace
 
 
+  std::map<std::string, double>
+  parse_expression_constants(const std::string &text)
+  {
+    std::map<std::string, double> constants = {{"pi", numbers::PI},
+                                               {"Pi", numbers::PI}};
+    for (const std::string &item : Utilities::split_string_list(text, ','))
+      {
+        const auto        equal  = item.find('=');
+        const std::string name   = Utilities::trim(item.substr(0, equal));
+        const std::string value  = equal == std::string::npos ?
+                                     "" :
+                                     Utilities::trim(item.substr(equal + 1));
+        char             *end    = nullptr;
+        const double      number = std::strtod(value.c_str(), &end);
+        const bool        valid_name =
+          !name.empty() && (std::isalpha(name[0]) || name[0] == '_') &&
+          name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQ"
+                                 "RSTUVWXYZ0123456789_") == std::string::npos;
+        if (!valid_name || value.empty() || *end != '\0' ||
+            !std::isfinite(number))
+          throw InputError("Problem/Expression/Constants: cannot read <" +
+                           item +
+                           ">; expected name=number pairs separated "
+                           "by commas");
+        constants[name] = number;
+      }
+    return constants;
+  }
+
+
   std::string
   membrane_test_case_names()
   {
@@ -232,9 +231,9 @@ namespace VI
       make_seed_jump(center, data);
     else if (problem.test_case == "expression")
       {
-        const ExpressionParameters &e         = problem.expression;
-        const auto                  constants = parse_constants(e.constants);
-        const auto                  parse     = [&](const std::string &name,
+        const ExpressionParameters &e = problem.expression;
+        const auto constants          = parse_expression_constants(e.constants);
+        const auto parse              = [&](const std::string &name,
                                const std::string &formula) {
           return parse_expression<dim>(name, formula, constants, center);
         };
@@ -272,13 +271,6 @@ namespace VI
   }
 
 
-  std::map<std::string, double>
-  parse_expression_constants(const std::string &constants)
-  {
-    return parse_constants(constants);
-  }
-
-
   template <int dim>
   std::shared_ptr<Function<dim>>
   parse_expression_function(const std::string &parameter,
@@ -287,8 +279,11 @@ namespace VI
                             const Point<dim>  &probe,
                             const bool         time_dependent)
   {
-    return parse_expression<dim>(
-      parameter, formula, parse_constants(constants), probe, time_dependent);
+    return parse_expression<dim>(parameter,
+                                 formula,
+                                 parse_expression_constants(constants),
+                                 probe,
+                                 time_dependent);
   }
 
 
