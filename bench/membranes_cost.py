@@ -22,13 +22,16 @@ Writes doc/data/cost.{csv,md} and doc/data/cost.png.
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/membranes_cost.py [--quick] [--c-function=fischer-burmeister]
                           [--flux-degree=p-1] [--check-interval=N]
-                          [--coarse-start] [--repeat=N] [--huge-pages]
-                          [--tables-only]
+                          [--gamma-lin=G] [--coarse-start] [--repeat=N]
+                          [--huge-pages] [--tables-only]
 --quick stops at about 5e4 unknowns per field (a smoke test of the script).
 --c-function chooses the C-function of Newton (default min); for another
 one the files are doc/data/cost-<name>.{csv,md,png}.
 --flux-degree=p-1 reconstructs the fluxes in RT_0 instead of RT_1
 (Estimators/Flux degree); the files are then doc/data/cost[-<name>]-flux-p-1.*.
+--gamma-lin=G stops Newton when eta_lin <= G eta_disc instead of the
+scene's 0.3 (Nonlinear solver/gamma_lin); the files are then
+doc/data/cost[-<name>][-flux-p-1][-check-<N>]-gamma-lin-<G>[-coarse-start].*.
 --coarse-start starts the nested sequence two refinements coarser (768
 cells, about 8e2 unknowns per field), so that the mesh of 1e4 unknowns per
 field is reached by nested iteration instead of a cold start; the files
@@ -77,6 +80,11 @@ CHECK_INTERVAL = next((int(a.split("=", 1)[1]) for a in sys.argv
                        if a.startswith("--check-interval=")), None)
 if CHECK_INTERVAL:
     STEM += f"-check-{CHECK_INTERVAL}"
+# Newton's tolerance relative to the discretisation error (Nonlinear
+# solver/gamma_lin; the scene's 0.3 by default)
+GAMMA_LIN = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--gamma-lin=")), None)
+if GAMMA_LIN:
+    STEM += f"-gamma-lin-{GAMMA_LIN}"
 # Two refinements fewer at the start and two cycles more: the same meshes
 # from 1e4 unknowns per field on, each reached by nested iteration.
 COARSE_START = 2 if "--coarse-start" in sys.argv else 0
@@ -109,6 +117,8 @@ def run(np, threads, repeat):
                 "Output/Write VTU": "false"}
     if CHECK_INTERVAL:
         settings["Linear solver/Check interval"] = CHECK_INTERVAL
+    if GAMMA_LIN:
+        settings["Nonlinear solver/gamma_lin"] = GAMMA_LIN
     summary = run_program(PROGRAM, "estimators-disk-p1.prm", settings,
                           os.path.join(OUT, f"{STEM}-np{np}-threads{threads or 'all'}"
                                             + (f"-run{repeat}" if REPEAT > 1 else "")),
@@ -241,6 +251,7 @@ def main():
     # and the start of the nested sequence, when it is not the default's
     START = ", from 768 cells" if COARSE_START else ""
     START += f", Check interval = {CHECK_INTERVAL}" if CHECK_INTERVAL else ""
+    START += f", gamma_lin = {GAMMA_LIN}" if GAMMA_LIN else ""
     START += f", the median of {REPEAT} runs" if REPEAT > 1 else ""
     curves = []
     for (np, n_threads, index), colour in zip(groups, (1, 4, 6)):
