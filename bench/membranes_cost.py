@@ -22,8 +22,8 @@ Writes doc/data/cost.{csv,md} and doc/data/cost.png.
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/membranes_cost.py [--quick] [--c-function=fischer-burmeister]
                           [--flux-degree=p-1] [--check-interval=N]
-                          [--gamma-lin=G] [--coarse-start] [--repeat=N]
-                          [--huge-pages] [--tables-only]
+                          [--gamma-lin=G] [--coarse-start] [--cycles=N]
+                          [--repeat=N] [--huge-pages] [--tables-only]
 --quick stops at about 5e4 unknowns per field (a smoke test of the script).
 --c-function chooses the C-function of Newton (default min); for another
 one the files are doc/data/cost-<name>.{csv,md,png}.
@@ -36,6 +36,9 @@ doc/data/cost[-<name>][-flux-p-1][-check-<N>]-gamma-lin-<G>[-coarse-start].*.
 cells, about 8e2 unknowns per field), so that the mesh of 1e4 unknowns per
 field is reached by nested iteration instead of a cold start; the files
 are then doc/data/cost[-<name>][-flux-p-1]-coarse-start.*.
+--cycles=N runs N meshes instead of 4 (6 with --coarse-start), each with
+four times the unknowns of the one before; the files are then
+doc/data/<stem as above>-cycles-<N>[-median-of-<R>].*.
 --check-interval=N estimates every N GMRES iterations instead of the
 scene's 10 (Linear solver/Check interval); the files are then
 doc/data/cost[-<name>][-flux-p-1]-check-<N>[-coarse-start].*.
@@ -50,7 +53,8 @@ doc/data/cost[-<name>]-huge-pages.{csv,md,png}.
 doc/data/<files>.csv (the same other options name the files), without
 running it.
 The full study takes about 3 minutes (at 1db72e7, 2.6 - 3.3 with the
-various options) and 10 GB of memory.
+various options) and 3 - 5 GB of memory (RT_0 - RT_1 fluxes); one mesh
+more (--coarse-start --cycles=7, RT_0) about 12 minutes and 11.3 GB.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
@@ -90,6 +94,13 @@ if GAMMA_LIN:
 COARSE_START = 2 if "--coarse-start" in sys.argv else 0
 if COARSE_START:
     STEM += "-coarse-start"
+# 12288 cells and three refinements (--coarse-start: 768 cells and five):
+# 2.4e6 unknowns. Peak memory on one process with RT_0 fluxes at d884e01
+# (/usr/bin/time): 3.0 GB; with one mesh more (9.4e6 unknowns), 11.3 GB.
+CYCLES = (2 if QUICK else 4) + COARSE_START
+if any(a.startswith("--cycles=") for a in sys.argv):
+    CYCLES = next(int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles="))
+    STEM += f"-cycles-{CYCLES}"
 # Every configuration run this many times, in rounds (all configurations,
 # then again); the table gives, for each mesh, the run of the median ratio
 # and the range of the ratio over the runs.
@@ -102,10 +113,6 @@ if "--huge-pages" in sys.argv:
     os.environ["GLIBC_TUNABLES"] = ":".join(
         t for t in (os.environ.get("GLIBC_TUNABLES"), "glibc.malloc.hugetlb=1") if t)
     STEM += "-huge-pages"
-# 12288 cells and three refinements (--coarse-start: 768 cells and five):
-# 2.4e6 unknowns (peak memory 8.3 GB on one process, 4.8 GB per process
-# on two).
-CYCLES = (2 if QUICK else 4) + COARSE_START
 # (processes, threads per process; None: deal.II's default, all cores)
 CONFIGURATIONS = [(1, 1), (1, None), (2, None)]
 
