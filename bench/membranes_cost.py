@@ -63,9 +63,9 @@ import math
 import os
 import sys
 
-from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, gnuplot, program,
-                      read_table, run as run_program, write_csv, write_markdown,
-                      write_table)
+from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, gnuplot,
+                      poisson_seconds, program, read_table, run as run_program, write_csv,
+                      write_markdown, write_table)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
@@ -97,10 +97,11 @@ if COARSE_START:
 # 12288 cells and three refinements (--coarse-start: 768 cells and five):
 # 2.4e6 unknowns. Peak memory on one process with RT_0 fluxes at d884e01
 # (/usr/bin/time): 3.0 GB; with one mesh more (9.4e6 unknowns), 11.3 GB.
-CYCLES = (2 if QUICK else 4) + COARSE_START
-if any(a.startswith("--cycles=") for a in sys.argv):
-    CYCLES = next(int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles="))
+CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), None)
+if CYCLES:
     STEM += f"-cycles-{CYCLES}"
+else:
+    CYCLES = (2 if QUICK else 4) + COARSE_START
 # Every configuration run this many times, in rounds (all configurations,
 # then again); the table gives, for each mesh, the run of the median ratio
 # and the range of the ratio over the runs.
@@ -150,7 +151,7 @@ def run_study():
         previous = None
         n_threads, cycles = run(np, threads, repeat)
         for c in cycles:
-            poisson = sum(m["seconds"] for m in c["reference_poisson"])
+            poisson = poisson_seconds(c)
             estimators = estimator_seconds(c["timing"])
             # the tabulated f1, f2, part of the assembly since 2bd68de (with
             # or without estimators; before, counted with the estimators)

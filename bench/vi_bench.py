@@ -53,6 +53,12 @@ def cost_study_settings(c_function, flux_degree, initial_refinements):
             "Estimators/Sharpen final estimate": "false"}
 
 
+def poisson_seconds(cycle):
+    """The reference Poisson solves of a cycle of summary.json (Benchmark/
+    Reference Poisson solve: one CG + AMG solve per membrane), summed."""
+    return sum(solve["seconds"] for solve in cycle["reference_poisson"])
+
+
 def estimator_seconds(timing):
     """The estimators' share of a TimerOutput split ("timing" in summary.json)."""
     return sum(seconds for section, seconds in timing.items()
