@@ -17,6 +17,11 @@ sections "estimators: ..."; the loads f1, f2 at the quadrature points
 (section "assembly: loads") are part of the assembly, which evaluates them
 with or without estimators, and are also shown counted with the estimators
 (column "(estimators + loads) / rest", the accounting before 2bd68de).
+The kernel's CPU time in the contact solve and in the Poisson pair, and
+the growth exponent of the program's own CPU time (summary.json
+"solve_usage", "reference_poisson" "usage": getrusage, summed over
+processes and threads) tell the first touch of memory from the program's
+work (doc/performance.md, "Where the time above linear goes").
 
 Writes doc/data/cost.{csv,md} and doc/data/cost.png.
 Usage, from the repository root after ./demo.sh or ./test.sh:
@@ -24,7 +29,8 @@ Usage, from the repository root after ./demo.sh or ./test.sh:
                           [--flux-degree=p-1] [--check-interval=N]
                           [--gamma-lin=G] [--coarse-start] [--cycles=N]
                           [--repeat=N] [--huge-pages] [--tables-only]
---quick stops at about 5e4 unknowns per field (a smoke test of the script).
+--quick stops at about 5e4 unknowns per field (a smoke test of the script;
+its files are doc/data/<stem as below>-quick.*).
 --c-function chooses the C-function of Newton (default min); for another
 one the files are doc/data/cost-<name>.{csv,md,png}.
 --flux-degree=p-1 reconstructs the fluxes in RT_0 instead of RT_1
@@ -108,6 +114,9 @@ else:
 REPEAT = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--repeat=")), 1)
 if REPEAT > 1:
     STEM += f"-median-of-{REPEAT}"
+if QUICK:
+    # (a smoke test must not overwrite a study's files)
+    STEM += "-quick"
 if "--huge-pages" in sys.argv:
     # the programs inherit the environment (vi_bench.run); other tunables
     # the caller set are kept
@@ -176,6 +185,19 @@ def run_study():
                    "growth": (math.log(c["solve_seconds"] / previous["solve_seconds"])
                               / math.log(c["dofs_per_field"] / previous["dofs_per_field"])
                               if previous else float("nan"))}
+            if "solve_usage" in c:
+                # CPU seconds in the kernel (mostly the first touch of
+                # memory) and in the program, summed over processes and
+                # threads (since the commit after ef454e7)
+                row["solve_system_seconds"] = c["solve_usage"]["system_seconds"]
+                row["poisson_system_seconds"] = sum(m["usage"]["system_seconds"]
+                                                    for m in c["reference_poisson"])
+                row["solve_user_seconds"] = c["solve_usage"]["user_seconds"]
+                row["growth_user"] = (
+                    math.log(c["solve_usage"]["user_seconds"]
+                             / previous["solve_usage"]["user_seconds"])
+                    / math.log(c["dofs_per_field"] / previous["dofs_per_field"])
+                    if previous else float("nan"))
             rows.append(row)
             previous = c
     for row in rows:
@@ -224,6 +246,17 @@ def main():
                ("ratio_without_estimators", "{:.1f}"), ("estimator_fraction", "{:.2f}"),
                ("estimator_fraction_with_loads", "{:.2f}"),
                ("growth", "{:.2f}"), ("speedup", "{:.2f}"), ("effectivity", "{:.3f}")]
+    if "solve_system_seconds" in rows[0]:
+        # where the time goes that is not the program's (studies from the
+        # commit after ef454e7 on)
+        for after, key, title, fmt in (
+                ("2 Poisson (s)", "solve_system_seconds", "kernel CPU, solve (s)", "{:.2f}"),
+                ("kernel CPU, solve (s)", "poisson_system_seconds",
+                 "kernel CPU, 2 Poisson (s)", "{:.2f}"),
+                ("growth exponent", "growth_user", "growth exponent, program CPU", "{:.2f}")):
+            position = header.index(after) + 1
+            header.insert(position, title)
+            formats.insert(position, (key, fmt))
     if REPEAT > 1:
         # the median run's columns, and the ranges over all runs beside them
         for after, key, title in (("ratio", "ratio_range", f"ratio, {REPEAT} runs"),

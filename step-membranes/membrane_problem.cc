@@ -1763,6 +1763,17 @@ namespace StepMembranes
       json["dirichlet"]    = e.dirichlet;
       return json;
     }
+
+
+    VI::Json
+    to_json(const VI::ProcessUsage &usage)
+    {
+      VI::Json json             = VI::Json::object();
+      json["user_seconds"]      = usage.user_seconds;
+      json["system_seconds"]    = usage.system_seconds;
+      json["minor_page_faults"] = usage.minor_faults;
+      return json;
+    }
   } // namespace
 
 
@@ -1831,6 +1842,7 @@ namespace StepMembranes
       }
     record["wall_seconds"]  = wall;
     record["solve_seconds"] = solve_timer.wall_time();
+    record["solve_usage"]   = to_json(solve_usage);
     // This cycle's share of every TimerOutput section.
     record["timing"] = VI::Json::object();
     for (const auto &[section, seconds] :
@@ -1857,6 +1869,7 @@ namespace StepMembranes
             VI::Json membrane      = VI::Json::object();
             membrane["seconds"]    = cost.seconds;
             membrane["iterations"] = cost.iterations;
+            membrane["usage"]      = to_json(cost.usage);
             reference.push_back(membrane);
           }
         record["reference_poisson"] = reference;
@@ -2010,6 +2023,7 @@ namespace StepMembranes
         if (cycle > 0)
           refine_mesh();
         solve_timer.restart();
+        usage_at_solve_start = VI::ProcessUsage::now(comm);
         setup_system();
         assemble_system();
         initialize_iterate();
@@ -2035,6 +2049,7 @@ namespace StepMembranes
             throw;
           }
         solve_timer.stop();
+        solve_usage = VI::ProcessUsage::now(comm) - usage_at_solve_start;
         postprocess();
         compute_errors();
         output_results(cycle);

@@ -28,6 +28,7 @@
 #include <vi/marking.h>
 #include <vi/multiplier_function.h>
 #include <vi/parameters.h>
+#include <vi/process_usage.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
@@ -353,7 +354,10 @@ namespace StepMembranes
     Timer                 cycle_timer;
     /// Set-up, assembly and semismooth Newton (estimators included) of the
     /// cycle: what the contact problem costs on a given mesh.
-    Timer                         solve_timer;
+    Timer solve_timer;
+    /// The CPU time and page faults of the same span, and the reading at
+    /// its start.
+    VI::ProcessUsage              solve_usage, usage_at_solve_start;
     std::map<std::string, double> timing_at_cycle_start;
 
     /// What the peer did on this cycle's mesh (Benchmark/Compare with

@@ -40,7 +40,8 @@ namespace StepMembranes
                           const MPI_Comm                 comm,
                           TrilinosWrappers::MPI::Vector *solution_out)
   {
-    Timer timer(comm, /*sync_lap_times=*/true);
+    Timer                  timer(comm, /*sync_lap_times=*/true);
+    const VI::ProcessUsage usage_at_start = VI::ProcessUsage::now(comm);
 
     const IndexSet &owned = dof_handler.locally_owned_dofs();
     IndexSet        relevant;
@@ -140,9 +141,10 @@ namespace StepMembranes
     constraints.distribute(solution);
 
     timer.stop();
+    const VI::ProcessUsage usage = VI::ProcessUsage::now(comm) - usage_at_start;
     if (solution_out != nullptr)
       *solution_out = std::move(solution);
-    return {timer.wall_time(), control.last_step()};
+    return {timer.wall_time(), control.last_step(), usage};
   }
 
 

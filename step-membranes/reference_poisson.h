@@ -5,6 +5,8 @@
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/fe/mapping.h>
 
+#include <vi/process_usage.h>
+
 #include <mpi.h>
 
 namespace dealii::TrilinosWrappers::MPI
@@ -19,6 +21,8 @@ namespace StepMembranes
   {
     double       seconds    = 0; ///< wall time, set-up to solution
     unsigned int iterations = 0; ///< CG iterations
+    /// CPU time and page faults of the same span, summed over the processes
+    VI::ProcessUsage usage;
   };
 
   /**
