@@ -635,6 +635,9 @@ namespace StepHHO
       v->reinit(owned_faces, relevant_faces, comm);
     for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h})
       field->reinit(owned_nodes, relevant_nodes, comm);
+    ghosted_nodes.reinit(owned_nodes, relevant_nodes, comm);
+    ghosted_faces.reinit(owned_faces, relevant_faces, comm);
+    ghosted_system.reinit(owned_system, relevant_system, comm);
     DoFTools::extract_constant_modes(face_dof_handler,
                                      ComponentMask(),
                                      constant_modes);
@@ -959,9 +962,9 @@ namespace StepHHO
     std::vector<TrilinosWrappers::MPI::Vector *> fields = {&u1, &u2, &lambda};
     solution_transfer->interpolate(fields);
     solution_transfer.reset();
-    u1_h     = u1;
-    u2_h     = u2;
-    lambda_h = lambda;
+    ghosted_nodes.copy(u1, u1_h);
+    ghosted_nodes.copy(u2, u2_h);
+    ghosted_nodes.copy(lambda, lambda_h);
 
     // Nodal values X_alpha = V c_alpha, dual coefficients
     // X3_I = (lambda_h, phi_I)_K = (T^T M c_lambda)_I.
@@ -1002,7 +1005,7 @@ namespace StepHHO
   HHOProblem<dim>::equation_residual(const TrilinosWrappers::MPI::Vector &X,
                                      TrilinosWrappers::MPI::Vector &R) const
   {
-    ghosted_iterate          = X;
+    ghosted_system.copy(X, ghosted_iterate);
     R                        = 0;
     const unsigned int n_c   = cell_fe.n_dofs_per_cell();
     const unsigned int n_f   = face_fe.n_dofs_per_cell();
@@ -1256,8 +1259,8 @@ namespace StepHHO
                              tolerance);
     face_constraints.distribute(mean_update);
     face_constraints.distribute(difference_update);
-    ghosted_mean_update       = mean_update;
-    ghosted_difference_update = difference_update;
+    ghosted_faces.copy(mean_update, ghosted_mean_update);
+    ghosted_faces.copy(difference_update, ghosted_difference_update);
     return iterations;
   }
 
@@ -1411,10 +1414,10 @@ namespace StepHHO
         }
     for (auto *v : {&u1, &u2, &gap, &lambda})
       v->compress(VectorOperation::insert);
-    u1_h     = u1;
-    u2_h     = u2;
-    gap_h    = gap;
-    lambda_h = lambda;
+    ghosted_nodes.copy(u1, u1_h);
+    ghosted_nodes.copy(u2, u2_h);
+    ghosted_nodes.copy(gap, gap_h);
+    ghosted_nodes.copy(lambda, lambda_h);
 
     // Nodes where u1 = u2 is enforced, and their share on each cell.
     n_contact_nodes = contact_rows.contact_set(solution, indicator);

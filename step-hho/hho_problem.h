@@ -20,6 +20,7 @@
 #include <vi/complementarity.h>
 #include <vi/contact_rows.h>
 #include <vi/geometry.h>
+#include <vi/ghosted_copy.h>
 #include <vi/parameters.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
@@ -216,6 +217,9 @@ namespace StepHHO
     IndexSet owned_nodes, relevant_nodes;
     IndexSet owned_faces, relevant_faces;
     IndexSet owned_system, relevant_system;
+    /// Copies of owned vectors into ghosted ones of the three layouts (map
+    /// and import built once per mesh).
+    VI::GhostedCopy ghosted_nodes, ghosted_faces, ghosted_system;
 
     AffineConstraints<double>     face_constraints;   ///< boundary face DoFs
     AffineConstraints<double>     system_constraints; ///< their unknowns in X

@@ -201,6 +201,7 @@ namespace StepMembranes
     solution.reinit(owned_system, comm);
     for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
       field->reinit(owned_nodes, relevant_nodes, comm);
+    ghosted_nodes.reinit(owned_nodes, relevant_nodes, comm);
 
     if (parameters.estimators.enabled)
       {
@@ -481,8 +482,7 @@ namespace StepMembranes
             owned(dofs[i]) = coefficients(i);
         }
     owned.compress(VectorOperation::insert);
-    v.reinit(owned_nodes, relevant_nodes, comm);
-    v = owned;
+    ghosted_nodes.copy(owned, v);
   }
 
 
@@ -502,10 +502,7 @@ namespace StepMembranes
                                               Vector       &lambda) const
   {
     if (mass_lumped())
-      {
-        lambda.reinit(owned_nodes, relevant_nodes, comm);
-        lambda = X3;
-      }
+      ghosted_nodes.copy(X3, lambda);
     else
       function_from_moments(X3, lambda);
   }
@@ -561,8 +558,7 @@ namespace StepMembranes
             owned(dofs[i]) = mean + theta * (nodal[i] - mean);
         }
     owned.compress(VectorOperation::insert);
-    lambda.reinit(owned_nodes, relevant_nodes, comm);
-    lambda = owned;
+    ghosted_nodes.copy(owned, lambda);
   }
 
 
@@ -618,8 +614,8 @@ namespace StepMembranes
           X3 = lambda;
         else
           {
-            Vector ghosted(owned_nodes, relevant_nodes, comm);
-            ghosted = lambda;
+            Vector ghosted;
+            ghosted_nodes.copy(lambda, ghosted);
             moments_of_function(ghosted, X3);
           }
         VI::NodalFields::insert(X3, multiplier, solution);
@@ -760,8 +756,8 @@ namespace StepMembranes
   {
     TimerOutput::Scope t(timer, "estimators");
     const auto         ghosted = [&](const Vector &v) {
-      Vector result(owned_nodes, relevant_nodes, comm);
-      result = v;
+      Vector result;
+      ghosted_nodes.copy(v, result);
       return result;
     };
     Vector field(owned_nodes, comm);

@@ -23,6 +23,7 @@
 #include <vi/dg_reconstruction.h>
 #include <vi/flux_reconstruction.h>
 #include <vi/geometry.h>
+#include <vi/ghosted_copy.h>
 #include <vi/interior_penalty.h>
 #include <vi/linear_solvers.h>
 #include <vi/semismooth_newton.h>
@@ -177,7 +178,10 @@ namespace StepMembranes
     QGauss<dim - 1> face_quadrature;
 
     IndexSet owned_nodes, relevant_nodes;
-    IndexSet owned_system, relevant_system;
+    /// Copies owned node vectors into ghosted ones (map and import built
+    /// once per mesh).
+    VI::GhostedCopy ghosted_nodes;
+    IndexSet        owned_system, relevant_system;
 
     VI::ContactRows   contact_rows;
     std::vector<bool> active_rows; ///< of the last Newton linearisation
