@@ -18,13 +18,16 @@ def program(name):
                           os.path.join(ROOT, "build", f"step-{name}", f"step-{name}"))
 
 
-def run(binary, prm, settings, directory, np=1, threads=None, environment=None):
+def run(binary, prm, settings, directory, np=1, threads=None, environment=None,
+        wrapper=None):
     """Run binary on parameters/<prm> with the settings (section/name:
     value) and Output/Directory = directory, on np processes of at most
     `threads` threads each (DEAL_II_NUM_THREADS; None: deal.II's default,
     all cores shared by the processes), with the variables of
-    `environment` added to the environment; return its summary.json."""
-    command = [binary, os.path.join(ROOT, "parameters", prm)]
+    `environment` added to the environment, under the command `wrapper`
+    (a list, e.g. perf record and its options) if given; return its
+    summary.json."""
+    command = (wrapper or []) + [binary, os.path.join(ROOT, "parameters", prm)]
     for key, value in {**settings, "Output/Directory": directory}.items():
         command += ["--set", f"{key}={value}"]
     if np > 1:

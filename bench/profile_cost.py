@@ -1,0 +1,138 @@
+#!/usr/bin/env python3
+"""Where the time of the cost study's contact solve goes on its two largest
+meshes (doc/performance.md, "Where the time above linear goes").
+
+One run of the one-thread configuration of
+  bench/membranes_cost.py --c-function=fischer-burmeister --flux-degree=p-1
+                          --gamma-lin=0.1 --coarse-start --cycles=7
+(Fischer-Burmeister, RT_0 fluxes, nested sequence from 768 cells to 3.1e6
+unknowns per field, 11.3 GB) under `perf record -F 199`. The phases of a
+cycle run one after the other, in this order: refinement, set-up, patch
+set-up ("estimators: patch matrices"), assembly, Newton with its
+estimators (the rest of the contact solve), errors and output, the
+reference Poisson pair; each phase's samples are those inside the window
+of its time in summary.json (so a window can be off by the fraction of a
+second a cycle spends outside them). For each phase the table gives its
+wall time and the seconds of samples in the kernel's clearing of pages
+(`clear_page*`: pages touched for the first time); for the contact solve
+(set-up to Newton) also the samples outside the kernel (the program's own
+time) and, on the last mesh, the growth exponents of the wall time and
+of the program's time against the mesh before.
+
+Writes doc/data/profile-cost[-huge-pages][-cycles-<N>].md.
+Usage, from the repository root after ./demo.sh or ./test.sh:
+  bench/profile_cost.py [--huge-pages] [--cycles=N]
+--huge-pages runs with glibc's heap in huge pages
+(GLIBC_TUNABLES=glibc.malloc.hugetlb=1).
+--cycles=N stops after N meshes instead of 7 (5: half a minute and 1
+GB; 7: about 6 minutes and 11.3 GB).
+Needs perf (Debian package linux-perf).
+"""
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+from vi_bench import DATA, ROOT, cost_study_settings, program, run
+
+HUGE_PAGES = "--huge-pages" in sys.argv
+CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 7)
+STEM = "profile-cost" + ("-huge-pages" if HUGE_PAGES else "") \
+    + ("" if CYCLES == 7 else f"-cycles-{CYCLES}")
+OUT = os.path.join(ROOT, "output", "bench-profile", STEM)
+RATE = 199  # samples per second
+
+
+def samples(perf_data):
+    """(time, symbol, in the kernel) of every sample, from perf script."""
+    text = subprocess.run(["perf", "script", "-i", perf_data, "-F", "time,ip,sym,dso"],
+                          check=True, capture_output=True, text=True).stdout
+    rows = []
+    for line in text.splitlines():
+        m = re.match(r"\s*([\d.]+):\s+\S+\s+(.*?)\s+\((\S+)\)\s*$", line)
+        if m:
+            rows.append((float(m.group(1)), m.group(2), "kallsyms" in m.group(3)))
+    return rows
+
+
+def phases(cycle):
+    """(name, seconds, part of the contact solve) in the order they run."""
+    t = cycle["timing"]
+    setup, patches, assembly = (t["setup"], t["estimators: patch matrices"],
+                                t["assembly"])
+    solve = cycle["solve_seconds"]
+    return [("refinement", t.get("refinement", 0.0), False),
+            ("set-up", setup, True),
+            ("patch set-up", patches, True),
+            ("assembly", assembly, True),
+            ("Newton with its estimators", solve - setup - patches - assembly, True),
+            ("errors and output",
+             cycle["wall_seconds"] - t.get("refinement", 0.0) - solve, False),
+            ("2 Poisson", sum(s["seconds"] for s in cycle["reference_poisson"]), False)]
+
+
+def main():
+    if shutil.which("perf") is None:
+        sys.exit("profile_cost.py: perf not found (apt-get install linux-perf)")
+    os.makedirs(OUT, exist_ok=True)
+    perf_data = os.path.join(OUT, "perf.data")
+    settings = {**cost_study_settings("fischer-burmeister", "p-1", 3),
+                "Nonlinear solver/gamma_lin": 0.1,
+                "Mesh/Cycles": CYCLES,
+                "Benchmark/Reference Poisson solve": "true",
+                "Output/Write VTU": "false"}
+    environment = {"GLIBC_TUNABLES": "glibc.malloc.hugetlb=1"} if HUGE_PAGES else {}
+    summary = run(program("membranes"), "estimators-disk-p1.prm", settings, OUT,
+                  threads=1, environment=environment,
+                  wrapper=["perf", "record", "-q", "-F", str(RATE), "-o", perf_data, "--"])
+    rows = samples(perf_data)
+    # The cycles follow the first sample (the start of the program; its
+    # set-up before the first cycle takes a fraction of a second).
+    start = rows[0][0]
+    table, solve_seconds = [], []
+    for k, cycle in enumerate(summary["cycles"]):
+        clock = start
+        own = clearing_in_solve = 0.0
+        lines = []
+        for name, seconds, in_solve in phases(cycle):
+            window = [r for r in rows if clock <= r[0] < clock + seconds]
+            clearing = sum(1 for r in window if r[2] and "clear_page" in r[1]) / RATE
+            if in_solve:
+                own += sum(1 for r in window if not r[2]) / RATE
+                clearing_in_solve += clearing
+            lines.append((name, seconds, clearing))
+            clock += seconds
+        start = clock
+        solve_seconds.append((cycle["dofs_per_field"], cycle["solve_seconds"], own))
+        if k >= len(summary["cycles"]) - 2:
+            table.append((cycle, lines, clearing_in_solve, own))
+    (n0, wall0, own0), (n1, wall1, own1) = solve_seconds[-2:]
+    growth = math.log(n1 / n0)
+    header = ["phase"] + [f"{c['dofs_per_field']} per field: wall (s)" for c, *_ in table] \
+        + [f"{c['dofs_per_field']} per field: clearing pages (s)" for c, *_ in table]
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for i, (name, _, _) in enumerate(table[0][1]):
+        out.append(f"| {name} | " + " | ".join(f"{lines[i][1]:.2f}" for _, lines, *_ in table)
+                   + " | " + " | ".join(f"{lines[i][2]:.1f}" for _, lines, *_ in table) + " |")
+    out.append("| contact solve | " + " | ".join(f"{c['solve_seconds']:.2f}" for c, *_ in table)
+               + " | " + " | ".join(f"{s:.1f}" for _, _, s, _ in table) + " |")
+    out.append("| contact solve, the program's own samples | "
+               + " | ".join(f"{o:.2f}" for *_, o in table) + " | - | - |")
+    out.append("")
+    out.append(f"Growth exponents of the contact solve from {n0} to {n1} unknowns per "
+               f"field: wall time {math.log(wall1 / wall0) / growth:.2f}, the program's own "
+               f"samples {math.log(own1 / own0) / growth:.2f}; kernel CPU of the last "
+               f"solve (getrusage) {table[-1][0]['solve_usage']['system_seconds']:.2f} s, "
+               f"{table[-1][0]['solve_usage']['minor_page_faults']:.0f} minor faults. "
+               f"Binary of {summary.get('git', '?')}"
+               + (", glibc's heap in huge pages." if HUGE_PAGES else "."))
+    with open(os.path.join(DATA, STEM + ".md"), "w") as f:
+        f.write("\n".join(out) + "\n")
+    print("\n".join(out))
+    print(f"wrote {os.path.join(DATA, STEM)}.md")
+
+
+if __name__ == "__main__":
+    main()
