@@ -65,13 +65,12 @@ STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
 import itertools
-import math
 import os
 import sys
 
 from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, gnuplot,
-                      poisson_seconds, program, read_table, run as run_program, write_csv,
-                      write_markdown, write_table)
+                      growth_exponent, poisson_seconds, program, read_table,
+                      run as run_program, write_csv, write_markdown, write_table)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
@@ -182,21 +181,21 @@ def run_study():
                    "loads_seconds": loads,
                    "estimator_fraction_with_loads":
                        (estimators + loads) / (c["solve_seconds"] - estimators - loads),
-                   "growth": (math.log(c["solve_seconds"] / previous["solve_seconds"])
-                              / math.log(c["dofs_per_field"] / previous["dofs_per_field"])
+                   "growth": (growth_exponent(c["solve_seconds"], previous["solve_seconds"],
+                                              c["dofs_per_field"], previous["dofs_per_field"])
                               if previous else float("nan"))}
             if "solve_usage" in c:
                 # CPU seconds in the kernel (mostly the first touch of
                 # memory) and in the program, summed over processes and
-                # threads (since the commit after ef454e7)
+                # threads (since a35f4ae)
                 row["solve_system_seconds"] = c["solve_usage"]["system_seconds"]
                 row["poisson_system_seconds"] = sum(m["usage"]["system_seconds"]
                                                     for m in c["reference_poisson"])
                 row["solve_user_seconds"] = c["solve_usage"]["user_seconds"]
                 row["growth_user"] = (
-                    math.log(c["solve_usage"]["user_seconds"]
-                             / previous["solve_usage"]["user_seconds"])
-                    / math.log(c["dofs_per_field"] / previous["dofs_per_field"])
+                    growth_exponent(c["solve_usage"]["user_seconds"],
+                                    previous["solve_usage"]["user_seconds"],
+                                    c["dofs_per_field"], previous["dofs_per_field"])
                     if previous else float("nan"))
             rows.append(row)
             previous = c
@@ -247,8 +246,8 @@ def main():
                ("estimator_fraction_with_loads", "{:.2f}"),
                ("growth", "{:.2f}"), ("speedup", "{:.2f}"), ("effectivity", "{:.3f}")]
     if "solve_system_seconds" in rows[0]:
-        # where the time goes that is not the program's (studies from the
-        # commit after ef454e7 on)
+        # where the time goes that is not the program's (studies since
+        # a35f4ae)
         for after, key, title, fmt in (
                 ("2 Poisson (s)", "solve_system_seconds", "kernel CPU, solve (s)", "{:.2f}"),
                 ("kernel CPU, solve (s)", "poisson_system_seconds",

@@ -28,14 +28,13 @@ Usage, from the repository root after ./demo.sh or ./test.sh:
 GB; 7: about 6 minutes and 11.3 GB).
 Needs perf (Debian package linux-perf).
 """
-import math
 import os
 import re
 import shutil
 import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, cost_study_settings, program, run
+from vi_bench import DATA, ROOT, cost_study_settings, growth_exponent, program, run
 
 HUGE_PAGES = "--huge-pages" in sys.argv
 CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 7)
@@ -109,7 +108,6 @@ def main():
         if k >= len(summary["cycles"]) - 2:
             table.append((cycle, lines, clearing_in_solve, own))
     (n0, wall0, own0), (n1, wall1, own1) = solve_seconds[-2:]
-    growth = math.log(n1 / n0)
     header = ["phase"] + [f"{c['dofs_per_field']} per field: wall (s)" for c, *_ in table] \
         + [f"{c['dofs_per_field']} per field: clearing pages (s)" for c, *_ in table]
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
@@ -122,8 +120,8 @@ def main():
                + " | ".join(f"{o:.2f}" for *_, o in table) + " | - | - |")
     out.append("")
     out.append(f"Growth exponents of the contact solve from {n0} to {n1} unknowns per "
-               f"field: wall time {math.log(wall1 / wall0) / growth:.2f}, the program's own "
-               f"samples {math.log(own1 / own0) / growth:.2f}; kernel CPU of the last "
+               f"field: wall time {growth_exponent(wall1, wall0, n1, n0):.2f}, the program's own "
+               f"samples {growth_exponent(own1, own0, n1, n0):.2f}; kernel CPU of the last "
                f"solve (getrusage) {table[-1][0]['solve_usage']['system_seconds']:.2f} s, "
                f"{table[-1][0]['solve_usage']['minor_page_faults']:.0f} minor faults. "
                f"Binary of {summary.get('git', '?')}"

@@ -4,6 +4,7 @@ Markdown (doc/data/<stem>.{csv,md}) and reading the CSV back, and running
 gnuplot."""
 import csv
 import json
+import math
 import os
 import subprocess
 
@@ -54,6 +55,11 @@ def cost_study_settings(c_function, flux_degree, initial_refinements):
             "Linear solver/Preconditioner": "amg",
             "Estimators/At every check": "false",
             "Estimators/Sharpen final estimate": "false"}
+
+
+def growth_exponent(seconds, previous_seconds, dofs, previous_dofs):
+    """The exponent a of seconds ~ dofs^a between two meshes (1: linear)."""
+    return math.log(seconds / previous_seconds) / math.log(dofs / previous_dofs)
 
 
 def poisson_seconds(cycle):
