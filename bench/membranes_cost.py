@@ -69,7 +69,8 @@ import os
 import sys
 
 from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, gnuplot,
-                      growth_exponent, poisson_seconds, program, read_table,
+                      growth_exponent, huge_pages_environment, poisson_seconds, program,
+                      read_table,
                       run as run_program, write_csv, write_markdown, write_table)
 
 PROGRAM = program("membranes")
@@ -117,10 +118,8 @@ if QUICK:
     # (a smoke test must not overwrite a study's files)
     STEM += "-quick"
 if "--huge-pages" in sys.argv:
-    # the programs inherit the environment (vi_bench.run); other tunables
-    # the caller set are kept
-    os.environ["GLIBC_TUNABLES"] = ":".join(
-        t for t in (os.environ.get("GLIBC_TUNABLES"), "glibc.malloc.hugetlb=1") if t)
+    # (the programs inherit the environment, vi_bench.run)
+    os.environ.update(huge_pages_environment())
     STEM += "-huge-pages"
 # (processes, threads per process; None: deal.II's default, all cores)
 CONFIGURATIONS = [(1, 1), (1, None), (2, None)]

@@ -23,18 +23,20 @@ Writes doc/data/profile-cost[-huge-pages][-cycles-<N>].md.
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/profile_cost.py [--huge-pages] [--cycles=N]
 --huge-pages runs with glibc's heap in huge pages
-(GLIBC_TUNABLES=glibc.malloc.hugetlb=1).
+(GLIBC_TUNABLES=glibc.malloc.hugetlb=1, the other tunables kept).
 --cycles=N stops after N meshes instead of 7 (5: half a minute and 1
 GB; 7: about 6 minutes and 11.3 GB).
 Needs perf (Debian package linux-perf).
 """
+import bisect
 import os
 import re
 import shutil
 import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, cost_study_settings, growth_exponent, program, run
+from vi_bench import (DATA, ROOT, cost_study_settings, growth_exponent,
+                      huge_pages_environment, poisson_seconds, program, run)
 
 HUGE_PAGES = "--huge-pages" in sys.argv
 CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 7)
@@ -69,7 +71,7 @@ def phases(cycle):
             ("Newton with its estimators", solve - setup - patches - assembly, True),
             ("errors and output",
              cycle["wall_seconds"] - t.get("refinement", 0.0) - solve, False),
-            ("2 Poisson", sum(s["seconds"] for s in cycle["reference_poisson"]), False)]
+            ("2 Poisson", poisson_seconds(cycle), False)]
 
 
 def main():
@@ -82,32 +84,34 @@ def main():
                 "Mesh/Cycles": CYCLES,
                 "Benchmark/Reference Poisson solve": "true",
                 "Output/Write VTU": "false"}
-    environment = {"GLIBC_TUNABLES": "glibc.malloc.hugetlb=1"} if HUGE_PAGES else {}
+    environment = huge_pages_environment() if HUGE_PAGES else {}
     summary = run(program("membranes"), "estimators-disk-p1.prm", settings, OUT,
                   threads=1, environment=environment,
                   wrapper=["perf", "record", "-q", "-F", str(RATE), "-o", perf_data, "--"])
     rows = samples(perf_data)
+    times = [r[0] for r in rows]  # (perf script lists them in order)
     # The cycles follow the first sample (the start of the program; its
     # set-up before the first cycle takes a fraction of a second).
-    start = rows[0][0]
-    table, solve_seconds = [], []
-    for k, cycle in enumerate(summary["cycles"]):
-        clock = start
+    clock = times[0]
+    table = []  # per cycle: summary, phases, clearing and own time of the solve
+    for cycle in summary["cycles"]:
         own = clearing_in_solve = 0.0
         lines = []
         for name, seconds, in_solve in phases(cycle):
-            window = [r for r in rows if clock <= r[0] < clock + seconds]
+            window = rows[bisect.bisect_left(times, clock):
+                          bisect.bisect_left(times, clock + seconds)]
             clearing = sum(1 for r in window if r[2] and "clear_page" in r[1]) / RATE
             if in_solve:
                 own += sum(1 for r in window if not r[2]) / RATE
                 clearing_in_solve += clearing
             lines.append((name, seconds, clearing))
             clock += seconds
-        start = clock
-        solve_seconds.append((cycle["dofs_per_field"], cycle["solve_seconds"], own))
-        if k >= len(summary["cycles"]) - 2:
-            table.append((cycle, lines, clearing_in_solve, own))
-    (n0, wall0, own0), (n1, wall1, own1) = solve_seconds[-2:]
+        table.append((cycle, lines, clearing_in_solve, own))
+    table = table[-2:]
+    n0, wall0, own0 = (table[0][0]["dofs_per_field"], table[0][0]["solve_seconds"],
+                       table[0][3])
+    n1, wall1, own1 = (table[1][0]["dofs_per_field"], table[1][0]["solve_seconds"],
+                       table[1][3])
     header = ["phase"] + [f"{c['dofs_per_field']} per field: wall (s)" for c, *_ in table] \
         + [f"{c['dofs_per_field']} per field: clearing pages (s)" for c, *_ in table]
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]

@@ -57,6 +57,14 @@ def cost_study_settings(c_function, flux_degree, initial_refinements):
             "Estimators/Sharpen final estimate": "false"}
 
 
+def huge_pages_environment():
+    """The environment that puts glibc's heap in huge pages
+    (GLIBC_TUNABLES=glibc.malloc.hugetlb=1, README.md), keeping the other
+    tunables the caller set."""
+    return {"GLIBC_TUNABLES": ":".join(
+        t for t in (os.environ.get("GLIBC_TUNABLES"), "glibc.malloc.hugetlb=1") if t)}
+
+
 def growth_exponent(seconds, previous_seconds, dofs, previous_dofs):
     """The exponent a of seconds ~ dofs^a between two meshes (1: linear)."""
     return math.log(seconds / previous_seconds) / math.log(dofs / previous_dofs)
