@@ -35,8 +35,8 @@ import shutil
 import subprocess
 import sys
 
-from vi_bench import (DATA, ROOT, cost_study_settings, growth_exponent,
-                      huge_pages_environment, poisson_seconds, program, run)
+from vi_bench import (ROOT, cost_study_settings, growth_exponent,
+                      huge_pages_environment, poisson_seconds, program, run, write_report)
 
 HUGE_PAGES = "--huge-pages" in sys.argv
 CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 7)
@@ -130,10 +130,7 @@ def main():
                f"{table[-1][0]['solve_usage']['minor_page_faults']:.0f} minor faults. "
                f"Binary of {summary.get('git', '?')}"
                + (", glibc's heap in huge pages." if HUGE_PAGES else "."))
-    with open(os.path.join(DATA, STEM + ".md"), "w") as f:
-        f.write("\n".join(out) + "\n")
-    print("\n".join(out))
-    print(f"wrote {os.path.join(DATA, STEM)}.md")
+    write_report(STEM, out)
 
 
 if __name__ == "__main__":

@@ -36,13 +36,20 @@ import shutil
 import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, cost_study_settings, program, run
+from vi_bench import ROOT, cost_study_settings, program, run, write_report
 
 CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 6)
 TABLES_ONLY = "--tables-only" in sys.argv
 STEM = "profile-memory" + ("" if CYCLES == 6 else f"-cycles-{CYCLES}")
 OUT = os.path.join(ROOT, "output", "bench-profile", STEM)
 ROWS = 15  # holders listed per table; the rest are summed in one row
+# The study's one-thread configuration (bench/profile_cost.py's) without
+# the Poisson pair
+SETTINGS = {**cost_study_settings("fischer-burmeister", "p-1", 3),
+            "Nonlinear solver/gamma_lin": 0.1,
+            "Mesh/Cycles": CYCLES,
+            "Benchmark/Reference Poisson solve": "false",
+            "Output/Write VTU": "false"}
 FAULT_PERIOD = 128  # one sample per this many page faults
 STACK_BYTES = 32768  # of the stack copied per sample, for the unwinding
 PAGE = 4096
@@ -95,8 +102,13 @@ def phase(frames):
     return PHASES.get(method)
 
 
-def recorded_summary(directory):
-    """The summary.json of a recorded run (--tables-only)."""
+def profiled_run(directory, wrapper):
+    """The summary.json of the study's run in directory under the command
+    `wrapper`: run now, or with --tables-only the recorded one."""
+    if not TABLES_ONLY:
+        os.makedirs(directory, exist_ok=True)
+        return run(program("membranes"), "estimators-disk-p1.prm", SETTINGS, directory,
+                   threads=1, wrapper=wrapper)
     path = os.path.join(directory, "summary.json")
     if not os.path.exists(path):
         sys.exit(f"profile_memory.py: no recorded run in {directory} for --tables-only")
@@ -104,26 +116,14 @@ def recorded_summary(directory):
         return json.load(f)
 
 
-def settings():
-    return {**cost_study_settings("fischer-burmeister", "p-1", 3),
-            "Nonlinear solver/gamma_lin": 0.1,
-            "Mesh/Cycles": CYCLES,
-            "Benchmark/Reference Poisson solve": "false",
-            "Output/Write VTU": "false"}
-
-
 def heap_at_peak():
     """Bytes live at the heap's peak per holder, the total and the run's
     summary."""
     out = os.path.join(OUT, "heaptrack")
     stacks = os.path.join(out, "peak.stacks")
-    if TABLES_ONLY:
-        summary = recorded_summary(out)
-    else:
-        os.makedirs(out, exist_ok=True)
-        record = os.path.join(out, "heaptrack")
-        summary = run(program("membranes"), "estimators-disk-p1.prm", settings(), out,
-                      threads=1, wrapper=["heaptrack", "-o", record])
+    record = os.path.join(out, "heaptrack")
+    summary = profiled_run(out, ["heaptrack", "-o", record])
+    if not TABLES_ONLY:
         subprocess.run(["heaptrack_print", "-f", record + ".zst", "--print-peaks", "0",
                         "--print-allocators", "0", "--print-temporary", "0",
                         "--print-leaks", "0", "--flamegraph-cost-type", "peak",
@@ -141,16 +141,11 @@ def first_touches():
     run's summary."""
     out = os.path.join(OUT, "faults")
     stacks = os.path.join(out, "stacks.txt")
-    if TABLES_ONLY:
-        summary = recorded_summary(out)
-    else:
-        os.makedirs(out, exist_ok=True)
-        data = os.path.join(out, "perf.data")
-        summary = run(program("membranes"), "estimators-disk-p1.prm", settings(), out,
-                      threads=1,
-                      wrapper=["perf", "record", "-q", "-e", "page-faults",
-                               "-c", str(FAULT_PERIOD), "--call-graph",
-                               f"dwarf,{STACK_BYTES}", "-o", data, "--"])
+    data = os.path.join(out, "perf.data")
+    summary = profiled_run(out, ["perf", "record", "-q", "-e", "page-faults",
+                                 "-c", str(FAULT_PERIOD), "--call-graph",
+                                 f"dwarf,{STACK_BYTES}", "-o", data, "--"])
+    if not TABLES_ONLY:
         with open(stacks, "w") as f:
             subprocess.run(["perf", "script", "-i", data, "-F", "ip,sym"], check=True,
                            stdout=f)
@@ -218,11 +213,7 @@ def main():
         phase_total = sum(bytes_of.values())
         if phase_total >= 0.05 * touched:
             out += ["", f"In the {name}:", ""] + table(bytes_of.most_common(), phase_total)
-    os.makedirs(DATA, exist_ok=True)
-    with open(os.path.join(DATA, STEM + ".md"), "w") as f:
-        f.write("\n".join(out) + "\n")
-    print("\n".join(out))
-    print(f"wrote {os.path.join(DATA, STEM)}.md")
+    write_report(STEM, out)
 
 
 if __name__ == "__main__":

@@ -115,6 +115,16 @@ def gnuplot(script):
     subprocess.run(["gnuplot"], input=script.encode(), check=True)
 
 
+def write_report(stem, lines):
+    """lines (a report in markdown) to doc/data/<stem>.md, and to the
+    terminal."""
+    os.makedirs(DATA, exist_ok=True)
+    with open(os.path.join(DATA, stem + ".md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    print(f"wrote {os.path.join(DATA, stem)}.md")
+
+
 def read_table(stem):
     """The rows write_table wrote to doc/data/<stem>.csv, each value with
     the type it was written with (int, float or str), so that writing them
