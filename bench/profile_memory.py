@@ -186,7 +186,7 @@ def table(rows, total):
 
 
 def main():
-    for tool in ("heaptrack", "heaptrack_print", "perf"):
+    for tool in () if TABLES_ONLY else ("heaptrack", "heaptrack_print", "perf"):
         if shutil.which(tool) is None:
             sys.exit(f"profile_memory.py: {tool} not found "
                      "(apt-get install heaptrack linux-perf)")
