@@ -70,8 +70,8 @@ import sys
 
 from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, gnuplot,
                       growth_exponent, huge_pages_environment, poisson_seconds, program,
-                      read_table,
-                      run as run_program, write_csv, write_markdown, write_table)
+                      read_table, run as run_program, write_csv, write_markdown,
+                      write_table)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")

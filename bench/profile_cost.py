@@ -35,8 +35,8 @@ import shutil
 import subprocess
 import sys
 
-from vi_bench import (ROOT, cost_study_settings, growth_exponent,
-                      huge_pages_environment, poisson_seconds, program, run, write_report)
+from vi_bench import (ROOT, growth_exponent, huge_pages_environment, poisson_seconds,
+                      profile_settings, program, run, write_report)
 
 HUGE_PAGES = "--huge-pages" in sys.argv
 CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 7)
@@ -79,11 +79,7 @@ def main():
         sys.exit("profile_cost.py: perf not found (apt-get install linux-perf)")
     os.makedirs(OUT, exist_ok=True)
     perf_data = os.path.join(OUT, "perf.data")
-    settings = {**cost_study_settings("fischer-burmeister", "p-1", 3),
-                "Nonlinear solver/gamma_lin": 0.1,
-                "Mesh/Cycles": CYCLES,
-                "Benchmark/Reference Poisson solve": "true",
-                "Output/Write VTU": "false"}
+    settings = profile_settings(CYCLES, reference_poisson=True)
     environment = huge_pages_environment() if HUGE_PAGES else {}
     summary = run(program("membranes"), "estimators-disk-p1.prm", settings, OUT,
                   threads=1, environment=environment,

@@ -36,20 +36,15 @@ import shutil
 import subprocess
 import sys
 
-from vi_bench import ROOT, cost_study_settings, program, run, write_report
+from vi_bench import ROOT, profile_settings, program, run, write_report
 
 CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 6)
 TABLES_ONLY = "--tables-only" in sys.argv
 STEM = "profile-memory" + ("" if CYCLES == 6 else f"-cycles-{CYCLES}")
 OUT = os.path.join(ROOT, "output", "bench-profile", STEM)
 ROWS = 15  # holders listed per table; the rest are summed in one row
-# The study's one-thread configuration (bench/profile_cost.py's) without
-# the Poisson pair
-SETTINGS = {**cost_study_settings("fischer-burmeister", "p-1", 3),
-            "Nonlinear solver/gamma_lin": 0.1,
-            "Mesh/Cycles": CYCLES,
-            "Benchmark/Reference Poisson solve": "false",
-            "Output/Write VTU": "false"}
+# (the Poisson pair is not the question here)
+SETTINGS = profile_settings(CYCLES, reference_poisson=False)
 FAULT_PERIOD = 128  # one sample per this many page faults
 STACK_BYTES = 32768  # of the stack copied per sample, for the unwinding
 PAGE = 4096

@@ -57,6 +57,17 @@ def cost_study_settings(c_function, flux_degree, initial_refinements):
             "Estimators/Sharpen final estimate": "false"}
 
 
+def profile_settings(cycles, reference_poisson):
+    """The cost study's one-thread configuration that the profiles run
+    (bench/profile_cost.py, bench/profile_memory.py): Fischer-Burmeister,
+    gamma_lin = 0.1, RT_0 fluxes, nested from 768 cells, no VTU."""
+    return {**cost_study_settings("fischer-burmeister", "p-1", 3),
+            "Nonlinear solver/gamma_lin": 0.1,
+            "Mesh/Cycles": cycles,
+            "Benchmark/Reference Poisson solve": "true" if reference_poisson else "false",
+            "Output/Write VTU": "false"}
+
+
 def huge_pages_environment():
     """The environment that puts glibc's heap in huge pages
     (GLIBC_TUNABLES=glibc.malloc.hugetlb=1, README.md), keeping the other

@@ -755,17 +755,12 @@ namespace StepMembranes
   DGMembraneProblem<dim>::estimate(const Vector &X) const
   {
     TimerOutput::Scope t(timer, "estimators");
-    const auto         ghosted = [&](const Vector &v) {
-      Vector result;
-      ghosted_nodes.copy(v, result);
-      return result;
-    };
-    Vector field(owned_nodes, comm);
-    Vector u[2], r[2], lambda, lambda_nonnegative;
+    Vector             field(owned_nodes, comm);
+    Vector             u[2], r[2], lambda, lambda_nonnegative;
     for (const unsigned int a : {VI::NodalFields::u1, VI::NodalFields::u2})
       {
         VI::NodalFields::extract(X, a, field);
-        u[a] = ghosted(field);
+        ghosted_nodes.copy(field, u[a]);
       }
     // The multiplier of the estimate: on every cell, the nodal function
     // lambda_N(x_I) = <lambda_h, psi_I>_h / (psi_I, 1)_K (the discrete
