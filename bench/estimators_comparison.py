@@ -13,15 +13,20 @@ step-membranes, with the data and figures written to doc/data/:
                                    by equilibration (part dual-norms, not
                                    run by default; needs the comparison's
                                    csv for the exact runs)
+  estimators-floor.{csv,md}        seed-jump Q2: the bound with a perfect
+                                   flux reconstruction (part floor, not run
+                                   by default; a minute)
 
 Usage, from the repository root after ./demo.sh or ./test.sh:
   bench/estimators_comparison.py [--quick] [comparison] [gamma] [effectivity] [dual-norms]
+                                 [floor]
 --quick runs coarser meshes (a smoke test of the script, not the published
 setting); naming parts runs only those (default: the first three). The full
 run takes 20 - 60 minutes on a 2-core machine (effectivity alone: a few,
 dual-norms about 5).
 """
 import csv
+import math
 import os
 import sys
 
@@ -270,15 +275,71 @@ def dual_norms():
                  ("effectivity", "{:.3f}"), ("wall_seconds", "{:.1f}")])
 
 
+def bound(eta_1, nonc_1, nonc_2, contact_cone, dirichlet):
+    """The guaranteed bound from its parts (doc/estimators.md, "The
+    guaranteed bound"; ContactEstimator in common/source/estimators.cc):
+    a/2 + (a^2/4 + b)^(1/2) + |||G|||, a = eta_1 + eta_nonc1 + eta_nonc2,
+    b = (eta_1 + eta_nonc2) eta_nonc1 + eta_cone / 2."""
+    a = eta_1 + nonc_1 + nonc_2
+    b = (eta_1 + nonc_2) * nonc_1 + 0.5 * contact_cone
+    return 0.5 * a + math.sqrt(max(0.25 * a * a + b, 0.)) + dirichlet
+
+
+def floor():
+    """What keeps the seed-jump Q2 effectivity above 1.5 on the unfitted
+    mesh: the bound of each mesh's exact discrete solution recomputed from
+    its parts with the flux and residual part eta_1 replaced by the energy
+    error (what a perfect flux reconstruction would give at best), then
+    also without the contact and multiplier terms, so that only the
+    non-conformity eta_nonc1 = |||s~ - u_h||| is left; the same on the
+    mesh fitted to the free boundary."""
+    cases = (("unfitted", "membranes-seed-jump.prm",
+              {"Discretization/Polynomial degree": 2, "Mesh/Cycles": 6}),
+             ("fitted", "membranes-seed-jump-fitted.prm", {"Mesh/Cycles": 6}))
+    rows = []
+    for mesh, scene, settings in cases:
+        if QUICK:
+            settings = {**settings, "Mesh/Cycles": 3}
+        s = run(scene, f"floor-{mesh}", settings)
+        for c in s["cycles"]:
+            e, error = c["estimate"], c["error_energy"]
+            parts = (e["nonc_1"], e["nonc_2"], e["contact_cone"], e["dirichlet"])
+            # The formula must be the program's: it gives back its eta.
+            if abs(bound(e["eta_1"], *parts) - c["eta"]) > 1e-9 * c["eta"]:
+                sys.exit(f"floor: the bound from the parts of {mesh} cycle {c['cycle']} "
+                         f"is not the program's eta {c['eta']}")
+            rows.append({"mesh": mesh, "cycle": c["cycle"], "cells": c["cells"],
+                         "dofs_per_field": c["dofs_per_field"], "error_energy": error,
+                         "effectivity": c["effectivity"],
+                         "eta_1_over_error": e["eta_1"] / error,
+                         "nonc_1_over_error": e["nonc_1"] / error,
+                         "nonc_2_over_error": e["nonc_2"] / error,
+                         "contact_over_error": math.sqrt(max(e["contact_cone"], 0.) / 2) / error,
+                         "dirichlet_over_error": e["dirichlet"] / error,
+                         "perfect_fluxes": bound(error, *parts) / error,
+                         "nonconformity_only": bound(error, e["nonc_1"], 0., 0., 0.) / error})
+    write_table("estimators-floor", rows,
+                ["mesh", "cycle", "cells", "DoFs per field", "energy error", "effectivity",
+                 "eta_1 / error", "eta_nonc1 / error", "eta_nonc2 / error",
+                 "(eta_cone / 2)^(1/2) / error", "|||G||| / error",
+                 "bound / error with eta_1 = error", "... and only eta_nonc1 besides"],
+                [("mesh", "{}"), ("cycle", "{}"), ("cells", "{}"), ("dofs_per_field", "{}"),
+                 ("error_energy", "{:.4e}"), ("effectivity", "{:.3f}"),
+                 ("eta_1_over_error", "{:.2f}"), ("nonc_1_over_error", "{:.3f}"),
+                 ("nonc_2_over_error", "{:.3f}"), ("contact_over_error", "{:.3f}"),
+                 ("dirichlet_over_error", "{:.3f}"), ("perfect_fluxes", "{:.3f}"),
+                 ("nonconformity_only", "{:.3f}")])
+
+
 def main():
     os.makedirs(DATA, exist_ok=True)
-    known = ("comparison", "gamma", "effectivity", "dual-norms")
+    known = ("comparison", "gamma", "effectivity", "dual-norms", "floor")
     parts = [a for a in sys.argv[1:] if not a.startswith("--")] or \
         ["comparison", "gamma", "effectivity"]
     for part in parts:
         if part not in known:
             sys.exit(f"estimators_comparison.py: unknown part '{part}' "
-                     "(comparison, gamma, effectivity or dual-norms)")
+                     "(comparison, gamma, effectivity, dual-norms or floor)")
     if "comparison" in parts:
         print("comparison of the strategies", flush=True)
         summaries = comparison()
@@ -292,6 +353,9 @@ def main():
     if "dual-norms" in parts:
         print("dual norms by equilibration", flush=True)
         dual_norms()
+    if "floor" in parts:
+        print("seed-jump Q2: the bound with perfect fluxes", flush=True)
+        floor()
     print(f"wrote {DATA}/estimators-*")
 
 

@@ -1749,6 +1749,7 @@ namespace StepMembranes
       json["eta_disc"]     = e.eta_disc;
       json["eta_lin"]      = e.eta_lin;
       json["eta_alg"]      = e.eta_alg;
+      json["eta_1"]        = e.eta_1;
       json["flux_disc"]    = e.flux_disc;
       json["residual"]     = e.residual;
       json["flux_alg"]     = e.flux_alg;
