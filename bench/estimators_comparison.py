@@ -277,7 +277,7 @@ def dual_norms():
 
 def bound(eta_1, nonc_1, nonc_2, contact_cone, dirichlet):
     """The guaranteed bound from its parts (doc/estimators.md, "The
-    guaranteed bound"; ContactEstimator in common/source/estimators.cc):
+    guaranteed bound"; VI::estimate_contact_error in common/source/estimators.cc):
     a/2 + (a^2/4 + b)^(1/2) + |||G|||, a = eta_1 + eta_nonc1 + eta_nonc2,
     b = (eta_1 + eta_nonc2) eta_nonc1 + eta_cone / 2."""
     a = eta_1 + nonc_1 + nonc_2
