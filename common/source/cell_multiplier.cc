@@ -237,19 +237,19 @@ namespace VI
     TrilinosWrappers::MPI::Vector give(owned, comm);
     give.add(parents, given_up);
     give.compress(VectorOperation::add);
-    // A parent whose moment would change sign (where the parents'
-    // densities differ much, at the free boundary) gives up only the part
-    // alpha_i G_i = m_i; a hanging node takes the least alpha of its
-    // parents. (alpha = 1 wherever the density varies little, and for a
-    // constant.)
+    // A parent gives up at most its own moment: alpha_i G_i with alpha_i =
+    // m_i / G_i clamped to [0, 1] (below 1 where the parents' densities
+    // differ much, at the free boundary; 0 where m_i has the other sign,
+    // among them the moments that are zero up to round-off, so that
+    // lambda~ is continuous in them); a hanging node takes the least alpha
+    // of its parents. (alpha = 1 wherever the density varies little, and
+    // for a constant.)
     TrilinosWrappers::MPI::Vector limit(owned, comm);
     for (const types::global_dof_index i : owned)
       {
         const double m = no_moment->is_constrained(i) ? 0. : moments(i),
                      g = give(i);
-        limit(i)       = (g * m > 0 && std::abs(g) > std::abs(m)) ? m / g :
-                         (g != 0 && m == 0)                       ? 0. :
-                                                                    1.;
+        limit(i)       = (g == 0) ? 1. : std::clamp(m / g, 0., 1.);
       }
     limit.compress(VectorOperation::insert);
     const TrilinosWrappers::MPI::Vector parents_limit =

@@ -167,21 +167,18 @@ TEST(CellMultiplier, KeepsTheMomentsAgainstTheVertexHats)
 
 // The moments of a constant multiplier c against the basis functions that
 // are conforming under the hanging node constraints (assembled through
-// them, as the discrete system does), all nodes in contact and none
-// without a moment but the hanging ones: lambda~ = c on every cell.
-static void
-expect_constant_reproduced(const unsigned int degree, const bool hanging)
+// them, as the discrete system does), with only the hanging nodes
+// carrying no moment.
+static TrilinosVector
+constant_moments(Setting &s, const double c)
 {
-  Setting s(degree, hanging);
   s.no_moment.clear();
   DoFTools::make_hanging_node_constraints(s.dofs, s.no_moment);
   s.no_moment.close();
-  ASSERT_EQ(s.no_moment.n_constraints() > 0, hanging);
   s.multiplier.reinit(s.mapping, s.dofs, s.no_moment, s.quadrature);
 
-  const double   c       = 2.5;
-  TrilinosVector moments = s.vector(), contact = s.vector();
-  FEValues<2>    values(s.mapping,
+  TrilinosVector                       moments = s.vector();
+  FEValues<2>                          values(s.mapping,
                      s.fe,
                      s.quadrature,
                      update_values | update_JxW_values);
@@ -198,6 +195,19 @@ expect_constant_reproduced(const unsigned int degree, const bool hanging)
       s.no_moment.distribute_local_to_global(local, dofs, moments);
     }
   moments.compress(VectorOperation::add);
+  return moments;
+}
+
+
+// The constant's moments with all nodes in contact: lambda~ = c on every
+// cell.
+static void
+expect_constant_reproduced(const unsigned int degree, const bool hanging)
+{
+  Setting        s(degree, hanging);
+  const double   c       = 2.5;
+  TrilinosVector moments = constant_moments(s, c), contact = s.vector();
+  ASSERT_EQ(s.no_moment.n_constraints() > 0, hanging);
   for (types::global_dof_index i = 0; i < s.dofs.n_dofs(); ++i)
     contact(i) = 1;
 
@@ -262,4 +272,49 @@ TEST(CellMultiplier, LivesOnTheContactCells)
         EXPECT_GT(sum, 0.) << "cell at " << cell->center();
       }
   EXPECT_EQ(n_right, 8u);
+}
+
+
+// lambda~ depends continuously on the moments: a parent of a hanging node
+// whose moment is zero up to round-off, of either sign (the multiplier of
+// a converged iterate at a node that has just left the contact set), gives
+// its hanging nodes nothing, and the others' parts are as for a zero
+// moment. (A parent with a moment of the other sign than the part it
+// would give up used to give all of it, so that -1e-14 and +1e-14 made
+// lambda~ differ by the hanging node's share; runs on one and on two
+// threads then refined different cells.)
+TEST(CellMultiplier, IsContinuousInTheMomentsAtHangingNodes)
+{
+  for (const unsigned int degree : {2u, 3u})
+    {
+      Setting        s(degree, true);
+      TrilinosVector moments = constant_moments(s, 2.5), contact = s.vector();
+      for (types::global_dof_index i = 0; i < s.dofs.n_dofs(); ++i)
+        contact(i) = 1;
+      // a parent of the first hanging node
+      types::global_dof_index parent = numbers::invalid_dof_index;
+      for (types::global_dof_index j = 0; j < s.dofs.n_dofs(); ++j)
+        if (const auto *entries = s.no_moment.get_constraint_entries(j))
+          {
+            parent = entries->front().first;
+            break;
+          }
+      ASSERT_NE(parent, numbers::invalid_dof_index);
+
+      std::vector<std::vector<double>> lambda;
+      for (const double round_off : {-1e-14, 0., 1e-14})
+        {
+          moments(parent) = round_off;
+          std::vector<double> coefficients;
+          s.multiplier.distribute(moments, contact, coefficients);
+          lambda.push_back(coefficients);
+        }
+      for (std::size_t k = 0; k < lambda[1].size(); ++k)
+        {
+          EXPECT_NEAR(lambda[0][k], lambda[1][k], 1e-8)
+            << "Q" << degree << ", coefficient " << k;
+          EXPECT_NEAR(lambda[2][k], lambda[1][k], 1e-8)
+            << "Q" << degree << ", coefficient " << k;
+        }
+    }
 }

@@ -35,10 +35,13 @@ namespace VI
    *   the conforming basis function phi_i + sum_j c_ji phi_j. That part,
    *   M_j = (phi_j, 1) sum_i c_ji m_i / (phi_i + sum_k c_ki phi_k, 1) (the
    *   parents' densities interpolated at x_j), goes back to x_j: x_i keeps
-   *   m_i - sum_j c_ji M_j. Where that would change the sign of m_i (the
-   *   parents' densities differ much, at the free boundary), x_i gives up
-   *   only alpha_i sum_j c_ji M_j = m_i, and M_j is scaled by the least
-   *   alpha of its parents. (Not where a parent is a Dirichlet node, which
+   *   m_i - sum_j c_ji M_j. A parent gives up at most its own moment:
+   *   G_i = sum_j c_ji M_j is scaled by alpha_i = m_i / G_i clamped to
+   *   [0, 1] (less than 1 where the parents' densities differ much, at the
+   *   free boundary; 0 where m_i has the other sign, e.g. a moment that
+   *   is zero up to round-off), and M_j by the least alpha of its
+   *   parents, so that lambda~ depends continuously on the moments.
+   *   (Not where a parent is a Dirichlet node, which
    *   carries no moment to give up, nor where x_j has no contact cell and
    *   a parent has one: at the free boundary the moment stays on the
    *   contact cells, see below.) For a constant multiplier these are its
