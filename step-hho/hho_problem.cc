@@ -309,6 +309,7 @@ namespace StepHHO
       , face_fe(degree - 1)
       , cell_dof_handler(triangulation)
       , face_dof_handler(triangulation)
+      , run_record("step-hho", parameters.output.directory, timer, comm)
   {
     static_assert(dim == 2,
                   "The contact nodes are those of the square "
@@ -1529,7 +1530,7 @@ namespace StepHHO
   void
   HHOProblem<dim>::record_cycle(const unsigned int cycle)
   {
-    const double wall = cycle_timer.wall_time();
+    const double wall = run_record.cycle_seconds();
 
     // Unknowns as counted in the seed: 2 (cells dim P_p + interior faces
     // dim P_{p-1}) + cells dim P_p (the multiplier) without static
@@ -1578,15 +1579,7 @@ namespace StepHHO
     record["wall_seconds"] = wall;
 
     // The TimerOutput sections of this cycle.
-    VI::Json timing = VI::Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      {
-        const auto before = timing_before_cycle.find(section);
-        timing[section] =
-          seconds - (before == timing_before_cycle.end() ? 0. : before->second);
-      }
-    record["timing"] = timing;
+    record["timing"] = run_record.cycle_timing();
 
     VI::Json iterations = VI::Json::array();
     for (const VI::NewtonStep &step : newton_report.steps)
@@ -1600,7 +1593,7 @@ namespace StepHHO
         iterations.push_back(it);
       }
     record["iterations"] = iterations;
-    summary["cycles"].push_back(record);
+    run_record.add(record);
   }
 
 
@@ -1639,40 +1632,42 @@ namespace StepHHO
 
 
   template <int dim>
+  std::string
+  HHOProblem<dim>::description() const
+  {
+    const auto        &linear = parameters.linear_solver;
+    std::ostringstream line;
+    line << "Test case " << data.name << " on the " << parameters.mesh.geometry
+         << ", HHO cells P" << degree << " / faces P" << degree - 1
+         << ", Newton-" << C.name()
+         << (parameters.nonlinear_solver.nested_iteration ? " with" :
+                                                            " without")
+         << " nested iteration, "
+         << (parameters.static_condensation ?
+               "static condensation, " + linear.solver +
+                 (linear.solver == "cg" ? " + " + linear.preconditioner :
+                                          std::string()) +
+                 " on the faces" :
+               "no static condensation, direct solver");
+    return line.str();
+  }
+
+
+  // On each mesh: set up, assemble the local HHO operators, solve by
+  // semismooth Newton with static condensation in every step, measure the
+  // error, write, refine.
+  template <int dim>
   void
   HHOProblem<dim>::run()
   {
-    pcout << VI::run_header("step-hho", comm) << std::endl;
-    pcout << "Test case " << data.name << " on the " << parameters.mesh.geometry
-          << ", HHO cells P" << degree << " / faces P" << degree - 1
-          << ", Newton-" << C.name()
-          << (parameters.nonlinear_solver.nested_iteration ? " with" :
-                                                             " without")
-          << " nested iteration, "
-          << (parameters.static_condensation ?
-                "static condensation, " + parameters.linear_solver.solver +
-                  (parameters.linear_solver.solver == "cg" ?
-                     " + " + parameters.linear_solver.preconditioner :
-                     std::string()) +
-                  " on the faces" :
-                "no static condensation, direct solver")
-          << std::endl;
-
-    summary           = VI::make_summary("step-hho", comm, prm);
-    summary["cycles"] = VI::Json::array();
-
+    run_record.start(prm, description());
     make_grid();
     check_data();
     VI::prepare_output_directory(parameters.output.directory, comm);
 
     for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
       {
-        cycle_timer.restart();
-        timing_before_cycle.clear();
-        for (const auto &[section, seconds] :
-             timer.get_summary_data(TimerOutput::total_wall_time))
-          timing_before_cycle[section] = seconds;
-
+        run_record.start_cycle();
         if (cycle > 0)
           refine_mesh();
         setup_system();
@@ -1686,46 +1681,31 @@ namespace StepHHO
               << n_fields * cell_dof_handler.n_dofs() + dofs_condensed
               << " unknowns, " << dofs_condensed << " after condensation"
               << std::endl;
-        try
-          {
-            solve();
-          }
-        catch (const VI::SolverFailure &failure)
-          {
-            // Keep what the completed cycles measured, marked as failed.
-            summary["status"]  = "failed";
-            summary["failure"] = std::string(failure.what());
-            VI::write_summary(summary, parameters.output.directory, comm);
-            throw;
-          }
+        run_record.guard([&] { solve(); });
         postprocess();
         compute_errors();
         output_results(cycle);
-        cycle_timer.stop();
+        run_record.stop_cycle();
 
-        pcout << "   Newton-" << C.name() << ": " << newton_report.iterations
-              << " iterations";
+        VI::CycleLine line;
+        line.solver            = "Newton-" + C.name();
+        line.newton_iterations = newton_report.iterations;
         if (newton_report.linear_iterations > 0)
-          pcout << " (" << newton_report.linear_iterations << " CG iterations)";
-        pcout << ", " << n_contact_nodes << " nodes in contact";
+          {
+            line.linear_iterations = newton_report.linear_iterations;
+            line.linear_solver     = "CG";
+          }
+        line.contact_nodes = n_contact_nodes;
         if (data.has_exact_solution())
-          pcout << ", energy error " << std::scientific << std::setprecision(3)
-                << error_energy << std::defaultfloat;
-        pcout << ", " << std::setprecision(3) << cycle_timer.wall_time() << " s"
-              << std::endl;
+          line.error = error_energy;
+        line.seconds = run_record.cycle_seconds();
+        pcout << VI::to_string(line) << std::endl;
         record_cycle(cycle);
       }
 
     write_tables();
-    summary["status"] = "converged";
-    summary["timing"] = VI::Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      summary["timing"][section] = seconds;
-    VI::write_summary(summary, parameters.output.directory, comm);
-    pcout << "\nOutput in " << parameters.output.directory
-          << "/: solution_*.pvtu (ParaView), convergence.txt, summary.json"
-          << std::endl;
+    run_record.finish(
+      "solution_*.pvtu (ParaView), convergence.txt, summary.json");
   }
 
 

@@ -22,6 +22,7 @@
 #include <vi/geometry.h>
 #include <vi/ghosted_copy.h>
 #include <vi/parameters.h>
+#include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
@@ -127,6 +128,9 @@ namespace StepHHO
     output_results(const unsigned int cycle) const;
     void
     refine_mesh();
+    /// The line that says what this run solves, and how.
+    std::string
+    description() const;
     void
     record_cycle(const unsigned int cycle);
     void
@@ -267,14 +271,13 @@ namespace StepHHO
       solution_transfer;
 
     // What each cycle measured.
-    VI::NewtonReport              newton_report;
-    types::global_dof_index       n_contact_nodes  = 0;
-    double                        error_energy     = 0;
-    double                        error_multiplier = 0;
-    Timer                         cycle_timer;
-    std::map<std::string, double> timing_before_cycle;
+    VI::NewtonReport        newton_report;
+    types::global_dof_index n_contact_nodes  = 0;
+    double                  error_energy     = 0;
+    double                  error_multiplier = 0;
 
     ConvergenceTable table;
-    VI::Json         summary;
+    /// Header, summary.json, failure guard, timing and closing line.
+    VI::RunRecord run_record;
   };
 } // namespace StepHHO

@@ -98,8 +98,13 @@ namespace StepMembranes
           parameters.discretization.degree))
       , face_quadrature(VI::FluxReconstruction<dim>::quadrature_points(
           parameters.discretization.degree))
+      , contact_system(C,
+                       parameters.nonlinear_solver,
+                       parameters.linear_solver,
+                       timer)
       , fe_continuous(parameters.discretization.degree)
       , continuous_dof_handler(triangulation)
+      , run_record("step-membranes", parameters.output.directory, timer, comm)
   {
     check_parameters();
   }
@@ -173,8 +178,6 @@ namespace StepMembranes
   {
     TimerOutput::Scope t(timer, "setup");
     mapping->initialize(*geometry_mapping, triangulation);
-    direct_solver.reset();
-    ilu.reset();
 
     dof_handler.distribute_dofs(fe);
     owned_nodes = dof_handler.locally_owned_dofs();
@@ -184,7 +187,7 @@ namespace StepMembranes
 
     AffineConstraints<double> no_constraints;
     no_constraints.close();
-    contact_rows.reinit(owned_nodes, no_constraints);
+    contact_system.reinit(owned_nodes, no_constraints, comm);
 
     DynamicSparsityPattern scalar_pattern(relevant_nodes);
     DoFTools::make_flux_sparsity_pattern(dof_handler, scalar_pattern);
@@ -196,8 +199,10 @@ namespace StepMembranes
     VI::NodalFields::make_system_sparsity(scalar_pattern,
                                           owned_nodes,
                                           system_pattern);
-    system_matrix.reinit(owned_system, owned_system, system_pattern, comm);
-    system_rhs.reinit(owned_system, comm);
+    contact_system.matrix.reinit(owned_system,
+                                 owned_system,
+                                 system_pattern,
+                                 comm);
     solution.reinit(owned_system, comm);
     for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
       field->reinit(owned_nodes, relevant_nodes, comm);
@@ -256,8 +261,8 @@ namespace StepMembranes
   DGMembraneProblem<dim>::assemble_system()
   {
     TimerOutput::Scope t(timer, "assembly");
-    system_matrix = 0;
-    system_rhs    = 0;
+    contact_system.matrix = 0;
+    contact_system.rhs    = 0;
 
     const double         mu[2]    = {data.mu1, data.mu2};
     const Function<dim> *g[2]     = {data.g1.get(), data.g2.get()};
@@ -357,13 +362,13 @@ namespace StepMembranes
                   columns[j]    = index(dofs[j], field);
                   row_values[j] = mu[field] * local(i, j);
                 }
-              system_matrix.add(index(dofs[i], field),
-                                columns.size(),
-                                columns.data(),
-                                row_values.data());
+              contact_system.matrix.add(index(dofs[i], field),
+                                        columns.size(),
+                                        columns.data(),
+                                        row_values.data());
             }
     };
-    coupling.reinit(owned_nodes, comm);
+    Vector coupling(owned_nodes, comm);
     lumped_mass.reinit(owned_nodes, comm);
     const auto copier = [&](const CellCopyData &c) {
       add(c.matrix, c.dofs);
@@ -374,7 +379,7 @@ namespace StepMembranes
         }
       for (unsigned int a = 0; a < 2; ++a)
         for (unsigned int i = 0; i < c.dofs.size(); ++i)
-          system_rhs(index(c.dofs[i], a)) += c.rhs[a](i);
+          contact_system.rhs(index(c.dofs[i], a)) += c.rhs[a](i);
       for (const FaceCopyData &face : c.faces)
         add(face.matrix, face.dofs);
     };
@@ -390,58 +395,29 @@ namespace StepMembranes
                             MeshWorker::assemble_ghost_faces_both,
                           boundary_worker,
                           face_worker);
-    system_matrix.compress(VectorOperation::add);
-    system_rhs.compress(VectorOperation::add);
+    contact_system.matrix.compress(VectorOperation::add);
+    contact_system.rhs.compress(VectorOperation::add);
     coupling.compress(VectorOperation::insert);
     lumped_mass.compress(VectorOperation::insert);
 
     // The coupling: -<lambda_h, v1>_h + <lambda_h, v2>_h with the dual basis
     // is -D_I X3_I, +D_I X3_I in the rows of node I: D = I for the L2
     // bracket, the lumped masses (psi_I, 1)_K for p = 1.
-    for (const types::global_dof_index i : contact_rows.nodes())
-      {
-        const double D = coupling(i);
-        system_matrix.set(index(i, VI::NodalFields::u1),
-                          index(i, multiplier),
-                          -D);
-        system_matrix.set(index(i, VI::NodalFields::u2),
-                          index(i, multiplier),
-                          D);
-      }
-    system_matrix.compress(VectorOperation::insert);
+    contact_system.set_coupling(
+      [&](const types::global_dof_index i) { return coupling(i); }, {});
 
-    double local[2] = {0., 0.};
-    for (const types::global_dof_index i : owned_nodes)
-      for (const unsigned int field :
-           {VI::NodalFields::u1, VI::NodalFields::u2})
-        {
-          const double F = system_rhs(index(i, field));
-          local[0] += F * F;
-          local[1] = std::max(local[1], std::abs(F));
-        }
-    load_norm = std::sqrt(Utilities::MPI::sum(local[0], comm));
-    multiplier_scale =
-      Utilities::MPI::max(local[1], comm) /
-      std::max(coupling.linfty_norm(), std::numeric_limits<double>::min());
-
-    // Row weights in force units: mu_r S_ii for rows that enforce u1 = u2,
-    // D_I for rows that enforce X3 = 0.
-    const double mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
-    stiffness_weight.resize(owned_nodes.n_elements());
-    multiplier_weight.assign(coupling.begin(),
-                             coupling.begin() + owned_nodes.n_elements());
+    // Row weights in force units: mu_r S_ii for rows that enforce u1 = u2.
+    const double        mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    std::vector<double> stiffness_weight(owned_nodes.n_elements());
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
       {
         const auto i = owned_nodes.nth_index_in_set(k);
         stiffness_weight[k] =
-          mu_r * system_matrix.diag_element(index(i, VI::NodalFields::u1)) /
+          mu_r *
+          contact_system.matrix.diag_element(index(i, VI::NodalFields::u1)) /
           data.mu1;
       }
-
-    if (!std::isfinite(system_rhs.l2_norm()))
-      throw VI::InputError(
-        "Problem: the load vector is not finite: f1, f2, g1 or g2 evaluate "
-        "to NaN or Inf somewhere in the domain");
+    contact_system.set_stiffness_weights(std::move(stiffness_weight));
   }
 
 
@@ -630,116 +606,18 @@ namespace StepMembranes
   }
 
 
-  template <int dim>
-  VI::ResidualNorms
-  DGMembraneProblem<dim>::residual(const Vector &X, Vector &R) const
-  {
-    TimerOutput::Scope t(timer, "newton: residual");
-    system_matrix.vmult(R, X);
-    R -= system_rhs;
-    VI::ResidualNorms norms;
-    norms.complementarity = contact_rows.evaluate(C, X, multiplier_scale, R);
-    double        local   = 0;
-    const double *r       = R.begin();
-    for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
-      local += r[n_fields * k] * r[n_fields * k] +
-               r[n_fields * k + 1] * r[n_fields * k + 1];
-    norms.equations = std::sqrt(Utilities::MPI::sum(local, comm)) /
-                      std::max(load_norm, std::numeric_limits<double>::min());
-    return norms;
-  }
-
-
-  template <int dim>
-  void
-  DGMembraneProblem<dim>::scale_constraint_rows(Vector    &v,
-                                                const bool divide) const
-  {
-    double     *x         = v.begin();
-    const auto &positions = contact_rows.local_positions();
-    for (std::size_t k = 0; k < positions.size(); ++k)
-      x[n_fields * positions[k] + 2] *=
-        divide ? 1. / row_weights[k] : row_weights[k];
-  }
-
-
   // Semismooth Newton on E X = F, C(X) = 0: the solver of the conforming
   // method, with the dG matrix.
   template <int dim>
   void
   DGMembraneProblem<dim>::solve()
   {
-    const auto &p = parameters.nonlinear_solver;
-    const typename VI::SemismoothNewton<Vector>::AdditionalData settings(p, C);
-    if (parameters.linear_solver.solver == "direct")
-      direct_solver =
-        std::make_unique<VI::LinearSolver>(parameters.linear_solver);
-
-    VI::SemismoothNewton<Vector> newton(settings);
-    newton.residual = [&](const Vector &X, Vector &R) {
-      return residual(X, R);
-    };
-    newton.setup_jacobian = [&](const Vector &X) {
-      {
-        TimerOutput::Scope t(timer, "newton: jacobian");
-        row_weights =
-          contact_rows.row_weights(C, X, stiffness_weight, multiplier_weight);
-        contact_rows.set_jacobian_rows(C, X, system_matrix, row_weights);
-        system_matrix.compress(VectorOperation::insert);
-      }
-      TimerOutput::Scope t(timer, "newton: preconditioner");
-      if (direct_solver)
-        direct_solver->initialize(system_matrix);
-      else
-        {
-          ilu = std::make_unique<TrilinosWrappers::PreconditionILU>();
-          ilu->initialize(system_matrix,
-                          TrilinosWrappers::PreconditionILU::AdditionalData(
-                            parameters.linear_solver.ilu_fill));
-        }
-    };
-    newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
-      return solve_linearized(rhs, dX);
-    };
-    newton.active_set = [&](const Vector &X, const bool first) {
-      return contact_rows.linearised_active_set(C, X, active_rows, !first);
-    };
-    if (parameters.output.verbose)
-      newton.monitor = [&](const VI::NewtonStep &step) {
-        pcout << "      k = " << std::setw(2) << step.iteration << ": "
-              << VI::describe(step) << std::endl;
-      };
+    VI::SemismoothNewton<Vector> newton(
+      typename VI::SemismoothNewton<Vector>::AdditionalData(
+        parameters.nonlinear_solver, C));
+    contact_system.start_newton();
+    contact_system.attach(newton, parameters.output.verbose ? &pcout : nullptr);
     newton_report = newton.solve(solution);
-  }
-
-
-  // A dX = rhs: sparse LU, or GMRES (right preconditioned, ILU) to the
-  // linear tolerance (exact) or the forcing term (inexact).
-  template <int dim>
-  unsigned int
-  DGMembraneProblem<dim>::solve_linearized(const Vector &rhs, Vector &dX)
-  {
-    TimerOutput::Scope t(timer, "newton: linear solve");
-    Vector             weighted_rhs(rhs);
-    scale_constraint_rows(weighted_rhs, false);
-    if (direct_solver)
-      return direct_solver->solve(weighted_rhs, dX);
-
-    const auto &linear    = parameters.linear_solver;
-    const auto &nonlinear = parameters.nonlinear_solver;
-    typename VI::Gmres<Vector>::AdditionalData settings;
-    settings.max_iterations     = linear.max_iterations;
-    settings.krylov_dimension   = linear.krylov_dimension;
-    settings.check_interval     = linear.check_interval;
-    settings.relative_tolerance = VI::linear_tolerance(nonlinear, linear);
-    const auto A                = [&](Vector &dst, const Vector &src) {
-      system_matrix.vmult(dst, src);
-    };
-    const auto P = [&](Vector &dst, const Vector &src) {
-      ilu->vmult(dst, src);
-    };
-    dX = 0;
-    return VI::Gmres<Vector>(settings).solve(A, P, dX, weighted_rhs).iterations;
   }
 
 
@@ -771,7 +649,7 @@ namespace StepMembranes
     // and that is all the theorem needs (doc/step-membranes.md).
     Vector lambda_source, moments(owned_nodes, comm);
     VI::NodalFields::extract(X, multiplier, moments);
-    moments.scale(coupling);
+    moments.scale(contact_system.coupling());
     function_from_moments(moments, lambda_source);
     limited_nodal_function(moments, lambda);
     for (double &m : moments)
@@ -779,8 +657,8 @@ namespace StepMembranes
     limited_nodal_function(moments, lambda_nonnegative);
 
     Vector R(owned_system, comm);
-    system_matrix.vmult(R, X);
-    R.sadd(-1., 1., system_rhs);
+    contact_system.matrix.vmult(R, X);
+    R.sadd(-1., 1., contact_system.rhs);
     for (const unsigned int a : {VI::NodalFields::u1, VI::NodalFields::u2})
       {
         VI::NodalFields::extract(R, a, field);
@@ -897,8 +775,9 @@ namespace StepMembranes
     gap_h = u1;
     VI::NodalFields::extract(solution, multiplier, field);
     multiplier_function(field, lambda_h);
-    n_contact_nodes = contact_rows.contact_set(solution, field);
-    contact_set     = field;
+    n_contact_nodes =
+      contact_system.contact_rows().contact_set(solution, field);
+    contact_set = field;
   }
 
 
@@ -1001,7 +880,7 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::record_cycle(const unsigned int cycle)
   {
-    const double wall = cycle_timer.wall_time();
+    const double wall = run_record.cycle_seconds();
     table.add_value("cycle", cycle);
     table.add_value("cells", triangulation.n_global_active_cells());
     table.add_value("dofs", dof_handler.n_dofs());
@@ -1078,7 +957,7 @@ namespace StepMembranes
       }
     record["wall_seconds"] = wall;
     record["newton_steps"] = VI::newton_steps(newton_report);
-    summary["cycles"].push_back(record);
+    run_record.add(record);
   }
 
 
@@ -1117,34 +996,62 @@ namespace StepMembranes
 
 
   template <int dim>
+  std::string
+  DGMembraneProblem<dim>::description() const
+  {
+    const auto        &nonlinear = parameters.nonlinear_solver;
+    const auto        &linear    = parameters.linear_solver;
+    std::ostringstream line;
+    line << "Test case " << data.name << " on the " << parameters.mesh.geometry
+         << ", " << penalty.label() << " Q" << fe.degree << " (penalty "
+         << penalty.penalty_constant() << " p (p + 1) / h_F), Newton-"
+         << C.name() << " (" << nonlinear.strategy << ")"
+         << (nonlinear.nested_iteration ? " with" : " without")
+         << " nested iteration, "
+         << (linear.solver == "direct" ?
+               "direct solver " + linear.direct_package :
+               "GMRES + " + linear.preconditioner)
+         << (parameters.estimators.enabled ? ", estimators on" : "");
+    return line.str();
+  }
+
+
+  template <int dim>
+  VI::CycleLine
+  DGMembraneProblem<dim>::cycle_line() const
+  {
+    VI::CycleLine line;
+    line.solver            = "Newton-" + C.name();
+    line.newton_iterations = newton_report.iterations;
+    if (parameters.linear_solver.solver == "gmres")
+      {
+        line.linear_iterations = newton_report.linear_iterations;
+        line.linear_solver     = "GMRES";
+      }
+    line.contact_nodes = n_contact_nodes;
+    if (data.has_exact_solution())
+      line.error = error_energy;
+    if (final_estimate)
+      line.estimate = final_estimate->eta;
+    line.seconds = run_record.cycle_seconds();
+    return line;
+  }
+
+
+  // The loop of the conforming method (MembraneProblem::run) with the dG
+  // discretisation; the estimate of each solution after Newton.
+  template <int dim>
   void
   DGMembraneProblem<dim>::run()
   {
-    const auto &nonlinear = parameters.nonlinear_solver;
-    const auto &linear    = parameters.linear_solver;
-    pcout << VI::run_header("step-membranes", comm) << std::endl;
-    pcout << "Test case " << data.name << " on the " << parameters.mesh.geometry
-          << ", " << penalty.label() << " Q" << fe.degree << " (penalty "
-          << penalty.penalty_constant() << " p (p + 1) / h_F), Newton-"
-          << C.name() << " (" << nonlinear.strategy << ")"
-          << (nonlinear.nested_iteration ? " with" : " without")
-          << " nested iteration, "
-          << (linear.solver == "direct" ?
-                "direct solver " + linear.direct_package :
-                "GMRES + " + linear.preconditioner)
-          << (parameters.estimators.enabled ? ", estimators on" : "")
-          << std::endl;
-
-    summary           = VI::make_summary("step-membranes", comm, prm);
-    summary["cycles"] = VI::Json::array();
-
+    run_record.start(prm, description());
     make_grid();
     check_data();
     VI::prepare_output_directory(parameters.output.directory, comm);
 
     for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
       {
-        cycle_timer.restart();
+        run_record.start_cycle();
         if (cycle > 0)
           refine_mesh();
         setup_system();
@@ -1154,56 +1061,21 @@ namespace StepMembranes
               << triangulation.n_global_active_cells() << " cells, "
               << n_fields * dof_handler.n_dofs() << " unknowns ("
               << dof_handler.n_dofs() << " per field)" << std::endl;
-        try
-          {
-            solve();
-          }
-        catch (const VI::SolverFailure &failure)
-          {
-            summary["status"]  = "failed";
-            summary["failure"] = std::string(failure.what());
-            VI::write_summary(summary, parameters.output.directory, comm);
-            throw;
-          }
+        run_record.guard([&] { solve(); });
         final_estimate.reset();
         if (parameters.estimators.enabled)
           final_estimate = estimate(solution);
         postprocess();
         compute_errors();
         output_results(cycle);
-        cycle_timer.stop();
-
-        pcout << "   Newton-" << C.name() << ": " << newton_report.iterations
-              << " iterations";
-        if (linear.solver == "gmres")
-          pcout << ", " << newton_report.linear_iterations << " GMRES";
-        pcout << ", " << n_contact_nodes << " nodes in contact";
-        if (data.has_exact_solution())
-          pcout << ", energy error " << std::scientific << std::setprecision(3)
-                << error_energy << std::defaultfloat;
-        if (final_estimate)
-          {
-            pcout << ", estimate " << std::scientific << std::setprecision(3)
-                  << final_estimate->eta << std::defaultfloat;
-            if (data.has_exact_solution())
-              pcout << " (effectivity " << std::setprecision(3)
-                    << final_estimate->eta / error_energy << ")";
-          }
-        pcout << ", " << std::setprecision(3) << cycle_timer.wall_time() << " s"
-              << std::endl;
+        run_record.stop_cycle();
+        pcout << VI::to_string(cycle_line()) << std::endl;
         record_cycle(cycle);
       }
 
     write_tables();
-    summary["status"] = "converged";
-    summary["timing"] = VI::Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      summary["timing"][section] = seconds;
-    VI::write_summary(summary, parameters.output.directory, comm);
-    pcout << "\nOutput in " << parameters.output.directory
-          << "/: solution_*.pvtu (ParaView), convergence.txt, summary.json"
-          << std::endl;
+    run_record.finish(
+      "solution_*.pvtu (ParaView), convergence.txt, summary.json");
   }
 
 

@@ -18,7 +18,7 @@
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <vi/complementarity.h>
-#include <vi/contact_rows.h>
+#include <vi/contact_system.h>
 #include <vi/dg_estimators.h>
 #include <vi/dg_reconstruction.h>
 #include <vi/flux_reconstruction.h>
@@ -26,6 +26,7 @@
 #include <vi/ghosted_copy.h>
 #include <vi/interior_penalty.h>
 #include <vi/linear_solvers.h>
+#include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
@@ -115,12 +116,6 @@ namespace StepMembranes
     initialize_iterate();
     void
     solve();
-    unsigned int
-    solve_linearized(const Vector &rhs, Vector &dX);
-    VI::ResidualNorms
-    residual(const Vector &X, Vector &R) const;
-    void
-    scale_constraint_rows(Vector &v, const bool divide) const;
     VI::DGContactEstimate
     estimate(const Vector &X) const;
     void
@@ -131,6 +126,12 @@ namespace StepMembranes
     output_results(const unsigned int cycle) const;
     void
     refine_mesh();
+    /// The line that says what this run solves, and how.
+    std::string
+    description() const;
+    /// The progress line of a cycle.
+    VI::CycleLine
+    cycle_line() const;
     void
     record_cycle(const unsigned int cycle);
     void
@@ -183,19 +184,10 @@ namespace StepMembranes
     VI::GhostedCopy ghosted_nodes;
     IndexSet        owned_system, relevant_system;
 
-    VI::ContactRows   contact_rows;
-    std::vector<bool> active_rows; ///< of the last Newton linearisation
-    TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E ; J_C]
-    Vector                         system_rhs;    ///< F
-    Vector                         solution;      ///< X
-    Vector                         coupling;      ///< D_I per node
-    Vector                         lumped_mass;   ///< (psi_I, 1)_K per node
-    double                         load_norm        = 0;
-    double                         multiplier_scale = 0;
-    std::vector<double> stiffness_weight, multiplier_weight, row_weights;
-
-    std::unique_ptr<VI::LinearSolver>                  direct_solver;
-    std::unique_ptr<TrilinosWrappers::PreconditionILU> ilu;
+    /// A = [E ; J_C], F, the contact rows and the linear solvers.
+    VI::ContactSystem contact_system;
+    Vector            solution;    ///< X
+    Vector            lumped_mass; ///< (psi_I, 1)_K per node
 
     // The estimators: the continuous space of the potential reconstruction
     // (FE_Q(p), also deciding vertex ownership of the patches), the flux
@@ -220,9 +212,9 @@ namespace StepMembranes
     double                               error_jump       = 0;
     double                               error_energy     = 0;
     double                               error_multiplier = 0;
-    Timer                                cycle_timer;
 
     ConvergenceTable table;
-    VI::Json         summary;
+    /// Header, summary.json, failure guard, timing and closing line.
+    VI::RunRecord run_record;
   };
 } // namespace StepMembranes

@@ -172,12 +172,20 @@ namespace StepMembranes
       // discrete equations (see FluxReconstruction::quadrature_points).
       , quadrature(VI::FluxReconstruction<dim>::quadrature_points(
           parameters.discretization.degree))
+      , contact_system(C,
+                       parameters.nonlinear_solver,
+                       parameters.linear_solver,
+                       timer)
       , multiplier_function(fe.degree,
-                            contact_rows,
-                            coupling,
+                            contact_system.contact_rows(),
+                            contact_system.coupling(),
                             mass_matrix,
                             hanging_node_constraints,
                             ghosted_nodes)
+      , stopping(parameters.nonlinear_solver,
+                 stopping_hooks(),
+                 parameters.output.verbose ? &pcout : nullptr)
+      , run_record("step-membranes", parameters.output.directory, timer, comm)
   {
   }
 
@@ -220,11 +228,6 @@ namespace StepMembranes
 
     mapping->initialize(*geometry_mapping, triangulation);
 
-    // Solvers and preconditioners hold on to the matrices of the old mesh.
-    direct_solver.reset();
-    ilu.reset();
-    contact_preconditioner.reset();
-
     dof_handler.distribute_dofs(fe);
     owned_nodes = dof_handler.locally_owned_dofs();
     DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_nodes);
@@ -262,7 +265,13 @@ namespace StepMembranes
                                              hanging_node_constraints,
                                              relevant_system,
                                              system_hanging_constraints);
-    contact_rows.reinit(owned_nodes, u1_constraints);
+    // The balance rows of hanging nodes are condensed away: the residual
+    // leaves them out.
+    IndexSet hanging_nodes(owned_nodes.size());
+    for (const types::global_dof_index i : owned_nodes)
+      if (hanging_node_constraints.is_constrained(i))
+        hanging_nodes.add_index(i);
+    contact_system.reinit(owned_nodes, u1_constraints, comm, hanging_nodes);
 
     DynamicSparsityPattern scalar_pattern(relevant_nodes);
     DoFTools::make_sparsity_pattern(dof_handler,
@@ -277,12 +286,13 @@ namespace StepMembranes
     VI::NodalFields::make_system_sparsity(scalar_pattern,
                                           owned_nodes,
                                           system_pattern);
-    system_matrix.reinit(owned_system, owned_system, system_pattern, comm);
+    contact_system.matrix.reinit(owned_system,
+                                 owned_system,
+                                 system_pattern,
+                                 comm);
     stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
 
-    system_rhs.reinit(owned_system, comm);
     solution.reinit(owned_system, comm);
-    coupling.reinit(owned_nodes, comm);
     for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
       field->reinit(owned_nodes, relevant_nodes, comm);
 
@@ -412,8 +422,8 @@ namespace StepMembranes
 
     // (a mass matrix for p >= 2 only, see setup_system())
     const bool with_mass_matrix = fe.degree > 1;
-    system_matrix               = 0;
-    system_rhs                  = 0;
+    contact_system.matrix       = 0;
+    contact_system.rhs          = 0;
     stiffness_matrix            = 0;
     Vector lumped_mass(owned_nodes, comm);
     if (with_mass_matrix)
@@ -483,7 +493,7 @@ namespace StepMembranes
           scaled_stiffness.equ(mu[field], copy.matrices[0]);
           system_constraints.distribute_local_to_global(copy.vectors[field],
                                                         system_dofs,
-                                                        system_rhs,
+                                                        contact_system.rhs,
                                                         scaled_stiffness);
         }
       u1_constraints.distribute_local_to_global(copy.matrices[0],
@@ -504,7 +514,7 @@ namespace StepMembranes
                           scratch,
                           copy,
                           MeshWorker::assemble_own_cells);
-    system_rhs.compress(VectorOperation::add);
+    contact_system.rhs.compress(VectorOperation::add);
     stiffness_matrix.compress(VectorOperation::add);
     lumped_mass.compress(VectorOperation::add);
     if (with_mass_matrix)
@@ -545,78 +555,44 @@ namespace StepMembranes
                 scaled_values[k]  = mu[field] * values[k];
               }
             const types::global_dof_index system_row = index(i, field);
-            system_matrix.set(system_row,
-                              n_entries,
-                              system_columns.data(),
-                              scaled_values.data());
+            contact_system.matrix.set(system_row,
+                                      n_entries,
+                                      system_columns.data(),
+                                      scaled_values.data());
             if (system_constraints.is_inhomogeneously_constrained(system_row))
-              system_rhs(system_row) =
+              contact_system.rhs(system_row) =
                 mu[field] * stiffness_matrix.diag_element(i) *
                 system_constraints.get_inhomogeneity(system_row);
           }
       }
-    system_rhs.compress(VectorOperation::insert);
+    contact_system.rhs.compress(VectorOperation::insert);
 
     // Coupling -D / +D in the rows of u1 / u2, and X3 = 0 as the row of each
     // constrained node (boundary, hanging), where there is no contact row.
-    coupling = 0;
-    for (const types::global_dof_index i : contact_rows.nodes())
-      {
-        const double D = fe.degree == 1 ? lumped_mass(i) : 1.;
-        coupling(i)    = D;
-        system_matrix.set(index(i, VI::NodalFields::u1),
-                          index(i, multiplier),
-                          -D);
-        system_matrix.set(index(i, VI::NodalFields::u2),
-                          index(i, multiplier),
-                          +D);
-      }
+    std::vector<types::global_dof_index> constrained_nodes;
     for (const types::global_dof_index i : owned_nodes)
       if (u1_constraints.is_constrained(i))
-        system_matrix.set(index(i, multiplier), index(i, multiplier), 1.);
-    system_matrix.compress(VectorOperation::insert);
-    coupling.compress(VectorOperation::insert);
+        constrained_nodes.push_back(i);
+    contact_system.set_coupling(
+      [&](const types::global_dof_index i) {
+        return fe.degree == 1 ? lumped_mass(i) : 1.;
+      },
+      constrained_nodes);
 
-    // Scales of the dimensionless residuals: |F| over the rows of the
-    // unconstrained nodes, and the multiplier coefficient |F|_inf / max D
-    // that would balance the load.
-    double local[2] = {0., 0.};
-    for (const types::global_dof_index i : contact_rows.nodes())
-      for (const unsigned int field :
-           {VI::NodalFields::u1, VI::NodalFields::u2})
-        {
-          const double F = system_rhs(index(i, field));
-          local[0] += F * F;
-          local[1] = std::max(local[1], std::abs(F));
-        }
-    load_norm = std::sqrt(Utilities::MPI::sum(local[0], comm));
-    multiplier_scale =
-      Utilities::MPI::max(local[1], comm) /
-      std::max(coupling.linfty_norm(), std::numeric_limits<double>::min());
-
-    const double mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
-    stiffness_weight.resize(owned_nodes.n_elements());
-    multiplier_weight.assign(coupling.begin(),
-                             coupling.begin() + owned_nodes.n_elements());
+    // Rows that enforce u1 = u2 weigh mu_r S_ii.
+    const double        mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    std::vector<double> stiffness_weight(owned_nodes.n_elements());
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
       stiffness_weight[k] =
         mu_r * stiffness_matrix.diag_element(owned_nodes.nth_index_in_set(k));
-
-    if (!std::isfinite(system_rhs.l2_norm()))
-      throw VI::InputError(
-        "Problem: the load vector is not finite: f1, f2, g1 or g2 evaluate "
-        "to NaN or Inf somewhere in the domain");
+    contact_system.set_stiffness_weights(std::move(stiffness_weight));
 
     if (parameters.linear_solver.solver == "gmres" &&
         parameters.linear_solver.preconditioner == "amg")
-      {
-        VI::ContactPreconditioner::AdditionalData settings;
-        settings.higher_order_elements = fe.degree > 1;
-        contact_preconditioner =
-          std::make_unique<VI::ContactPreconditioner>(settings);
-        contact_preconditioner->initialize_mesh(
-          stiffness_matrix, data.mu1, data.mu2, coupling, contact_rows);
-      }
+      contact_system.use_contact_preconditioner(stiffness_matrix,
+                                                data.mu1,
+                                                data.mu2,
+                                                fe.degree > 1);
   }
 
 
@@ -650,38 +626,6 @@ namespace StepMembranes
   }
 
 
-  // R(X) = [E X - F ; C(X)]: the rows of the balance equations come from the
-  // matrix, whose multiplier rows are then overwritten by the C-function.
-  template <int dim>
-  VI::ResidualNorms
-  MembraneProblem<dim>::residual(const Vector &X, Vector &R) const
-  {
-    TimerOutput::Scope t(timer, "newton: residual");
-    system_matrix.vmult(R, X);
-    R -= system_rhs;
-    // The condensed rows of hanging nodes do not hold for the conforming X
-    // (its values there come from the constraints, not from those rows).
-    for (const types::global_dof_index i : owned_nodes)
-      if (hanging_node_constraints.is_constrained(i))
-        for (const unsigned int field :
-             {VI::NodalFields::u1, VI::NodalFields::u2})
-          R(index(i, field)) = 0;
-    R.compress(VectorOperation::insert);
-
-    VI::ResidualNorms norms;
-    norms.complementarity = contact_rows.evaluate(C, X, multiplier_scale, R);
-
-    double        local = 0;
-    const double *r     = R.begin();
-    for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
-      local += r[n_fields * k] * r[n_fields * k] +
-               r[n_fields * k + 1] * r[n_fields * k + 1];
-    norms.equations = std::sqrt(Utilities::MPI::sum(local, comm)) /
-                      std::max(load_norm, std::numeric_limits<double>::min());
-    return norms;
-  }
-
-
   // Semismooth Newton with the chosen strategy. Every Newton iterate gets an
   // a posteriori estimate (when the estimators are on): the one computed by
   // the linear solver's checks if the iterate is the one it accepted,
@@ -689,28 +633,11 @@ namespace StepMembranes
   // eta_lin <= gamma_lin eta_disc.
   template <int dim>
   void
-  MembraneProblem<dim>::scale_constraint_rows(Vector    &v,
-                                              const bool divide) const
-  {
-    double     *x         = v.begin();
-    const auto &positions = contact_rows.local_positions();
-    for (std::size_t n = 0; n < positions.size(); ++n)
-      x[n_fields * positions[n] + 2] *=
-        divide ? 1. / row_weights[n] : row_weights[n];
-  }
-
-
-  template <int dim>
-  void
   MembraneProblem<dim>::solve()
   {
-    const auto &p = parameters.nonlinear_solver;
-    const typename VI::SemismoothNewton<Vector>::AdditionalData settings(p, C);
-
-    estimate_records.clear();
+    stopping.start_solve();
     final_estimate.reset();
     final_estimate_sharpened = false;
-    newton_step              = 0;
     if (parameters.nonlinear_method == "petsc-vi")
       {
         std::string reason;
@@ -722,39 +649,17 @@ namespace StepMembranes
         sharpen_final_estimate();
         return;
       }
-    if (parameters.linear_solver.solver == "direct")
-      direct_solver =
-        std::make_unique<VI::LinearSolver>(parameters.linear_solver);
 
-    VI::SemismoothNewton<Vector> newton(settings);
-    newton.residual = [&](const Vector &X, Vector &R) {
-      return residual(X, R);
-    };
+    VI::SemismoothNewton<Vector> newton(
+      typename VI::SemismoothNewton<Vector>::AdditionalData(
+        parameters.nonlinear_solver, C));
+    contact_system.start_newton();
+    contact_system.attach(newton, parameters.output.verbose ? &pcout : nullptr);
     newton.setup_jacobian = [&](const Vector &X) {
-      ++newton_step;
-      linearization_point = &X;
-      step_estimate.reset();
+      stopping.start_step(X);
       if (cell_multiplier)
         contact_nodes(X, step_contact_nodes);
-      {
-        TimerOutput::Scope t(timer, "newton: jacobian");
-        row_weights =
-          contact_rows.row_weights(C, X, stiffness_weight, multiplier_weight);
-        contact_rows.set_jacobian_rows(C, X, system_matrix, row_weights);
-        system_matrix.compress(VectorOperation::insert);
-      }
-      TimerOutput::Scope t(timer, "newton: preconditioner");
-      if (direct_solver)
-        direct_solver->initialize(system_matrix);
-      else if (contact_preconditioner)
-        contact_preconditioner->initialize_jacobian(C, X);
-      else
-        {
-          ilu = std::make_unique<TrilinosWrappers::PreconditionILU>();
-          ilu->initialize(system_matrix,
-                          TrilinosWrappers::PreconditionILU::AdditionalData(
-                            parameters.linear_solver.ilu_fill));
-        }
+      contact_system.setup_jacobian(X);
     };
     newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
       const unsigned int iterations = solve_linearized(rhs, dX);
@@ -764,73 +669,26 @@ namespace StepMembranes
       system_hanging_constraints.distribute(dX);
       return iterations;
     };
-    newton.active_set = [&](const Vector &X, const bool first) {
-      return contact_rows.linearised_active_set(C, X, active_rows, !first);
-    };
-    if (parameters.output.verbose)
-      newton.monitor = [&](const VI::NewtonStep &step) {
-        pcout << "      k = " << std::setw(2) << step.iteration << ": "
-              << VI::describe(step) << std::endl;
-      };
-    // The adaptive Newton criterion on an estimate of the iterate taken.
-    const auto adaptive_stop = [&](const VI::ContactEstimate &e) {
-      return p.strategy == "adaptive" &&
-             p.linearisation_error_small(e.eta_disc, e.eta_lin) &&
-             p.algebraic_error_small(e.eta_disc, e.eta_lin, e.eta_alg);
-    };
     if (parameters.estimators.enabled)
-      newton.stopping_criterion = [&](const Vector         &X,
-                                      const VI::NewtonStep &step) {
-        // A line search moved the iterate off the one the linear solver
-        // accepted: estimate the iterate Newton actually took.
-        if (!step_estimate || step.step_length < 1)
-          step_estimate = estimate(X);
-        estimate_records.emplace_back(newton_step,
-                                      step.linear_iterations,
-                                      true,
-                                      *step_estimate);
-        if (!step_estimate->complete)
-          {
-            // GMRES stopped on the flux-free terms (Estimators/Defer
-            // fluxes), which say that Newton goes on.
-            if (parameters.output.verbose)
-              pcout << "             eta_lin >= " << std::scientific
-                    << std::setprecision(2) << step_estimate->eta_lin
-                    << ", eta_alg <= " << step_estimate->eta_alg
-                    << " (no fluxes: eta_lin > gamma_lin x predicted "
-                       "eta_disc)"
-                    << std::defaultfloat << std::endl;
-            final_estimate.reset();
-            return false;
-          }
-        remember_eta_disc(*step_estimate);
-        final_estimate = step_estimate;
-        if (parameters.output.verbose)
-          pcout << "             eta_disc " << std::scientific
-                << std::setprecision(2) << step_estimate->eta_disc
-                << ", eta_lin " << step_estimate->eta_lin << ", eta_alg "
-                << step_estimate->eta_alg << std::defaultfloat << std::endl;
-        // The algebraic criterion is repeated: a step shortened by the line
-        // search (Fischer-Burmeister) is not the iterate at which GMRES
-        // stopped, and its residual holds (1 - t) R(X^(k-1)); such an
-        // iterate may have eta_lin = 0 (feasible, lambda_h = 0) with any
-        // algebraic error. For full steps it holds already.
-        return adaptive_stop(*step_estimate);
-      };
+      {
+        newton.stopping_criterion = [&](const Vector         &X,
+                                        const VI::NewtonStep &step) {
+          return stopping.newton_criterion(X, step);
+        };
+        // With the line search (Fischer-Burmeister), the full step is taken
+        // when GMRES accepted it with an estimate that meets the adaptive
+        // stopping criterion: it ends the iteration with a guaranteed bound,
+        // so the Armijo test on the residual, which an inexact direction
+        // need not pass, is not asked (on the nested disk meshes it cut such
+        // steps to 1/32 and 1/4, three Newton steps and five estimates
+        // instead of one).
+        newton.accept_full_step = [&](const Vector &) {
+          return stopping.step_is_certified();
+        };
+      }
 
-    // With the line search (Fischer-Burmeister), the full step is taken
-    // when GMRES accepted it with an estimate that meets the adaptive
-    // stopping criterion: it ends the iteration with a guaranteed bound, so
-    // the Armijo test on the residual, which an inexact direction need not
-    // pass, is not asked (on the nested disk meshes it cut such steps to
-    // 1/32 and 1/4, three Newton steps and five estimates instead of one).
-    if (parameters.estimators.enabled)
-      newton.accept_full_step = [&](const Vector &) {
-        return step_estimate && step_estimate->complete &&
-               adaptive_stop(*step_estimate);
-      };
-
-    newton_report = newton.solve(solution);
+    newton_report  = newton.solve(solution);
+    final_estimate = std::move(stopping.final_estimate);
     // (no Newton step was needed, or Newton met its tolerance at a step
     // whose fluxes were deferred)
     if (parameters.estimators.enabled && !final_estimate)
@@ -842,46 +700,41 @@ namespace StepMembranes
   }
 
 
-  // One linearised system A dX = rhs. GMRES runs on the whole system with
-  // ILU or the contact AMG preconditioner, to 'Linear solver/Tolerance'
-  // (exact), to the forcing term (inexact), or until the algebraic
-  // estimator is below gamma_alg max(eta_disc, eta_lin) (adaptive). Every
-  // nu iterations the current iterate is described (fields, residual,
-  // fluxes) and the iterate of the previous check is estimated with the
-  // current one as look-ahead; the adaptive strategy accepts that previous
-  // iterate, whose estimate is guaranteed.
+  // One linearised system A dX = rhs (ContactSystem::solve): with the
+  // estimators watching GMRES for the adaptive strategy (or on request,
+  // Estimators/At every check), every nu iterations.
   template <int dim>
   unsigned int
   MembraneProblem<dim>::solve_linearized(const Vector &rhs, Vector &dX)
   {
-    // The constraint rows of A carry the row weights: scale rhs alike.
-    Vector weighted_rhs(rhs);
-    scale_constraint_rows(weighted_rhs, false);
-    if (direct_solver)
-      {
-        TimerOutput::Scope t(timer, "newton: linear solve");
-        return direct_solver->solve(weighted_rhs, dX);
-      }
+    const auto &estimators = parameters.estimators;
+    if (!estimators.enabled || !(stopping.adaptive() || estimators.every_check))
+      return contact_system.solve(rhs, dX);
+    // Estimators/Defer fluxes: the flux-free terms first (see
+    // stopping_hooks()), against the eta_disc predicted for this mesh.
+    step_predicted_eta_disc = stopping.adaptive() && estimators.defer_fluxes &&
+                                  !estimators.dual_norm_undershoots ?
+                                predicted_eta_disc() :
+                                std::nullopt;
+    return contact_system.solve(rhs,
+                                dX,
+                                stopping.gmres_monitor(),
+                                stopping.accepted_update_of_step());
+  }
 
-    const auto &linear    = parameters.linear_solver;
-    const auto &nonlinear = parameters.nonlinear_solver;
-    const bool  adaptive  = nonlinear.strategy == "adaptive";
-    const bool  watch     = parameters.estimators.enabled &&
-                       (adaptive || parameters.estimators.every_check);
 
-    typename VI::Gmres<Vector>::AdditionalData settings;
-    settings.max_iterations     = linear.max_iterations;
-    settings.krylov_dimension   = linear.krylov_dimension;
-    settings.check_interval     = linear.check_interval;
-    settings.relative_tolerance = VI::linear_tolerance(nonlinear, linear);
-
-    // At every check the current iterate is certified with its own fluxes
-    // (its algebraic residual bounded by the Friedrichs constant), and the
-    // previous check's iterate with the current one as look-ahead (sharper);
-    // the adaptive strategy accepts the first iterate whose algebraic
-    // estimator is small enough.
-    const auto criterion = [&](const VI::ContactEstimate &e) {
-      return nonlinear.algebraic_error_small(e.eta_disc, e.eta_lin, e.eta_alg);
+  // What the adaptive stopping sees of this program. At every check the
+  // current iterate is certified with its own fluxes (its algebraic residual
+  // bounded by the Friedrichs constant), and the previous check's iterate
+  // with the current one as look-ahead (sharper).
+  template <int dim>
+  typename VI::AdaptiveStopping<typename MembraneProblem<dim>::Iterate,
+                                VI::ContactEstimate>::Hooks
+  MembraneProblem<dim>::stopping_hooks()
+  {
+    typename VI::AdaptiveStopping<Iterate, VI::ContactEstimate>::Hooks hooks;
+    hooks.describe = [this](const Vector &X, Iterate &it) {
+      describe_iterate(X, step_contact_nodes, it, !step_predicted_eta_disc);
     };
     // Estimators/Equilibrated dual norms = remainder: the sharper bound of
     // the remainder is skipped where the test would fail with it too: a
@@ -889,107 +742,48 @@ namespace StepMembranes
     // eta_disc or eta_lin. The decisions are those of the sharper estimate.
     // The other strategies decide nothing at the checks: their records keep
     // Friedrichs' bound.
-    const auto sharpen_remainder = [&](const VI::ContactEstimate &e) {
-      return adaptive &&
-             nonlinear.algebraic_error_small(e.eta_disc, e.eta_lin, e.flux_alg);
+    hooks.estimate = [this](const Iterate &it, const Iterate &ahead) {
+      const VI::ContactEstimate e =
+        estimate(it, ahead, false, [&](const VI::ContactEstimate &e) {
+          return stopping.adaptive() &&
+                 parameters.nonlinear_solver.algebraic_error_small(e.eta_disc,
+                                                                   e.eta_lin,
+                                                                   e.flux_alg);
+        });
+      // An iterate's own estimate predicts eta_disc on the next meshes.
+      if (&it == &ahead)
+        remember_eta_disc(e);
+      return e;
     };
-    std::optional<Iterate> previous;
-    Iterate                current;
-    bool                   accepted = false;
-    Vector                 accepted_update;
-    const auto accept = [&](const Iterate &it, const VI::ContactEstimate &e) {
-      accepted        = true;
-      accepted_update = it.X;
-      accepted_update -= *linearization_point;
-      step_estimate = e;
+    hooks.estimate_iterate = [this](const Vector &X) { return estimate(X); };
+    hooks.components       = [](const VI::ContactEstimate &e) {
+      return VI::StoppingComponents{
+        e.complete, e.eta, e.eta_disc, e.eta_lin, e.eta_alg, e.eta_lin};
     };
-    // Estimators/Defer fluxes: the flux-free terms first. Their eta_alg
-    // bounds the complete estimate's from above and their eta_lin from
-    // below, so when they say that GMRES may stop, it may; if moreover
-    // eta_lin exceeds gamma_lin times the predicted eta_disc, Newton will
-    // (very likely) go on, and this iterate's fluxes are not needed.
-    const std::optional<double> predicted =
-      adaptive && parameters.estimators.defer_fluxes &&
-          !parameters.estimators.dual_norm_undershoots ?
-        predicted_eta_disc() :
-        std::nullopt;
-    const auto monitor = [&](const Vector &update, const unsigned int i) {
-      Vector X(*linearization_point);
-      X += update;
-      describe_iterate(X, step_contact_nodes, current, !predicted);
-      current.linear_iteration = i;
-      if (predicted)
-        {
-          const VI::ContactEstimate flux_free = estimate(current, current);
-          if (nonlinear.algebraic_error_small(0.,
-                                              flux_free.eta_lin,
-                                              flux_free.eta_alg) &&
-              !nonlinear.linearisation_error_small(*predicted,
-                                                   flux_free.eta_lin))
-            {
-              estimate_records.emplace_back(newton_step, i, false, flux_free);
-              accept(current, flux_free);
-              return true;
-            }
-          add_fluxes(current);
-        }
-
-      const VI::ContactEstimate own =
-        estimate(current, current, false, sharpen_remainder);
-      remember_eta_disc(own);
-      estimate_records.emplace_back(newton_step, i, false, own);
-      if (adaptive && criterion(own))
-        {
-          accept(current, own);
-          return true;
-        }
-      if (previous)
-        {
-          const VI::ContactEstimate e =
-            estimate(*previous, current, false, sharpen_remainder);
-          estimate_records.emplace_back(newton_step,
-                                        previous->linear_iteration,
-                                        false,
-                                        e);
-          if (adaptive && criterion(e))
-            {
-              accept(*previous, e);
-              return true;
-            }
-        }
-      previous = std::move(current);
-      return false;
+    // Estimators/Defer fluxes: the flux-free terms' eta_alg bounds the
+    // complete estimate's from above and their eta_lin from below, so when
+    // they say that GMRES may stop, it may; if moreover eta_lin exceeds
+    // gamma_lin times the predicted eta_disc, Newton will (very likely) go
+    // on, and this iterate's fluxes are not needed.
+    hooks.decide_early =
+      [this](Iterate &current) -> std::optional<VI::ContactEstimate> {
+      if (!step_predicted_eta_disc)
+        return std::nullopt;
+      const auto               &nonlinear = parameters.nonlinear_solver;
+      const VI::ContactEstimate flux_free = estimate(current, current);
+      if (nonlinear.algebraic_error_small(0.,
+                                          flux_free.eta_lin,
+                                          flux_free.eta_alg) &&
+          !nonlinear.linearisation_error_small(*step_predicted_eta_disc,
+                                               flux_free.eta_lin))
+        return flux_free;
+      add_fluxes(current);
+      return std::nullopt;
     };
-
-    const auto A = [&](Vector &dst, const Vector &src) {
-      system_matrix.vmult(dst, src);
+    hooks.on_newton_estimate = [this](const VI::ContactEstimate &e) {
+      remember_eta_disc(e);
     };
-    Vector     unweighted(rhs);
-    const auto P = [&](Vector &dst, const Vector &src) {
-      if (contact_preconditioner)
-        {
-          // It inverts the unweighted rows.
-          unweighted = src;
-          scale_constraint_rows(unweighted, true);
-          contact_preconditioner->vmult(dst, unweighted);
-        }
-      else
-        ilu->vmult(dst, src);
-    };
-
-    TimerOutput::Scope t(timer, "newton: linear solve");
-    dX = 0;
-    const VI::LinearSolveReport report =
-      VI::Gmres<Vector>(settings).solve(A,
-                                        P,
-                                        dX,
-                                        weighted_rhs,
-                                        watch ?
-                                          VI::Gmres<Vector>::Monitor(monitor) :
-                                          nullptr);
-    if (accepted)
-      dX = accepted_update;
-    return report.iterations;
+    return hooks;
   }
 
 
@@ -1039,7 +833,7 @@ namespace StepMembranes
     // Rows u1 and u2 of E without the multiplier column: S1, S2 per node.
     // (Epetra's row views: deal.II's matrix iterators are orders of
     // magnitude slower on distributed matrices.)
-    const Epetra_CrsMatrix &E              = system_matrix.trilinos_matrix();
+    const Epetra_CrsMatrix &E = contact_system.matrix.trilinos_matrix();
     const auto              for_each_entry = [&](const auto &action) {
       for (const types::global_dof_index i : owned_nodes)
         for (const unsigned int field : {u1, u2})
@@ -1096,8 +890,8 @@ namespace StepMembranes
     std::vector<double>                  b_values, y_values;
     for (const types::global_dof_index i : owned_nodes)
       {
-        const double F1 = system_rhs(index(i, u1)) / U,
-                     F2 = system_rhs(index(i, u2)) / U;
+        const double F1 = contact_system.rhs(index(i, u1)) / U,
+                     F2 = contact_system.rhs(index(i, u2)) / U;
         const double X1 = X(index(i, u1)) / U, X2 = X(index(i, u2)) / U;
         indices.insert(indices.end(), {pair(i, 0), pair(i, 1)});
         b_values.insert(b_values.end(), {F1 + F2, theta2 * F1 - theta1 * F2});
@@ -1109,7 +903,8 @@ namespace StepMembranes
     b.compress(VectorOperation::insert);
     y.compress(VectorOperation::insert);
     IndexSet bounded(owned_pairs.size());
-    for (const types::global_dof_index i : contact_rows.nodes())
+    for (const types::global_dof_index i :
+         contact_system.contact_rows().nodes())
       bounded.add_index(pair(i, 1));
 
     const auto                 &linear    = parameters.linear_solver;
@@ -1151,16 +946,17 @@ namespace StepMembranes
     X.compress(VectorOperation::insert);
     system_hanging_constraints.distribute(X);
     Vector R(owned_system, comm);
-    system_matrix.vmult(R, X);
-    R -= system_rhs;
-    for (const types::global_dof_index i : contact_rows.nodes())
-      X(index(i, multiplier)) = R(index(i, u1)) / coupling(i);
+    contact_system.matrix.vmult(R, X);
+    R -= contact_system.rhs;
+    for (const types::global_dof_index i :
+         contact_system.contact_rows().nodes())
+      X(index(i, multiplier)) = R(index(i, u1)) / contact_system.coupling()(i);
     X.compress(VectorOperation::insert);
 
     VI::NewtonReport newton;
     newton.iterations        = report.iterations;
     newton.linear_iterations = report.linear_iterations;
-    newton.final_residual    = residual(X, R);
+    newton.final_residual    = contact_system.residual(X, R);
     return newton;
   }
 
@@ -1252,7 +1048,7 @@ namespace StepMembranes
   MembraneProblem<dim>::contact_nodes(const Vector &X, Vector &indicator) const
   {
     Vector owned(owned_nodes, comm);
-    contact_rows.contact_set(X, owned);
+    contact_system.contact_rows().contact_set(X, owned);
     indicator.reinit(owned_nodes, relevant_nodes, comm);
     indicator = owned;
   }
@@ -1304,7 +1100,7 @@ namespace StepMembranes
 
     // lambda_h: <lambda_h, psi_i>_h = D_i X3_i = m_i.
     VI::NodalFields::extract(X, multiplier, moments);
-    moments.scale(coupling);
+    moments.scale(contact_system.coupling());
     if (cell_multiplier)
       {
         // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i).
@@ -1326,8 +1122,8 @@ namespace StepMembranes
 
     // r_h from the residual F - E X of the rows of u1 and u2.
     Vector R(owned_system, comm);
-    system_matrix.vmult(R, X);
-    R.sadd(-1., 1., system_rhs);
+    contact_system.matrix.vmult(R, X);
+    R.sadd(-1., 1., contact_system.rhs);
     Vector *r[2] = {&it.r1, &it.r2};
     for (const unsigned int field : {VI::NodalFields::u1, VI::NodalFields::u2})
       {
@@ -1556,7 +1352,8 @@ namespace StepMembranes
     else
       mass_matrix.vmult(values, lambda);
     X3 = 0;
-    for (const types::global_dof_index i : contact_rows.nodes())
+    for (const types::global_dof_index i :
+         contact_system.contact_rows().nodes())
       X3(i) = values(i);
     X3.compress(VectorOperation::insert);
   }
@@ -1578,12 +1375,13 @@ namespace StepMembranes
     gap_h = u1;
 
     VI::NodalFields::extract(solution, multiplier, field);
-    field.scale(coupling);
+    field.scale(contact_system.coupling());
     multiplier_function.from_moments(field, lambda);
     lambda_h = lambda;
 
-    n_contact_nodes = contact_rows.contact_set(solution, field);
-    contact_set     = field;
+    n_contact_nodes =
+      contact_system.contact_rows().contact_set(solution, field);
+    contact_set = field;
   }
 
 
@@ -1782,7 +1580,7 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::record_cycle(const unsigned int cycle)
   {
-    const double wall = cycle_timer.wall_time();
+    const double wall = run_record.cycle_seconds();
 
     table.add_value("cycle", cycle);
     table.add_value("cells", triangulation.n_global_active_cells());
@@ -1845,15 +1643,7 @@ namespace StepMembranes
     record["solve_seconds"] = solve_timer.wall_time();
     record["solve_usage"]   = to_json(solve_usage);
     // This cycle's share of every TimerOutput section.
-    record["timing"] = VI::Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      {
-        const auto before = timing_at_cycle_start.find(section);
-        record["timing"][section] =
-          seconds -
-          (before == timing_at_cycle_start.end() ? 0. : before->second);
-      }
+    record["timing"] = run_record.cycle_timing();
     if (parameters.reference_poisson_solve)
       {
         VI::Json reference = VI::Json::array();
@@ -1878,26 +1668,7 @@ namespace StepMembranes
 
     // Newton steps, and every estimate (inner checks and accepted iterates).
     record["newton_steps"] = VI::newton_steps(newton_report);
-    VI::Json iterations    = VI::Json::array();
-    for (const EstimateRecord &r : estimate_records)
-      {
-        VI::Json it    = VI::Json::object();
-        it["k"]        = r.newton_step;
-        it["i"]        = r.linear_iteration;
-        it["accepted"] = r.accepted;
-        if (r.complete)
-          {
-            it["eta"]      = r.eta;
-            it["eta_disc"] = r.eta_disc;
-          }
-        else
-          // the flux-free terms only: eta_lin from below, eta_alg from above
-          it["fluxes"] = false;
-        it["eta_lin"] = r.eta_lin;
-        it["eta_alg"] = r.eta_alg;
-        iterations.push_back(it);
-      }
-    record["iterations"] = iterations;
+    record["iterations"]   = VI::to_json(stopping.records, true);
     if (petsc_vi_run)
       {
         const PeerRun &peer = *petsc_vi_run;
@@ -1939,7 +1710,7 @@ namespace StepMembranes
           }
       }
 
-    summary["cycles"].push_back(record);
+    run_record.add(record);
   }
 
 
@@ -1988,39 +1759,83 @@ namespace StepMembranes
 
 
   template <int dim>
+  std::string
+  MembraneProblem<dim>::description() const
+  {
+    const auto        &nonlinear = parameters.nonlinear_solver;
+    const auto        &linear    = parameters.linear_solver;
+    std::ostringstream line;
+    line << "Test case " << data.name << " on the " << parameters.mesh.geometry
+         << ", Q" << fe.degree << " elements, " << solver_name() << " ("
+         << nonlinear.strategy << ")"
+         << (nonlinear.nested_iteration ? " with" : " without")
+         << " nested iteration, "
+         << (linear.solver == "direct" ?
+               "direct solver " + linear.direct_package :
+               "GMRES + " + linear.preconditioner)
+         << (parameters.estimators.enabled ? ", estimators on" : "");
+    return line.str();
+  }
+
+
+  template <int dim>
+  std::string
+  MembraneProblem<dim>::solver_name() const
+  {
+    return parameters.nonlinear_method == "petsc-vi" ?
+             "PETSc SNES VI (vinewton" + parameters.petsc_vi_type + ")" :
+             "Newton-" + C.name();
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::print_cycle_header(const unsigned int cycle) const
+  {
+    pcout << "Cycle " << cycle << ": " << triangulation.n_global_active_cells()
+          << " cells, " << n_fields * dof_handler.n_dofs() << " unknowns ("
+          << dof_handler.n_dofs() << " per field)" << std::endl;
+  }
+
+
+  template <int dim>
+  VI::CycleLine
+  MembraneProblem<dim>::cycle_line() const
+  {
+    VI::CycleLine line;
+    line.solver            = solver_name();
+    line.newton_iterations = newton_report.iterations;
+    if (parameters.linear_solver.solver == "gmres")
+      {
+        line.linear_iterations = newton_report.linear_iterations;
+        line.linear_solver     = "GMRES";
+      }
+    line.contact_nodes = n_contact_nodes;
+    if (data.has_exact_solution())
+      line.error = error_energy;
+    if (final_estimate)
+      line.estimate = final_estimate->eta;
+    line.seconds = run_record.cycle_seconds();
+    return line;
+  }
+
+
+  // On each mesh of the sequence: set up and assemble the contact system,
+  // solve it by semismooth Newton from the previous mesh's solution (with
+  // the adaptive stopping of the estimators), estimate, measure the error,
+  // write, refine.
+  template <int dim>
   void
   MembraneProblem<dim>::run()
   {
-    const auto       &nonlinear = parameters.nonlinear_solver;
-    const auto       &linear    = parameters.linear_solver;
-    const std::string solver_name =
-      parameters.nonlinear_method == "petsc-vi" ?
-        "PETSc SNES VI (vinewton" + parameters.petsc_vi_type + ")" :
-        "Newton-" + C.name();
-    pcout << VI::run_header("step-membranes", comm) << std::endl;
-    pcout << "Test case " << data.name << " on the " << parameters.mesh.geometry
-          << ", Q" << fe.degree << " elements, " << solver_name << " ("
-          << nonlinear.strategy << ")"
-          << (nonlinear.nested_iteration ? " with" : " without")
-          << " nested iteration, "
-          << (linear.solver == "direct" ?
-                "direct solver " + linear.direct_package :
-                "GMRES + " + linear.preconditioner)
-          << (parameters.estimators.enabled ? ", estimators on" : "")
-          << std::endl;
-
-    summary           = VI::make_summary("step-membranes", comm, prm);
-    summary["cycles"] = VI::Json::array();
-
+    run_record.start(prm, description());
     make_grid();
     check_data();
     VI::prepare_output_directory(parameters.output.directory, comm);
 
     for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
       {
-        cycle_timer.restart();
-        timing_at_cycle_start =
-          timer.get_summary_data(TimerOutput::total_wall_time);
+        run_record.start_cycle();
         if (cycle > 0)
           refine_mesh();
         solve_timer.restart();
@@ -2028,67 +1843,30 @@ namespace StepMembranes
         setup_system();
         assemble_system();
         initialize_iterate();
+        print_cycle_header(cycle);
 
-        pcout << "Cycle " << cycle << ": "
-              << triangulation.n_global_active_cells() << " cells, "
-              << n_fields * dof_handler.n_dofs() << " unknowns ("
-              << dof_handler.n_dofs() << " per field)" << std::endl;
-        petsc_vi_run.reset();
-        std::optional<Vector> initial_iterate;
-        if (parameters.compare_with_petsc_vi)
-          initial_iterate = solution;
-        try
-          {
-            solve();
-          }
-        catch (const VI::SolverFailure &failure)
-          {
-            // Keep what the completed cycles measured, marked as failed.
-            summary["status"]  = "failed";
-            summary["failure"] = std::string(failure.what());
-            VI::write_summary(summary, parameters.output.directory, comm);
-            throw;
-          }
+        const std::optional<Vector> initial_iterate =
+          parameters.compare_with_petsc_vi ? std::optional<Vector>(solution) :
+                                             std::nullopt;
+        run_record.guard([&] { solve(); });
         solve_timer.stop();
         solve_usage = VI::ProcessUsage::now(comm) - usage_at_solve_start;
+
         postprocess();
         compute_errors();
         output_results(cycle);
-        cycle_timer.stop();
+        run_record.stop_cycle();
+        pcout << VI::to_string(cycle_line()) << std::endl;
 
-        pcout << "   " << solver_name << ": " << newton_report.iterations
-              << " iterations";
-        if (linear.solver == "gmres")
-          pcout << ", " << newton_report.linear_iterations << " GMRES";
-        pcout << ", " << n_contact_nodes << " nodes in contact";
-        if (data.has_exact_solution())
-          pcout << ", energy error " << std::scientific << std::setprecision(3)
-                << error_energy << std::defaultfloat;
-        if (final_estimate)
-          {
-            pcout << ", estimate " << std::scientific << std::setprecision(3)
-                  << final_estimate->eta << std::defaultfloat;
-            if (data.has_exact_solution())
-              pcout << " (effectivity " << std::setprecision(3)
-                    << final_estimate->eta / error_energy << ")";
-          }
-        pcout << ", " << std::setprecision(3) << cycle_timer.wall_time() << " s"
-              << std::endl;
+        petsc_vi_run.reset();
         if (initial_iterate)
           compare_with_petsc_vi(*initial_iterate);
         record_cycle(cycle);
       }
 
     write_tables();
-    summary["status"] = "converged";
-    summary["timing"] = VI::Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      summary["timing"][section] = seconds;
-    VI::write_summary(summary, parameters.output.directory, comm);
-    pcout << "\nOutput in " << parameters.output.directory
-          << "/: solution_*.pvtu (ParaView), convergence.txt, summary.json"
-          << std::endl;
+    run_record.finish(
+      "solution_*.pvtu (ParaView), convergence.txt, summary.json");
   }
 
 

@@ -16,10 +16,10 @@
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <vi/adaptive_stopping.h>
 #include <vi/cell_multiplier.h>
 #include <vi/complementarity.h>
-#include <vi/contact_preconditioner.h>
-#include <vi/contact_rows.h>
+#include <vi/contact_system.h>
 #include <vi/dual_norm.h>
 #include <vi/estimators.h>
 #include <vi/flux_reconstruction.h>
@@ -29,6 +29,7 @@
 #include <vi/multiplier_function.h>
 #include <vi/parameters.h>
 #include <vi/process_usage.h>
+#include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
@@ -129,35 +130,6 @@ namespace StepMembranes
       bool has_fluxes = false;
     };
 
-    /// One estimate during the solve, for summary.json: its components
-    /// only (a whole ContactEstimate carries six cellwise vectors, and
-    /// copying them at every check cost a quarter of an adaptive run in
-    /// the allocator).
-    struct EstimateRecord
-    {
-      EstimateRecord(const unsigned int         newton_step,
-                     const unsigned int         linear_iteration,
-                     const bool                 accepted,
-                     const VI::ContactEstimate &e)
-          : newton_step(newton_step)
-          , linear_iteration(linear_iteration)
-          , accepted(accepted)
-          , complete(e.complete)
-          , eta(e.eta)
-          , eta_disc(e.eta_disc)
-          , eta_lin(e.eta_lin)
-          , eta_alg(e.eta_alg)
-      {
-      }
-      unsigned int newton_step;
-      unsigned int linear_iteration;
-      bool         accepted;
-      /// false: only the flux-free terms (Estimators/Defer fluxes), eta_lin
-      /// from below and eta_alg from above; eta and eta_disc unknown.
-      bool   complete;
-      double eta, eta_disc, eta_lin, eta_alg;
-    };
-
     void
     check_data() const;
     void
@@ -170,8 +142,13 @@ namespace StepMembranes
     initialize_iterate();
     void
     solve();
+    /// One linearised system A dX = rhs, watched by the estimators.
     unsigned int
     solve_linearized(const Vector &rhs, Vector &dX);
+    /// The hooks of the adaptive stopping: this program's iterates and
+    /// estimates.
+    typename VI::AdaptiveStopping<Iterate, VI::ContactEstimate>::Hooks
+    stopping_hooks();
     /// The same discrete problem solved by PETSc's SNES VI from the iterate
     /// X, which becomes its solution (see the .cc file for the variables).
     VI::NewtonReport
@@ -238,6 +215,18 @@ namespace StepMembranes
     output_results(const unsigned int cycle) const;
     void
     refine_mesh();
+    /// The line that says what this run solves, and how.
+    std::string
+    description() const;
+    /// "Newton-<C>" or the PETSc solver.
+    std::string
+    solver_name() const;
+    /// The progress line of a cycle.
+    VI::CycleLine
+    cycle_line() const;
+    /// The mesh of a cycle, after its system is set up.
+    void
+    print_cycle_header(const unsigned int cycle) const;
     void
     record_cycle(const unsigned int cycle);
     void
@@ -246,11 +235,6 @@ namespace StepMembranes
     void
     compute_dual_coefficients(const Vector &lambda, Vector &X3) const;
 
-    VI::ResidualNorms
-    residual(const Vector &X, Vector &R) const;
-    /// Multiply (or divide) the constraint rows of v by the row weights.
-    void
-    scale_constraint_rows(Vector &v, const bool divide) const;
 
     const Parameters            parameters;
     ParameterHandler           &prm;
@@ -283,23 +267,14 @@ namespace StepMembranes
     AffineConstraints<double> system_hanging_constraints;
     AffineConstraints<double> u1_constraints, u2_constraints;
     AffineConstraints<double> system_constraints;
-    VI::ContactRows           contact_rows;
-    std::vector<bool>         active_rows; ///< of the last Newton linearisation
+    /// A = [E ; J_C], F, the contact rows and the linear solvers.
+    VI::ContactSystem contact_system;
 
-    TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E ; J_C]
-    Vector                         system_rhs;    ///< F
-    Vector                         solution;      ///< X
-    Vector                         coupling;      ///< D_ii per node
-    TrilinosWrappers::SparseMatrix mass_matrix;   ///< L2 Gram matrix, p >= 2
+    Vector                         solution;    ///< X
+    TrilinosWrappers::SparseMatrix mass_matrix; ///< L2 Gram matrix, p >= 2
     /// lambda_h as a finite element function, from its nodal moments.
     const VI::MultiplierFunction   multiplier_function;
     TrilinosWrappers::SparseMatrix stiffness_matrix; ///< S, for AMG
-    double                         load_norm        = 0;
-    double                         multiplier_scale = 0;
-    /// Weights of the constraint rows (force units): mu_r S_ii for rows that
-    /// enforce u1 = u2, D_i for rows that enforce X3 = 0; per owned node, and
-    /// per contact row for the current Newton step.
-    std::vector<double> stiffness_weight, multiplier_weight, row_weights;
     /// Global vertex index -> DoF of the vertex (the patch constants of p = 1).
     std::vector<types::global_dof_index> vertex_dofs;
     /// f1, f2 at the points of `quadrature` (the flux quadrature) of the
@@ -307,11 +282,8 @@ namespace StepMembranes
     /// read by it, the flux reconstruction and every estimate.
     std::vector<double> load_values[2];
 
-    // Solvers and estimators.
-    std::unique_ptr<VI::LinearSolver>                  direct_solver;
-    std::unique_ptr<TrilinosWrappers::PreconditionILU> ilu;
-    std::unique_ptr<VI::ContactPreconditioner>         contact_preconditioner;
-    std::unique_ptr<VI::FluxReconstruction<dim>>       flux_reconstruction;
+    // Estimators.
+    std::unique_ptr<VI::FluxReconstruction<dim>> flux_reconstruction;
     /// The multiplier of the estimate on the contact cells (p >= 2 and
     /// `Estimators/Multiplier = contact cells`; null otherwise).
     std::unique_ptr<VI::CellMultiplier<dim>> cell_multiplier;
@@ -324,11 +296,12 @@ namespace StepMembranes
     /// an iterate and its look-ahead share the map from moments to lambda~.
     Vector step_contact_nodes;
 
-    // The state of the current Newton step (set by setup_jacobian).
-    const Vector                      *linearization_point = nullptr;
-    unsigned int                       newton_step         = 0;
-    std::optional<VI::ContactEstimate> step_estimate;
-    std::vector<EstimateRecord>        estimate_records;
+    /// The adaptive stopping of GMRES and Newton, and every estimate of
+    /// the solve.
+    VI::AdaptiveStopping<Iterate, VI::ContactEstimate> stopping;
+    /// Estimators/Defer fluxes: the eta_disc predicted for the current
+    /// linear solve (none: every check reconstructs its fluxes).
+    std::optional<double> step_predicted_eta_disc;
     /// Whether sharpen_final_estimate() replaced final_estimate.
     bool final_estimate_sharpened = false;
     /// The eta_disc of the last complete estimate and the unknowns per
@@ -351,14 +324,12 @@ namespace StepMembranes
     /// |||u - u_h|||_K per active cell (where the exact solution is known):
     /// beside the estimators in the VTU, the local effectivity.
     dealii::Vector<float> cell_error;
-    Timer                 cycle_timer;
     /// Set-up, assembly and semismooth Newton (estimators included) of the
     /// cycle: what the contact problem costs on a given mesh.
     Timer solve_timer;
     /// The CPU time and page faults of the same span, and the reading at
     /// its start.
-    VI::ProcessUsage              solve_usage, usage_at_solve_start;
-    std::map<std::string, double> timing_at_cycle_start;
+    VI::ProcessUsage solve_usage, usage_at_solve_start;
 
     /// What the peer did on this cycle's mesh (Benchmark/Compare with
     /// PETSc VI).
@@ -376,6 +347,7 @@ namespace StepMembranes
     std::optional<PeerRun> petsc_vi_run;
 
     ConvergenceTable table;
-    VI::Json         summary;
+    /// Header, summary.json, failure guard, timing and closing line.
+    VI::RunRecord run_record;
   };
 } // namespace StepMembranes

@@ -106,12 +106,19 @@ namespace StepParabolic
       // with the discrete equations.
       , quadrature(VI::FluxReconstruction<dim>::quadrature_points(
           parameters.discretization.degree))
+      , contact_system(C,
+                       parameters.nonlinear_solver,
+                       parameters.linear_solver,
+                       timer)
       , multiplier_function(fe.degree,
-                            contact_rows,
-                            coupling,
+                            contact_system.contact_rows(),
+                            contact_system.coupling(),
                             mass_matrix,
                             hanging_node_constraints,
                             ghosted_nodes)
+      , stopping(parameters.nonlinear_solver,
+                 stopping_hooks(),
+                 parameters.output.verbose ? &pcout : nullptr)
   {
   }
 
@@ -234,7 +241,8 @@ namespace StepParabolic
                                             hanging_node_constraints);
     hanging_node_constraints.close();
     make_constraints();
-    contact_rows.reinit(owned_nodes, u1_constraints);
+    contact_system.reinit(owned_nodes, u1_constraints, comm);
+    preconditioner_dt = 0; // none for the new matrices yet
 
     DynamicSparsityPattern scalar_pattern(relevant_nodes);
     DoFTools::make_sparsity_pattern(dof_handler,
@@ -249,12 +257,13 @@ namespace StepParabolic
     VI::NodalFields::make_system_sparsity(scalar_pattern,
                                           owned_nodes,
                                           system_pattern);
-    system_matrix.reinit(owned_system, owned_system, system_pattern, comm);
+    contact_system.matrix.reinit(owned_system,
+                                 owned_system,
+                                 system_pattern,
+                                 comm);
     stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
-    system_rhs.reinit(owned_system, comm);
     solution.reinit(owned_system, comm);
     previous_solution.reinit(owned_system, comm);
-    coupling.reinit(owned_nodes, comm);
     for (auto *field : {&u1_h,
                         &u2_h,
                         &gap_h,
@@ -355,8 +364,8 @@ namespace StepParabolic
     const double dt       = time_step;
     const bool   with_amg = parameters.linear_solver.solver == "gmres" &&
                           parameters.linear_solver.preconditioner == "amg";
-    system_matrix = 0;
-    system_rhs    = 0;
+    contact_system.matrix = 0;
+    contact_system.rhs    = 0;
     if (with_amg)
       stiffness_matrix = 0;
     if (fe.degree > 1)
@@ -427,8 +436,8 @@ namespace StepParabolic
             block,
             copy.vectors[field],
             system_dofs,
-            system_matrix,
-            system_rhs,
+            contact_system.matrix,
+            contact_system.rhs,
             /*use_inhomogeneities_for_rhs=*/true);
         }
       if (with_amg)
@@ -456,8 +465,8 @@ namespace StepParabolic
                           scratch,
                           copy,
                           MeshWorker::assemble_own_cells);
-    system_matrix.compress(VectorOperation::add);
-    system_rhs.compress(VectorOperation::add);
+    contact_system.matrix.compress(VectorOperation::add);
+    contact_system.rhs.compress(VectorOperation::add);
     if (with_amg)
       stiffness_matrix.compress(VectorOperation::add);
     lumped_mass.compress(VectorOperation::add);
@@ -468,63 +477,36 @@ namespace StepParabolic
     // that enforces u1 = u2 gets the diagonal of the gap operator,
     // (E1^-1 + E2^-1)^-1 ~ E1_ii E2_ii / (E1_ii + E2_ii) (mu_r S_ii in the
     // steady case), a row that enforces X3 = 0 the coupling D_i.
-    stiffness_weight.resize(owned_nodes.n_elements());
+    std::vector<double> stiffness_weight(owned_nodes.n_elements());
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
       {
-        const auto   i      = owned_nodes.nth_index_in_set(k);
-        const double e1     = system_matrix.diag_element(index(i, 0));
-        const double e2     = system_matrix.diag_element(index(i, 1));
+        const auto   i = owned_nodes.nth_index_in_set(k);
+        const double e1 =
+          contact_system.matrix.diag_element(index(i, VI::NodalFields::u1));
+        const double e2 =
+          contact_system.matrix.diag_element(index(i, VI::NodalFields::u2));
         stiffness_weight[k] = e1 * e2 / (e1 + e2);
       }
+    contact_system.set_stiffness_weights(std::move(stiffness_weight));
 
-    coupling = 0;
-    for (const types::global_dof_index i : contact_rows.nodes())
-      {
-        const double D = fe.degree == 1 ? lumped_mass(i) : 1.;
-        coupling(i)    = D;
-        system_matrix.set(index(i, VI::NodalFields::u1),
-                          index(i, multiplier),
-                          -D);
-        system_matrix.set(index(i, VI::NodalFields::u2),
-                          index(i, multiplier),
-                          +D);
-      }
+    // The coupling D: lumped masses for p = 1, the identity for p >= 2.
+    std::vector<types::global_dof_index> constrained_nodes;
     for (const types::global_dof_index i : owned_nodes)
       if (u1_constraints.is_constrained(i))
-        system_matrix.set(index(i, multiplier), index(i, multiplier), 1.);
-    system_matrix.compress(VectorOperation::insert);
-    coupling.compress(VectorOperation::insert);
-    multiplier_weight.assign(coupling.begin(),
-                             coupling.begin() + owned_nodes.n_elements());
-
-    double local[2] = {0., 0.};
-    for (const types::global_dof_index i : contact_rows.nodes())
-      for (const unsigned int field :
-           {VI::NodalFields::u1, VI::NodalFields::u2})
-        {
-          const double F = system_rhs(index(i, field));
-          local[0] += F * F;
-          local[1] = std::max(local[1], std::abs(F));
-        }
-    load_norm = std::sqrt(Utilities::MPI::sum(local[0], comm));
-    multiplier_scale =
-      Utilities::MPI::max(local[1], comm) /
-      std::max(coupling.linfty_norm(), std::numeric_limits<double>::min());
-
-    if (!std::isfinite(system_rhs.l2_norm()))
-      throw VI::InputError(
-        "Problem: the load vector is not finite: f1, f2, g1 or g2 evaluate "
-        "to NaN or Inf somewhere in the domain");
+        constrained_nodes.push_back(i);
+    contact_system.set_coupling(
+      [&](const types::global_dof_index i) {
+        return fe.degree == 1 ? lumped_mass(i) : 1.;
+      },
+      constrained_nodes);
 
     // The AMG hierarchy of S + M / (mu dt): once per value of dt.
     if (with_amg && preconditioner_dt != dt)
       {
-        VI::ContactPreconditioner::AdditionalData settings;
-        settings.higher_order_elements = fe.degree > 1;
-        contact_preconditioner =
-          std::make_unique<VI::ContactPreconditioner>(settings);
-        contact_preconditioner->initialize_mesh(
-          stiffness_matrix, data.mu1, data.mu2, coupling, contact_rows);
+        contact_system.use_contact_preconditioner(stiffness_matrix,
+                                                  data.mu1,
+                                                  data.mu2,
+                                                  fe.degree > 1);
         preconditioner_dt = dt;
       }
   }
@@ -577,41 +559,6 @@ namespace StepParabolic
   }
 
 
-  // R(X) = [E X - F ; C(X)] with its two dimensionless norms.
-  template <int dim>
-  VI::ResidualNorms
-  ParabolicProblem<dim>::residual(const Vector &X, Vector &R) const
-  {
-    TimerOutput::Scope t(timer, "newton: residual");
-    system_matrix.vmult(R, X);
-    R -= system_rhs;
-
-    VI::ResidualNorms norms;
-    norms.complementarity = contact_rows.evaluate(C, X, multiplier_scale, R);
-    double        local   = 0;
-    const double *r       = R.begin();
-    for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
-      local += r[n_fields * k] * r[n_fields * k] +
-               r[n_fields * k + 1] * r[n_fields * k + 1];
-    norms.equations = std::sqrt(Utilities::MPI::sum(local, comm)) /
-                      std::max(load_norm, std::numeric_limits<double>::min());
-    return norms;
-  }
-
-
-  template <int dim>
-  void
-  ParabolicProblem<dim>::scale_constraint_rows(Vector    &v,
-                                               const bool divide) const
-  {
-    double     *x         = v.begin();
-    const auto &positions = contact_rows.local_positions();
-    for (std::size_t n = 0; n < positions.size(); ++n)
-      x[n_fields * positions[n] + 2] *=
-        divide ? 1. / row_weights[n] : row_weights[n];
-  }
-
-
   // The step (t_(n-1), t_n = t_(n-1) + dt_n): semismooth Newton from X^(n-1)
   // (with the boundary data of t_n), as in step-membranes; every accepted
   // iterate gets its space-time estimate on I_n, and the adaptive strategy
@@ -631,198 +578,64 @@ namespace StepParabolic
     solution = previous_solution;
     system_constraints.distribute(solution);
 
-    const auto &p = parameters.nonlinear_solver;
-    const typename VI::SemismoothNewton<Vector>::AdditionalData settings(p, C);
-
-    estimate_records.clear();
+    stopping.start_solve();
     final_estimate.reset();
-    newton_step = 0;
-    if (parameters.linear_solver.solver == "direct")
-      direct_solver =
-        std::make_unique<VI::LinearSolver>(parameters.linear_solver);
 
-    VI::SemismoothNewton<Vector> newton(settings);
-    newton.residual = [&](const Vector &X, Vector &R) {
-      return residual(X, R);
-    };
-    newton.setup_jacobian = [&](const Vector &X) {
-      ++newton_step;
-      linearization_point = &X;
-      step_estimate.reset();
-      {
-        TimerOutput::Scope t(timer, "newton: jacobian");
-        row_weights =
-          contact_rows.row_weights(C, X, stiffness_weight, multiplier_weight);
-        contact_rows.set_jacobian_rows(C, X, system_matrix, row_weights);
-        system_matrix.compress(VectorOperation::insert);
-      }
-      TimerOutput::Scope t(timer, "newton: preconditioner");
-      if (direct_solver)
-        direct_solver->initialize(system_matrix);
-      else if (contact_preconditioner)
-        contact_preconditioner->initialize_jacobian(C, X);
-      else
-        {
-          ilu = std::make_unique<TrilinosWrappers::PreconditionILU>();
-          ilu->initialize(system_matrix,
-                          TrilinosWrappers::PreconditionILU::AdditionalData(
-                            parameters.linear_solver.ilu_fill));
-        }
-    };
-    newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
-      return solve_linearized(rhs, dX);
-    };
-    newton.active_set = [&](const Vector &X, const bool first) {
-      return contact_rows.linearised_active_set(C, X, active_rows, !first);
-    };
-    if (parameters.output.verbose)
-      newton.monitor = [&](const VI::NewtonStep &s) {
-        pcout << "      k = " << std::setw(2) << s.iteration << ": "
-              << VI::describe(s) << std::endl;
-      };
+    VI::SemismoothNewton<Vector> newton(
+      typename VI::SemismoothNewton<Vector>::AdditionalData(
+        parameters.nonlinear_solver, C));
+    contact_system.start_newton();
+    contact_system.attach(newton, parameters.output.verbose ? &pcout : nullptr);
     // Every Newton iterate is estimated by the adaptive strategy (its
     // stopping test) and on request (At every check); otherwise only the
-    // final one, after Newton.
-    if (parameters.estimators.enabled &&
-        (p.strategy == "adaptive" || parameters.estimators.every_check))
-      newton.stopping_criterion = [&](const Vector         &X,
-                                      const VI::NewtonStep &s) {
-        // A line search moved the iterate off the one the linear solver
-        // accepted: estimate the iterate Newton actually took.
-        if (!step_estimate || s.step_length < 1)
-          step_estimate = estimate(X);
-        estimate_records.push_back({newton_step,
-                                    s.linear_iterations,
-                                    true,
-                                    step_estimate->eta_disc,
-                                    step_estimate->eta_lin,
-                                    step_estimate->eta_alg});
-        final_estimate = step_estimate;
-        if (parameters.output.verbose)
-          pcout << "             eta_disc " << std::scientific
-                << std::setprecision(2) << step_estimate->eta_disc
-                << ", eta_lin " << step_estimate->eta_lin << ", eta_alg "
-                << step_estimate->eta_alg << std::defaultfloat << std::endl;
-        // The algebraic criterion is repeated: a step shortened by the line
-        // search (Fischer-Burmeister) is not the iterate at which GMRES
-        // stopped, and its residual holds (1 - t) R(X^(k-1)). For full
-        // steps it holds already.
-        const StepEstimate &e = *step_estimate;
-        return p.strategy == "adaptive" &&
-               p.linearisation_error_small(e.eta_disc, e.eta_lin_controlled) &&
-               p.algebraic_error_small(e.eta_disc,
-                                       e.eta_lin_controlled,
-                                       e.eta_alg);
-      };
+    // final one, after Newton. GMRES is watched alike.
+    const auto &estimators = parameters.estimators;
+    if (estimators.enabled && (stopping.adaptive() || estimators.every_check))
+      {
+        newton.setup_jacobian = [&](const Vector &X) {
+          stopping.start_step(X);
+          contact_system.setup_jacobian(X);
+        };
+        newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
+          return contact_system.solve(rhs,
+                                      dX,
+                                      stopping.gmres_monitor(),
+                                      stopping.accepted_update_of_step());
+        };
+        newton.stopping_criterion = [&](const Vector         &X,
+                                        const VI::NewtonStep &step) {
+          return stopping.newton_criterion(X, step);
+        };
+      }
 
-    newton_report = newton.solve(solution);
-    if (parameters.estimators.enabled && !final_estimate)
+    newton_report  = newton.solve(solution);
+    final_estimate = std::move(stopping.final_estimate);
+    if (estimators.enabled && !final_estimate)
       final_estimate = estimate(solution);
   }
 
 
-  // One linearised system A dX = rhs: direct, or GMRES + ILU / AMG to the
-  // tolerance (exact), the forcing term (inexact), or until
-  // eta_alg <= gamma_alg max(eta_disc, eta_lin) (adaptive), checked every nu
-  // iterations with the look-ahead of doc/estimators.md.
+  // What the adaptive stopping sees of this program: the iterate with its
+  // fields and fluxes, its space-time estimate on I_n, and the part of
+  // eta_lin this step controls for the stopping tests.
   template <int dim>
-  unsigned int
-  ParabolicProblem<dim>::solve_linearized(const Vector &rhs, Vector &dX)
+  typename VI::AdaptiveStopping<typename ParabolicProblem<dim>::Iterate,
+                                StepEstimate>::Hooks
+  ParabolicProblem<dim>::stopping_hooks()
   {
-    Vector weighted_rhs(rhs);
-    scale_constraint_rows(weighted_rhs, false);
-    if (direct_solver)
-      {
-        TimerOutput::Scope t(timer, "newton: linear solve");
-        return direct_solver->solve(weighted_rhs, dX);
-      }
-
-    const auto &linear    = parameters.linear_solver;
-    const auto &nonlinear = parameters.nonlinear_solver;
-    const bool  adaptive  = nonlinear.strategy == "adaptive";
-    const bool  watch     = parameters.estimators.enabled &&
-                       (adaptive || parameters.estimators.every_check);
-
-    typename VI::Gmres<Vector>::AdditionalData settings;
-    settings.max_iterations     = linear.max_iterations;
-    settings.krylov_dimension   = linear.krylov_dimension;
-    settings.check_interval     = linear.check_interval;
-    settings.relative_tolerance = VI::linear_tolerance(nonlinear, linear);
-
-    const auto criterion = [&](const StepEstimate &e) {
-      return nonlinear.algebraic_error_small(e.eta_disc,
-                                             e.eta_lin_controlled,
-                                             e.eta_alg);
+    typename VI::AdaptiveStopping<Iterate, StepEstimate>::Hooks hooks;
+    hooks.describe = [this](const Vector &X, Iterate &it) {
+      describe_iterate(X, it);
     };
-    std::optional<Iterate> previous;
-    Iterate                current;
-    bool                   accepted = false;
-    Vector                 accepted_update;
-    const auto accept = [&](const Iterate &it, const StepEstimate &e) {
-      accepted        = true;
-      accepted_update = it.X;
-      accepted_update -= *linearization_point;
-      step_estimate = e;
+    hooks.estimate = [this](const Iterate &it, const Iterate &ahead) {
+      return estimate(it, ahead);
     };
-    const auto record = [&](const unsigned int i, const StepEstimate &e) {
-      estimate_records.push_back(
-        {newton_step, i, false, e.eta_disc, e.eta_lin, e.eta_alg});
+    hooks.estimate_iterate = [this](const Vector &X) { return estimate(X); };
+    hooks.components       = [](const StepEstimate &e) {
+      return VI::StoppingComponents{
+        true, e.eta, e.eta_disc, e.eta_lin, e.eta_alg, e.eta_lin_controlled};
     };
-    const auto monitor = [&](const Vector &update, const unsigned int i) {
-      Vector X(*linearization_point);
-      X += update;
-      describe_iterate(X, current);
-      current.linear_iteration = i;
-
-      const StepEstimate own = estimate(current, current);
-      record(i, own);
-      if (adaptive && criterion(own))
-        {
-          accept(current, own);
-          return true;
-        }
-      if (previous)
-        {
-          const StepEstimate e = estimate(*previous, current);
-          record(previous->linear_iteration, e);
-          if (adaptive && criterion(e))
-            {
-              accept(*previous, e);
-              return true;
-            }
-        }
-      previous = std::move(current);
-      return false;
-    };
-
-    const auto A = [&](Vector &dst, const Vector &src) {
-      system_matrix.vmult(dst, src);
-    };
-    Vector     unweighted(rhs);
-    const auto P = [&](Vector &dst, const Vector &src) {
-      if (contact_preconditioner)
-        {
-          unweighted = src;
-          scale_constraint_rows(unweighted, true);
-          contact_preconditioner->vmult(dst, unweighted);
-        }
-      else
-        ilu->vmult(dst, src);
-    };
-
-    TimerOutput::Scope t(timer, "newton: linear solve");
-    dX = 0;
-    const VI::LinearSolveReport report =
-      VI::Gmres<Vector>(settings).solve(A,
-                                        P,
-                                        dX,
-                                        weighted_rhs,
-                                        watch ?
-                                          VI::Gmres<Vector>::Monitor(monitor) :
-                                          nullptr);
-    if (accepted)
-      dX = accepted_update;
-    return report.iterations;
+    return hooks;
   }
 
 
@@ -868,14 +681,14 @@ namespace StepParabolic
       }
 
     VI::NodalFields::extract(X, multiplier, moments);
-    moments.scale(coupling);
+    moments.scale(contact_system.coupling());
     multiplier_function.with_nonnegative_part(moments,
                                               it.lambda,
                                               it.lambda_nonnegative);
 
     Vector R(owned_system, comm);
-    system_matrix.vmult(R, X);
-    R.sadd(-1., 1., system_rhs);
+    contact_system.matrix.vmult(R, X);
+    R.sadd(-1., 1., contact_system.rhs);
     Vector *r[2] = {&it.r1, &it.r2};
     for (const unsigned int field : {VI::NodalFields::u1, VI::NodalFields::u2})
       {
@@ -1327,12 +1140,13 @@ namespace StepParabolic
     gap_h = u1;
 
     VI::NodalFields::extract(solution, multiplier, field);
-    field.scale(coupling);
+    field.scale(contact_system.coupling());
     multiplier_function.from_moments(field, lambda);
     lambda_h = lambda;
 
-    n_contact_nodes = contact_rows.contact_set(solution, field);
-    contact_set     = field;
+    n_contact_nodes =
+      contact_system.contact_rows().contact_set(solution, field);
+    contact_set = field;
     contact_per_ring.clear();
     if (!node_ring.empty())
       {
@@ -1515,19 +1329,7 @@ namespace StepParabolic
       }
     json["wall_seconds"] = wall_seconds;
     json["newton_steps"] = VI::newton_steps(newton_report);
-    VI::Json iterations  = VI::Json::array();
-    for (const EstimateRecord &e : estimate_records)
-      {
-        VI::Json it    = VI::Json::object();
-        it["k"]        = e.newton_step;
-        it["i"]        = e.linear_iteration;
-        it["accepted"] = e.accepted;
-        it["eta_disc"] = e.eta_disc;
-        it["eta_lin"]  = e.eta_lin;
-        it["eta_alg"]  = e.eta_alg;
-        iterations.push_back(it);
-      }
-    json["iterations"] = iterations;
+    json["iterations"]   = VI::to_json(stopping.records, false);
     std::ostringstream text;
     json.write(text, 4);
     step_json.push_back(text.str());

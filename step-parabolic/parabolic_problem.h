@@ -15,9 +15,9 @@
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <vi/adaptive_stopping.h>
 #include <vi/complementarity.h>
-#include <vi/contact_preconditioner.h>
-#include <vi/contact_rows.h>
+#include <vi/contact_system.h>
 #include <vi/estimators.h>
 #include <vi/flux_reconstruction.h>
 #include <vi/geometry.h>
@@ -135,15 +135,6 @@ namespace StepParabolic
       double time_energy = 0; ///< |||u_h^n - u_h^(n-1)|||
     };
 
-    /// One estimate during the solve of a step, for summary.json.
-    struct EstimateRecord
-    {
-      unsigned int newton_step;
-      unsigned int linear_iteration;
-      bool         accepted;
-      double       eta_disc, eta_lin, eta_alg;
-    };
-
     /// Running sums over the accepted steps (saved in checkpoints).
     struct Accumulated
     {
@@ -202,12 +193,10 @@ namespace StepParabolic
     // One time step.
     void
     solve_time_step();
-    VI::ResidualNorms
-    residual(const Vector &X, Vector &R) const;
-    void
-    scale_constraint_rows(Vector &v, const bool divide) const;
-    unsigned int
-    solve_linearized(const Vector &rhs, Vector &dX);
+    /// The hooks of the adaptive stopping: this program's iterates and
+    /// estimates.
+    typename VI::AdaptiveStopping<Iterate, StepEstimate>::Hooks
+    stopping_hooks();
 
     // Estimators.
     void
@@ -284,30 +273,21 @@ namespace StepParabolic
     AffineConstraints<double> hanging_node_constraints;
     AffineConstraints<double> u1_constraints, u2_constraints;
     AffineConstraints<double> system_constraints;
-    VI::ContactRows           contact_rows;
-    std::vector<bool>         active_rows; ///< of the last Newton linearisation
+    /// A = [E^n ; J_C], F^n, the contact rows and the linear solvers.
+    VI::ContactSystem contact_system;
 
-    TrilinosWrappers::SparseMatrix system_matrix; ///< A = [E^n ; J_C]
-    Vector                         system_rhs;    ///< F^n
-    Vector                         solution;      ///< X^n
-    Vector                         coupling;      ///< D_ii per node
-    TrilinosWrappers::SparseMatrix mass_matrix;   ///< L2 Gram matrix, p >= 2
+    Vector                         solution;    ///< X^n
+    TrilinosWrappers::SparseMatrix mass_matrix; ///< L2 Gram matrix, p >= 2
     /// lambda_h as a finite element function, from its nodal moments.
     const VI::MultiplierFunction multiplier_function;
     /// S + M / (mu dt) (mu1 = mu2 = mu), for the AMG preconditioner.
-    TrilinosWrappers::SparseMatrix stiffness_matrix;
-    double                         load_norm        = 0;
-    double                         multiplier_scale = 0;
-    std::vector<double> stiffness_weight, multiplier_weight, row_weights;
+    TrilinosWrappers::SparseMatrix       stiffness_matrix;
     std::vector<types::global_dof_index> vertex_dofs;
     double                               preconditioner_dt = 0;
     /// Ring test: the ring of every owned node.
     std::vector<unsigned int> node_ring;
 
-    std::unique_ptr<VI::LinearSolver>                  direct_solver;
-    std::unique_ptr<TrilinosWrappers::PreconditionILU> ilu;
-    std::unique_ptr<VI::ContactPreconditioner>         contact_preconditioner;
-    std::unique_ptr<VI::FluxReconstruction<dim>>       flux_reconstruction;
+    std::unique_ptr<VI::FluxReconstruction<dim>> flux_reconstruction;
 
     // The time step: t_(n-1) = time, t_n = time + time_step.
     double       time               = 0;
@@ -327,11 +307,9 @@ namespace StepParabolic
     Vector         previous_owned[4];
     mutable Vector interpolation_buffer;
 
-    // The state of the current Newton step.
-    const Vector               *linearization_point = nullptr;
-    unsigned int                newton_step         = 0;
-    std::optional<StepEstimate> step_estimate;
-    std::vector<EstimateRecord> estimate_records;
+    /// The adaptive stopping of GMRES and Newton, and every estimate of
+    /// the step.
+    VI::AdaptiveStopping<Iterate, StepEstimate> stopping;
 
     // The solution of the step as finite element functions (with ghosts).
     Vector u1_h, u2_h, gap_h, lambda_h, contact_set;

@@ -1,0 +1,302 @@
+#pragma once
+
+#include <deal.II/base/conditional_ostream.h>
+#include <deal.II/lac/trilinos_vector.h>
+
+#include <vi/linear_solvers.h>
+#include <vi/parameters.h>
+#include <vi/semismooth_newton.h>
+#include <vi/summary.h>
+
+#include <functional>
+#include <iomanip>
+#include <optional>
+#include <vector>
+
+namespace VI
+{
+  /// What the stopping tests read from a program's estimate.
+  struct StoppingComponents
+  {
+    /// false: only the flux-free terms are known (Estimators/Defer fluxes):
+    /// eta_lin from below, eta_alg from above; eta and eta_disc unknown.
+    bool   complete = true;
+    double eta = 0, eta_disc = 0, eta_lin = 0, eta_alg = 0;
+    /// The part of eta_lin that the current Newton iteration controls (all
+    /// of it for a steady problem).
+    double eta_lin_controlled = 0;
+  };
+
+
+  /// One estimate during a solve, for summary.json.
+  struct EstimateRecord
+  {
+    unsigned int       newton_step      = 0;
+    unsigned int       linear_iteration = 0;
+    bool               accepted         = false;
+    StoppingComponents estimate;
+  };
+
+
+  /**
+   * The records of a solve as summary.json's "iterations": one object per
+   * estimate with the Newton step k, the GMRES iteration i and whether the
+   * iterate was accepted; `with_eta`: eta too, or "fluxes": false for an
+   * estimate of the flux-free terms only.
+   */
+  Json
+  to_json(const std::vector<EstimateRecord> &records, const bool with_eta);
+
+
+  /**
+   * The adaptive inexact semismooth Newton method of [DMV20]: estimators of
+   * the discretisation, linearisation and algebraic errors decide when GMRES
+   * and Newton stop,
+   *
+   *   GMRES:  eta_alg <= gamma_alg max(eta_disc, eta_lin),
+   *   Newton: eta_lin <= gamma_lin eta_disc (and the GMRES test).
+   *
+   * At every GMRES check (every nu iterations) the current iterate is
+   * estimated with its own fluxes, and the iterate of the previous check
+   * with the current one as look-ahead, which is sharper; the first iterate
+   * whose estimate passes the GMRES test is accepted, and its update
+   * replaces GMRES's last one. Each Newton iterate keeps the estimate it was
+   * accepted with (or gets one) and the last one is the solve's estimate.
+   * With the other strategies the same checks only record the estimates
+   * (Estimators/At every check).
+   *
+   * The component knows nothing of meshes: a program plugs in its iterate
+   * (what its estimators need: fields, residual, fluxes) and its estimate
+   * through the hooks, as SemismoothNewton does for the linear algebra.
+   */
+  template <typename Iterate, typename Estimate>
+  class AdaptiveStopping
+  {
+  public:
+    using Vector = dealii::TrilinosWrappers::MPI::Vector;
+
+    struct Hooks
+    {
+      /// Make `it` describe the iterate X (its linear_iteration is set by
+      /// the caller).
+      std::function<void(const Vector &X, Iterate &it)> describe;
+      /// The estimate of `it` with the look-ahead `ahead` (`it` itself for
+      /// its own estimate).
+      std::function<Estimate(const Iterate &it, const Iterate &ahead)> estimate;
+      /// The estimate of a Newton iterate no GMRES check estimated.
+      std::function<Estimate(const Vector &X)> estimate_iterate;
+      /// What the tests read of an estimate.
+      std::function<StoppingComponents(const Estimate &)> components;
+      /// Optional, called after describe(): an estimate that decides the
+      /// check by itself (e.g. its flux-free terms), accepted as it is.
+      std::function<std::optional<Estimate>(Iterate &current)> decide_early;
+      /// Optional: called with every complete estimate of a Newton iterate.
+      std::function<void(const Estimate &)> on_newton_estimate;
+    };
+
+    AdaptiveStopping(const NonlinearSolverParameters  &parameters,
+                     const Hooks                      &hooks,
+                     const dealii::ConditionalOStream *verbose = nullptr)
+        : parameters(parameters)
+        , hooks(hooks)
+        , verbose(verbose)
+    {
+    }
+
+    /// At the start of a Newton solve.
+    void
+    start_solve()
+    {
+      records.clear();
+      final_estimate.reset();
+      newton_step = 0;
+    }
+
+    /// At every linearisation: the Newton step k and its point X^(k-1).
+    void
+    start_step(const Vector &linearization_point)
+    {
+      ++newton_step;
+      point = &linearization_point;
+      step_estimate.reset();
+      accepted_update.reset();
+    }
+
+    /// Whether the strategy is the adaptive one.
+    bool
+    adaptive() const
+    {
+      return parameters.strategy == "adaptive";
+    }
+
+    /// The adaptive Newton test on a (complete) estimate.
+    bool
+    newton_may_stop(const Estimate &e) const
+    {
+      const StoppingComponents c = hooks.components(e);
+      return adaptive() &&
+             parameters.linearisation_error_small(c.eta_disc,
+                                                  c.eta_lin_controlled) &&
+             parameters.algebraic_error_small(c.eta_disc,
+                                              c.eta_lin_controlled,
+                                              c.eta_alg);
+    }
+
+    /// The GMRES monitor of the current step (ContactSystem::solve()).
+    typename Gmres<Vector>::Monitor
+    gmres_monitor()
+    {
+      previous.reset();
+      current = Iterate();
+      return [this](const Vector &update, const unsigned int i) {
+        return check(update, i);
+      };
+    }
+
+    /// After GMRES: the update of the accepted iterate, if one was.
+    std::function<bool(Vector &)>
+    accepted_update_of_step()
+    {
+      return [this](Vector &dX) {
+        if (!accepted_update)
+          return false;
+        dX = *accepted_update;
+        return true;
+      };
+    }
+
+    /**
+     * The Newton stopping criterion (SemismoothNewton::stopping_criterion):
+     * record the estimate of the new iterate X (estimated afresh if GMRES
+     * accepted none, or if a line search moved the iterate off the one it
+     * accepted) and apply the adaptive test to it.
+     */
+    bool
+    newton_criterion(const Vector &X, const NewtonStep &step)
+    {
+      if (!step_estimate || step.step_length < 1)
+        step_estimate = hooks.estimate_iterate(X);
+      const StoppingComponents c = hooks.components(*step_estimate);
+      records.push_back({newton_step, step.linear_iterations, true, c});
+      if (!c.complete)
+        {
+          // GMRES stopped on the flux-free terms, which say that Newton
+          // goes on.
+          if (verbose)
+            *verbose << "             eta_lin >= " << std::scientific
+                     << std::setprecision(2) << c.eta_lin
+                     << ", eta_alg <= " << c.eta_alg
+                     << " (no fluxes: eta_lin > gamma_lin x predicted "
+                        "eta_disc)"
+                     << std::defaultfloat << std::endl;
+          final_estimate.reset();
+          return false;
+        }
+      if (hooks.on_newton_estimate)
+        hooks.on_newton_estimate(*step_estimate);
+      final_estimate = step_estimate;
+      if (verbose)
+        *verbose << "             eta_disc " << std::scientific
+                 << std::setprecision(2) << c.eta_disc << ", eta_lin "
+                 << c.eta_lin << ", eta_alg " << c.eta_alg << std::defaultfloat
+                 << std::endl;
+      // The algebraic test is repeated: a step shortened by the line search
+      // (Fischer-Burmeister) is not the iterate at which GMRES stopped, and
+      // its residual holds (1 - t) R(X^(k-1)); such an iterate may have
+      // eta_lin = 0 (feasible, lambda_h = 0) with any algebraic error. For
+      // full steps it holds already.
+      return newton_may_stop(*step_estimate);
+    }
+
+    /**
+     * Whether GMRES accepted this step's iterate with a complete estimate
+     * that ends the iteration (SemismoothNewton::accept_full_step): such an
+     * iterate is certified, and the Armijo test of the line search, which
+     * an inexact direction need not pass, is not asked.
+     */
+    bool
+    step_is_certified() const
+    {
+      return step_estimate && hooks.components(*step_estimate).complete &&
+             newton_may_stop(*step_estimate);
+    }
+
+    /// The estimate of the last Newton iterate, if it has a complete one.
+    std::optional<Estimate> final_estimate;
+    /// Every estimate of the solve, in order.
+    std::vector<EstimateRecord> records;
+    /// The current Newton step k (1, 2, ...; 0 before the first).
+    unsigned int newton_step = 0;
+
+  private:
+    // One GMRES check at iteration i with the current update.
+    bool
+    check(const Vector &update, const unsigned int i)
+    {
+      Vector X(*point);
+      X += update;
+      hooks.describe(X, current);
+      current.linear_iteration = i;
+      if (hooks.decide_early)
+        if (std::optional<Estimate> e = hooks.decide_early(current))
+          {
+            record(i, *e);
+            accept(current, *e);
+            return true;
+          }
+
+      const Estimate own = hooks.estimate(current, current);
+      record(i, own);
+      if (adaptive() && gmres_may_stop(own))
+        {
+          accept(current, own);
+          return true;
+        }
+      if (previous)
+        {
+          const Estimate e = hooks.estimate(*previous, current);
+          record(previous->linear_iteration, e);
+          if (adaptive() && gmres_may_stop(e))
+            {
+              accept(*previous, e);
+              return true;
+            }
+        }
+      previous = std::move(current);
+      return false;
+    }
+
+    bool
+    gmres_may_stop(const Estimate &e) const
+    {
+      const StoppingComponents c = hooks.components(e);
+      return parameters.algebraic_error_small(c.eta_disc,
+                                              c.eta_lin_controlled,
+                                              c.eta_alg);
+    }
+
+    void
+    record(const unsigned int i, const Estimate &e)
+    {
+      records.push_back({newton_step, i, false, hooks.components(e)});
+    }
+
+    void
+    accept(const Iterate &it, const Estimate &e)
+    {
+      accepted_update = it.X;
+      *accepted_update -= *point;
+      step_estimate = e;
+    }
+
+    const NonlinearSolverParameters  &parameters;
+    const Hooks                       hooks;
+    const dealii::ConditionalOStream *verbose;
+
+    const Vector           *point = nullptr;
+    std::optional<Estimate> step_estimate;
+    std::optional<Vector>   accepted_update;
+    std::optional<Iterate>  previous;
+    Iterate                 current;
+  };
+} // namespace VI

@@ -1,0 +1,293 @@
+#include <deal.II/base/conditional_ostream.h>
+#include <deal.II/base/mpi.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/lac/trilinos_precondition.h>
+
+#include <vi/complementarity.h>
+#include <vi/contact_preconditioner.h>
+#include <vi/contact_system.h>
+#include <vi/errors.h>
+#include <vi/nodal_fields.h>
+#include <vi/parameters.h>
+
+#include <cmath>
+#include <iomanip>
+#include <limits>
+
+namespace VI
+{
+  using namespace dealii;
+  using NodalFields::index;
+  using NodalFields::n_fields;
+
+
+  ContactSystem::ContactSystem(const ComplementarityFunction   &C,
+                               const NonlinearSolverParameters &nonlinear,
+                               const LinearSolverParameters    &linear,
+                               TimerOutput                     &timer)
+      : C(C)
+      , nonlinear(nonlinear)
+      , linear(linear)
+      , timer(timer)
+  {
+  }
+
+
+  ContactSystem::~ContactSystem() = default;
+
+
+  void
+  ContactSystem::reinit(const IndexSet                  &owned_nodes,
+                        const AffineConstraints<double> &u1_constraints,
+                        const MPI_Comm                   comm,
+                        const IndexSet                  &condensed_nodes)
+  {
+    // Solvers and preconditioners hold on to the matrices of the old mesh.
+    direct_solver.reset();
+    ilu.reset();
+    contact_preconditioner.reset();
+
+    this->comm        = comm;
+    this->owned_nodes = owned_nodes;
+    rows.reinit(owned_nodes, u1_constraints);
+    rhs.reinit(NodalFields::system_index_set(owned_nodes), comm);
+    coupling_vector.reinit(owned_nodes, comm);
+    condensed_positions.clear();
+    for (const types::global_dof_index i : condensed_nodes)
+      if (owned_nodes.is_element(i))
+        condensed_positions.push_back(owned_nodes.index_within_set(i));
+  }
+
+
+  void
+  ContactSystem::set_coupling(
+    const std::function<double(types::global_dof_index)> &coupling_of,
+    const std::vector<types::global_dof_index>           &constrained_nodes)
+  {
+    using NodalFields::multiplier;
+    coupling_vector = 0;
+    for (const types::global_dof_index i : rows.nodes())
+      {
+        const double D     = coupling_of(i);
+        coupling_vector(i) = D;
+        matrix.set(index(i, NodalFields::u1), index(i, multiplier), -D);
+        matrix.set(index(i, NodalFields::u2), index(i, multiplier), +D);
+      }
+    for (const types::global_dof_index i : constrained_nodes)
+      matrix.set(index(i, multiplier), index(i, multiplier), 1.);
+    matrix.compress(VectorOperation::insert);
+    coupling_vector.compress(VectorOperation::insert);
+    multiplier_weight.assign(coupling_vector.begin(),
+                             coupling_vector.begin() +
+                               owned_nodes.n_elements());
+
+    // Scales of the dimensionless residuals: |F| over the rows of the
+    // contact nodes, and the multiplier coefficient |F|_inf / max D that
+    // would balance the load.
+    double local[2] = {0., 0.};
+    for (const types::global_dof_index i : rows.nodes())
+      for (const unsigned int field : {NodalFields::u1, NodalFields::u2})
+        {
+          const double F = rhs(index(i, field));
+          local[0] += F * F;
+          local[1] = std::max(local[1], std::abs(F));
+        }
+    load_norm        = std::sqrt(Utilities::MPI::sum(local[0], comm));
+    multiplier_scale = Utilities::MPI::max(local[1], comm) /
+                       std::max(coupling_vector.linfty_norm(),
+                                std::numeric_limits<double>::min());
+
+    if (!std::isfinite(rhs.l2_norm()))
+      throw InputError(
+        "Problem: the load vector is not finite: f1, f2, g1 or g2 evaluate "
+        "to NaN or Inf somewhere in the domain");
+  }
+
+
+  const ContactSystem::Vector &
+  ContactSystem::coupling() const
+  {
+    return coupling_vector;
+  }
+
+
+  void
+  ContactSystem::set_stiffness_weights(std::vector<double> weights)
+  {
+    stiffness_weight = std::move(weights);
+  }
+
+
+  void
+  ContactSystem::use_contact_preconditioner(
+    const TrilinosWrappers::SparseMatrix &S,
+    const double                          mu1,
+    const double                          mu2,
+    const bool                            higher_order_elements)
+  {
+    ContactPreconditioner::AdditionalData settings;
+    settings.higher_order_elements = higher_order_elements;
+    contact_preconditioner = std::make_unique<ContactPreconditioner>(settings);
+    contact_preconditioner->initialize_mesh(S, mu1, mu2, coupling_vector, rows);
+  }
+
+
+  bool
+  ContactSystem::has_contact_preconditioner() const
+  {
+    return contact_preconditioner != nullptr;
+  }
+
+
+  const ContactRows &
+  ContactSystem::contact_rows() const
+  {
+    return rows;
+  }
+
+
+  // R(X) = [E X - F ; C(X)]: the rows of the balance equations come from the
+  // matrix, whose multiplier rows are then overwritten by the C-function.
+  ResidualNorms
+  ContactSystem::residual(const Vector &X, Vector &R) const
+  {
+    TimerOutput::Scope t(timer, "newton: residual");
+    matrix.vmult(R, X);
+    R -= rhs;
+    // The condensed rows of hanging nodes do not hold for the conforming X
+    // (its values there come from the constraints, not from those rows).
+    double *r = R.begin();
+    for (const std::size_t k : condensed_positions)
+      r[n_fields * k] = r[n_fields * k + 1] = 0.;
+
+    ResidualNorms norms;
+    norms.complementarity = rows.evaluate(C, X, multiplier_scale, R);
+
+    double local = 0;
+    for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
+      local += r[n_fields * k] * r[n_fields * k] +
+               r[n_fields * k + 1] * r[n_fields * k + 1];
+    norms.equations = std::sqrt(Utilities::MPI::sum(local, comm)) /
+                      std::max(load_norm, std::numeric_limits<double>::min());
+    return norms;
+  }
+
+
+  void
+  ContactSystem::start_newton()
+  {
+    if (linear.solver == "direct")
+      direct_solver = std::make_unique<LinearSolver>(linear);
+  }
+
+
+  void
+  ContactSystem::setup_jacobian(const Vector &X)
+  {
+    {
+      TimerOutput::Scope t(timer, "newton: jacobian");
+      row_weights = rows.row_weights(C, X, stiffness_weight, multiplier_weight);
+      rows.set_jacobian_rows(C, X, matrix, row_weights);
+      matrix.compress(VectorOperation::insert);
+    }
+    TimerOutput::Scope t(timer, "newton: preconditioner");
+    if (direct_solver)
+      direct_solver->initialize(matrix);
+    else if (contact_preconditioner)
+      contact_preconditioner->initialize_jacobian(C, X);
+    else
+      {
+        ilu = std::make_unique<TrilinosWrappers::PreconditionILU>();
+        ilu->initialize(matrix,
+                        TrilinosWrappers::PreconditionILU::AdditionalData(
+                          linear.ilu_fill));
+      }
+  }
+
+
+  void
+  ContactSystem::scale_constraint_rows(Vector &v, const bool divide) const
+  {
+    double     *x         = v.begin();
+    const auto &positions = rows.local_positions();
+    for (std::size_t n = 0; n < positions.size(); ++n)
+      x[n_fields * positions[n] + 2] *=
+        divide ? 1. / row_weights[n] : row_weights[n];
+  }
+
+
+  unsigned int
+  ContactSystem::solve(const Vector                        &b,
+                       Vector                              &dX,
+                       const Gmres<Vector>::Monitor        &monitor,
+                       const std::function<bool(Vector &)> &accepted_update)
+  {
+    // The constraint rows of A carry the row weights: scale b alike.
+    Vector weighted_b(b);
+    scale_constraint_rows(weighted_b, false);
+    if (direct_solver)
+      {
+        TimerOutput::Scope t(timer, "newton: linear solve");
+        return direct_solver->solve(weighted_b, dX);
+      }
+
+    Gmres<Vector>::AdditionalData settings;
+    settings.max_iterations     = linear.max_iterations;
+    settings.krylov_dimension   = linear.krylov_dimension;
+    settings.check_interval     = linear.check_interval;
+    settings.relative_tolerance = linear_tolerance(nonlinear, linear);
+
+    const auto A = [&](Vector &dst, const Vector &src) {
+      matrix.vmult(dst, src);
+    };
+    Vector     unweighted(b);
+    const auto P = [&](Vector &dst, const Vector &src) {
+      if (contact_preconditioner)
+        {
+          // It inverts the unweighted rows.
+          unweighted = src;
+          scale_constraint_rows(unweighted, true);
+          contact_preconditioner->vmult(dst, unweighted);
+        }
+      else
+        ilu->vmult(dst, src);
+    };
+
+    TimerOutput::Scope t(timer, "newton: linear solve");
+    dX = 0;
+    const LinearSolveReport report =
+      Gmres<Vector>(settings).solve(A, P, dX, weighted_b, monitor);
+    if (accepted_update)
+      accepted_update(dX);
+    return report.iterations;
+  }
+
+
+  ActiveSetChange
+  ContactSystem::active_set(const Vector &X, const bool first)
+  {
+    return rows.linearised_active_set(C, X, active_rows, !first);
+  }
+
+
+  void
+  ContactSystem::attach(SemismoothNewton<Vector> &newton,
+                        const ConditionalOStream *progress)
+  {
+    newton.residual = [this](const Vector &X, Vector &R) {
+      return residual(X, R);
+    };
+    newton.setup_jacobian      = [this](const Vector &X) { setup_jacobian(X); };
+    newton.solve_with_jacobian = [this](const Vector &b, Vector &dX) {
+      return solve(b, dX);
+    };
+    newton.active_set = [this](const Vector &X, const bool first) {
+      return active_set(X, first);
+    };
+    if (progress)
+      newton.monitor = [progress](const NewtonStep &step) {
+        *progress << "      k = " << std::setw(2) << step.iteration << ": "
+                  << describe(step) << std::endl;
+      };
+  }
+} // namespace VI
