@@ -229,6 +229,10 @@ namespace StepMembranes
     print_cycle_header(const unsigned int cycle) const;
     void
     record_cycle(const unsigned int cycle);
+    /// The reference Poisson solves and the PETSc peer of the cycle
+    /// (membrane_benchmarks.cc).
+    void
+    record_benchmarks(VI::Json &record);
     void
     write_tables() const;
     /// The dual coefficients X3_i = <lambda_h, psi_i>_h / D_i of lambda_h.

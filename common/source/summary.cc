@@ -2,6 +2,7 @@
 #include <deal.II/base/multithread_info.h>
 
 #include <vi/errors.h>
+#include <vi/process_usage.h>
 #include <vi/summary.h>
 #include <vi/version.h>
 
@@ -267,6 +268,17 @@ namespace VI
         steps.push_back(it);
       }
     return steps;
+  }
+
+
+  Json
+  to_json(const ProcessUsage &usage)
+  {
+    Json json                 = Json::object();
+    json["user_seconds"]      = usage.user_seconds;
+    json["system_seconds"]    = usage.system_seconds;
+    json["minor_page_faults"] = usage.minor_faults;
+    return json;
   }
 
 

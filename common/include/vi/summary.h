@@ -14,6 +14,8 @@
 
 namespace VI
 {
+  struct ProcessUsage;
+
   /**
    * A JSON value, just enough to write summary.json: numbers (non-finite
    * ones as null), integers, strings, booleans, arrays and objects that keep
@@ -92,6 +94,10 @@ namespace VI
    */
   Json
   newton_steps(const NewtonReport &report);
+
+  /// CPU seconds (user, system) and minor page faults of a span.
+  Json
+  to_json(const ProcessUsage &usage);
 
   /// Write `summary` to directory/summary.json on rank 0.
   void

@@ -1,0 +1,454 @@
+// step-membranes, conforming Q_p: the discrete system on a mesh (DoFs,
+// constraints, sparsity, assembly of E, F and the coupling D) and the
+// initial iterate.
+#include <deal.II/base/parallel.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/grid/filtered_iterator.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/sparsity_tools.h>
+#include <deal.II/lac/trilinos_index_access.h>
+#include <deal.II/meshworker/copy_data.h>
+#include <deal.II/meshworker/mesh_loop.h>
+#include <deal.II/meshworker/scratch_data.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <vi/errors.h>
+#include <vi/nodal_fields.h>
+
+#include "membrane_problem.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace StepMembranes
+{
+  using VI::NodalFields::index;
+  using VI::NodalFields::multiplier;
+  using VI::NodalFields::n_fields;
+
+
+  // Distribute the nodes, build the constraints (hanging nodes, Dirichlet
+  // data, no multiplier on constrained nodes), the contact rows and the
+  // sparsity of A; and the patches of the flux reconstruction.
+  template <int dim>
+  void
+  MembraneProblem<dim>::setup_system()
+  {
+    TimerOutput::Scope t(timer, "setup");
+
+    mapping->initialize(*geometry_mapping, triangulation);
+
+    dof_handler.distribute_dofs(fe);
+    owned_nodes = dof_handler.locally_owned_dofs();
+    DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_nodes);
+    ghosted_nodes.reinit(owned_nodes, relevant_nodes, comm);
+    owned_system    = VI::NodalFields::system_index_set(owned_nodes);
+    relevant_system = VI::NodalFields::system_index_set(relevant_nodes);
+
+    hanging_node_constraints.clear();
+    hanging_node_constraints.reinit(relevant_nodes);
+    DoFTools::make_hanging_node_constraints(dof_handler,
+                                            hanging_node_constraints);
+    hanging_node_constraints.close();
+
+    const auto make_dirichlet = [&](const Function<dim>       &g,
+                                    AffineConstraints<double> &constraints) {
+      constraints.clear();
+      constraints.reinit(relevant_nodes);
+      constraints.merge(hanging_node_constraints);
+      std::map<types::boundary_id, const Function<dim> *> boundary_data;
+      for (const types::boundary_id id : triangulation.get_boundary_ids())
+        boundary_data[id] = &g;
+      VectorTools::interpolate_boundary_values(*mapping,
+                                               dof_handler,
+                                               boundary_data,
+                                               constraints);
+      constraints.close();
+    };
+    make_dirichlet(*data.g1, u1_constraints);
+    make_dirichlet(*data.g2, u2_constraints);
+    VI::NodalFields::make_system_constraints(u1_constraints,
+                                             u2_constraints,
+                                             relevant_system,
+                                             system_constraints);
+    VI::NodalFields::make_system_constraints(hanging_node_constraints,
+                                             hanging_node_constraints,
+                                             relevant_system,
+                                             system_hanging_constraints);
+    // The balance rows of hanging nodes are condensed away: the residual
+    // leaves them out.
+    IndexSet hanging_nodes(owned_nodes.size());
+    for (const types::global_dof_index i : owned_nodes)
+      if (hanging_node_constraints.is_constrained(i))
+        hanging_nodes.add_index(i);
+    contact_system.reinit(owned_nodes, u1_constraints, comm, hanging_nodes);
+
+    DynamicSparsityPattern scalar_pattern(relevant_nodes);
+    DoFTools::make_sparsity_pattern(dof_handler,
+                                    scalar_pattern,
+                                    u1_constraints,
+                                    /*keep_constrained_dofs=*/false);
+    SparsityTools::distribute_sparsity_pattern(scalar_pattern,
+                                               owned_nodes,
+                                               comm,
+                                               relevant_nodes);
+    DynamicSparsityPattern system_pattern(relevant_system);
+    VI::NodalFields::make_system_sparsity(scalar_pattern,
+                                          owned_nodes,
+                                          system_pattern);
+    contact_system.matrix.reinit(owned_system,
+                                 owned_system,
+                                 system_pattern,
+                                 comm);
+    stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
+
+    solution.reinit(owned_system, comm);
+    for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
+      field->reinit(owned_nodes, relevant_nodes, comm);
+
+    if (fe.degree > 1)
+      {
+        DynamicSparsityPattern mass_pattern(relevant_nodes);
+        DoFTools::make_sparsity_pattern(dof_handler,
+                                        mass_pattern,
+                                        hanging_node_constraints,
+                                        false);
+        SparsityTools::distribute_sparsity_pattern(mass_pattern,
+                                                   owned_nodes,
+                                                   comm,
+                                                   relevant_nodes);
+        mass_matrix.reinit(owned_nodes, owned_nodes, mass_pattern, comm);
+      }
+
+    t.stop();
+    if (parameters.estimators.enabled)
+      {
+        // The patch matrices: a cost of the estimators.
+        TimerOutput::Scope t(timer, "estimators: patch matrices");
+        flux_reconstruction = std::make_unique<VI::FluxReconstruction<dim>>(
+          *mapping,
+          parameters.estimators.flux_degree_for(fe.degree),
+          fe.degree);
+        flux_reconstruction->reinit(dof_handler);
+        if (parameters.output.verbose)
+          {
+            const auto [n_patches, n_matrices] =
+              flux_reconstruction->statistics();
+            pcout << "   Flux reconstruction: " << n_patches
+                  << " vertex patches, " << n_matrices
+                  << " distinct patch matrices" << std::endl;
+          }
+        cell_multiplier.reset();
+        if (fe.degree > 1 &&
+            parameters.estimators.multiplier == "contact cells")
+          {
+            cell_multiplier = std::make_unique<VI::CellMultiplier<dim>>();
+            cell_multiplier->reinit(*mapping,
+                                    dof_handler,
+                                    u1_constraints,
+                                    flux_reconstruction->get_quadrature());
+          }
+        dual_norm.reset();
+        if (parameters.estimators.needs_dual_norm_bound())
+          {
+            dual_norm =
+              std::make_unique<VI::DualNormBound<dim>>(*mapping,
+                                                       *flux_reconstruction,
+                                                       VI::friedrichs_constant(
+                                                         geometry));
+            dual_norm->reinit(triangulation);
+          }
+        vertex_dofs.assign(triangulation.n_vertices(),
+                           numbers::invalid_dof_index);
+        for (const auto &cell : dof_handler.active_cell_iterators())
+          if (!cell->is_artificial())
+            for (const unsigned int v : cell->vertex_indices())
+              vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+      }
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::on_owned_cells_in_parallel(
+    const std::function<
+      void(const std::vector<typename DoFHandler<dim>::active_cell_iterator> &,
+           const std::size_t,
+           const std::size_t)> &work) const
+  {
+    std::vector<typename DoFHandler<dim>::active_cell_iterator> cells;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        cells.push_back(cell);
+    parallel::apply_to_subranges(
+      std::size_t(0),
+      cells.size(),
+      [&](const std::size_t begin, const std::size_t end) {
+        work(cells, begin, end);
+      },
+      /*grainsize=*/1024);
+  }
+
+
+  // The linear part of the system, once per mesh: the stiffness blocks and
+  // the load F (with the Dirichlet lifting) through the constraints, the
+  // coupling D (lumped masses (psi_i, 1) for p = 1, the identity for p >= 2
+  // by duality), and the scalar stiffness S (for AMG) and mass matrices.
+  template <int dim>
+  void
+  MembraneProblem<dim>::assemble_system()
+  {
+    TimerOutput::Scope t(timer, "assembly");
+
+    // The loads f1, f2 at the quadrature points, tabulated once per mesh: the
+    // assembly integrates them, and the flux reconstruction and every
+    // estimate read them (a parsed expression costs more than the rest of a
+    // cell's work in an estimate). They are part of the assembly with or
+    // without estimators: the estimators add no evaluation of f. (Timed
+    // also on their own, inside the assembly.)
+    TimerOutput::Scope loads(timer, "assembly: loads");
+    for (unsigned int a = 0; a < 2; ++a)
+      load_values[a].assign(triangulation.n_active_cells() * quadrature.size(),
+                            0.);
+    on_owned_cells_in_parallel(
+      [&](const auto &cells, const std::size_t begin, const std::size_t end) {
+        const Function<dim> *f[2] = {data.f1.get(), data.f2.get()};
+        FEValues<dim> where(*mapping, fe, quadrature, update_quadrature_points);
+        std::vector<double> values(quadrature.size());
+        for (std::size_t c = begin; c < end; ++c)
+          {
+            where.reinit(cells[c]);
+            for (unsigned int a = 0; a < 2; ++a)
+              {
+                f[a]->value_list(where.get_quadrature_points(), values);
+                std::copy(values.begin(),
+                          values.end(),
+                          load_values[a].begin() +
+                            cells[c]->active_cell_index() * quadrature.size());
+              }
+          }
+      });
+    loads.stop();
+
+    // (a mass matrix for p >= 2 only, see setup_system())
+    const bool with_mass_matrix = fe.degree > 1;
+    contact_system.matrix       = 0;
+    contact_system.rhs          = 0;
+    stiffness_matrix            = 0;
+    Vector lumped_mass(owned_nodes, comm);
+    if (with_mass_matrix)
+      mass_matrix = 0;
+
+    // mesh_loop calls the copier for every cell of the range it is given,
+    // so the range is filtered to the locally owned cells.
+    const auto owned_cells =
+      dof_handler.active_cell_iterators() | IteratorFilters::LocallyOwnedCell();
+    using Iterator = typename DoFHandler<dim>::active_cell_iterator;
+    // Matrices: stiffness, mass. Vectors: (f1, psi), (f2, psi), (1, psi).
+    using CopyData = MeshWorker::CopyData<2, 3, 1>;
+
+    MeshWorker::ScratchData<dim> scratch(*mapping,
+                                         fe,
+                                         quadrature,
+                                         update_values | update_gradients |
+                                           update_JxW_values);
+    CopyData                     copy(fe.n_dofs_per_cell());
+
+    const auto cell_worker = [&](const Iterator               &cell,
+                                 MeshWorker::ScratchData<dim> &scratch,
+                                 CopyData                     &copy) {
+      const FEValues<dim> &fe_values = scratch.reinit(cell);
+      for (auto &m : copy.matrices)
+        m = 0;
+      for (auto &v : copy.vectors)
+        v = 0;
+      cell->get_dof_indices(copy.local_dof_indices[0]);
+
+      const std::size_t first = cell->active_cell_index() * quadrature.size();
+      for (const unsigned int q : fe_values.quadrature_point_indices())
+        {
+          const double f1 = load_values[0][first + q];
+          const double f2 = load_values[1][first + q];
+          const double dx = fe_values.JxW(q);
+          for (const unsigned int i : fe_values.dof_indices())
+            {
+              const double phi_i = fe_values.shape_value(i, q);
+              for (const unsigned int j : fe_values.dof_indices())
+                copy.matrices[0](i, j) +=
+                  fe_values.shape_grad(i, q) * fe_values.shape_grad(j, q) * dx;
+              if (with_mass_matrix)
+                for (const unsigned int j : fe_values.dof_indices())
+                  copy.matrices[1](i, j) +=
+                    phi_i * fe_values.shape_value(j, q) * dx;
+              copy.vectors[0](i) += f1 * phi_i * dx;
+              copy.vectors[1](i) += f2 * phi_i * dx;
+              copy.vectors[2](i) += phi_i * dx;
+            }
+        }
+    };
+
+    std::vector<types::global_dof_index> system_dofs(fe.n_dofs_per_cell());
+    FullMatrix<double>                   scaled_stiffness(fe.n_dofs_per_cell());
+    const double                         mu[2]  = {data.mu1, data.mu2};
+    const auto                           copier = [&](const CopyData &copy) {
+      const auto &dofs = copy.local_dof_indices[0];
+      // The loads; the stiffness mu_alpha S moves the Dirichlet data g_j to
+      // the right-hand side of the unconstrained rows. (The blocks mu_alpha
+      // S themselves are copied from S below.)
+      for (const unsigned int field :
+           {VI::NodalFields::u1, VI::NodalFields::u2})
+        {
+          for (unsigned int i = 0; i < dofs.size(); ++i)
+            system_dofs[i] = index(dofs[i], field);
+          scaled_stiffness.equ(mu[field], copy.matrices[0]);
+          system_constraints.distribute_local_to_global(copy.vectors[field],
+                                                        system_dofs,
+                                                        contact_system.rhs,
+                                                        scaled_stiffness);
+        }
+      u1_constraints.distribute_local_to_global(copy.matrices[0],
+                                                dofs,
+                                                stiffness_matrix);
+      hanging_node_constraints.distribute_local_to_global(copy.vectors[2],
+                                                          dofs,
+                                                          lumped_mass);
+      if (with_mass_matrix)
+        hanging_node_constraints.distribute_local_to_global(copy.matrices[1],
+                                                            dofs,
+                                                            mass_matrix);
+    };
+
+    MeshWorker::mesh_loop(owned_cells,
+                          cell_worker,
+                          copier,
+                          scratch,
+                          copy,
+                          MeshWorker::assemble_own_cells);
+    contact_system.rhs.compress(VectorOperation::add);
+    stiffness_matrix.compress(VectorOperation::add);
+    lumped_mass.compress(VectorOperation::add);
+    if (with_mass_matrix)
+      mass_matrix.compress(VectorOperation::add);
+
+    // The blocks of u1 and u2 are mu1 S and mu2 S (the constraints of u1
+    // and u2 constrain the same nodes, with the same weights), copied row
+    // by row instead of assembled twice more through the constraints. The
+    // row of a constrained node reads d X_i = d g_i: X satisfies every row
+    // of E X = F, and Newton updates vanish on the boundary.
+    // (S's rows read through Epetra: deal.II's row iterators copy a row
+    // at every step)
+    Assert(u1_constraints.n_constraints() == u2_constraints.n_constraints(),
+           ExcInternalError());
+    const Epetra_CrsMatrix              &S = stiffness_matrix.trilinos_matrix();
+    std::vector<types::global_dof_index> columns, system_columns;
+    std::vector<double>                  scaled_values;
+    for (int row = 0; row < S.NumMyRows(); ++row)
+      {
+        int     n_entries;
+        double *values;
+        int    *local_columns;
+        S.ExtractMyRowView(row, n_entries, values, local_columns);
+        const types::global_dof_index i =
+          TrilinosWrappers::global_row_index(S, row);
+        columns.resize(n_entries);
+        for (int k = 0; k < n_entries; ++k)
+          columns[k] =
+            TrilinosWrappers::global_column_index(S, local_columns[k]);
+        system_columns.resize(n_entries);
+        scaled_values.resize(n_entries);
+        for (const unsigned int field :
+             {VI::NodalFields::u1, VI::NodalFields::u2})
+          {
+            for (int k = 0; k < n_entries; ++k)
+              {
+                system_columns[k] = index(columns[k], field);
+                scaled_values[k]  = mu[field] * values[k];
+              }
+            const types::global_dof_index system_row = index(i, field);
+            contact_system.matrix.set(system_row,
+                                      n_entries,
+                                      system_columns.data(),
+                                      scaled_values.data());
+            if (system_constraints.is_inhomogeneously_constrained(system_row))
+              contact_system.rhs(system_row) =
+                mu[field] * stiffness_matrix.diag_element(i) *
+                system_constraints.get_inhomogeneity(system_row);
+          }
+      }
+    contact_system.rhs.compress(VectorOperation::insert);
+
+    // Coupling -D / +D in the rows of u1 / u2, and X3 = 0 as the row of each
+    // constrained node (boundary, hanging), where there is no contact row.
+    std::vector<types::global_dof_index> constrained_nodes;
+    for (const types::global_dof_index i : owned_nodes)
+      if (u1_constraints.is_constrained(i))
+        constrained_nodes.push_back(i);
+    contact_system.set_coupling(
+      [&](const types::global_dof_index i) {
+        return fe.degree == 1 ? lumped_mass(i) : 1.;
+      },
+      constrained_nodes);
+
+    // Rows that enforce u1 = u2 weigh mu_r S_ii.
+    const double        mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    std::vector<double> stiffness_weight(owned_nodes.n_elements());
+    for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
+      stiffness_weight[k] =
+        mu_r * stiffness_matrix.diag_element(owned_nodes.nth_index_in_set(k));
+    contact_system.set_stiffness_weights(std::move(stiffness_weight));
+
+    if (parameters.linear_solver.solver == "gmres" &&
+        parameters.linear_solver.preconditioner == "amg")
+      contact_system.use_contact_preconditioner(stiffness_matrix,
+                                                data.mu1,
+                                                data.mu2,
+                                                fe.degree > 1);
+  }
+
+
+  // The Newton iterate on a new mesh: the previous mesh's solution
+  // transferred (nested iteration), or the initial guess (zero, or the
+  // boundary data interpolated in the whole domain) with zero multiplier.
+  // Either way the Dirichlet data of this mesh are imposed.
+  template <int dim>
+  void
+  MembraneProblem<dim>::initialize_iterate()
+  {
+    solution = 0;
+    Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
+      lambda(owned_nodes, comm), X3(owned_nodes, comm);
+    if (solution_transfer)
+      {
+        std::vector<Vector *> fields = {&u1, &u2, &lambda};
+        solution_transfer->interpolate(fields);
+        solution_transfer.reset();
+        compute_dual_coefficients(lambda, X3);
+        VI::NodalFields::insert(X3, multiplier, solution);
+      }
+    else if (parameters.nonlinear_solver.initial_guess == "data")
+      {
+        VectorTools::interpolate(*mapping, dof_handler, *data.g1, u1);
+        VectorTools::interpolate(*mapping, dof_handler, *data.g2, u2);
+      }
+    VI::NodalFields::insert(u1, VI::NodalFields::u1, solution);
+    VI::NodalFields::insert(u2, VI::NodalFields::u2, solution);
+    system_constraints.distribute(solution);
+  }
+
+
+  // Explicit instantiations of this file's members.
+  template void
+  MembraneProblem<2>::setup_system();
+  template void
+  MembraneProblem<2>::on_owned_cells_in_parallel(
+    const std::function<
+      void(const std::vector<typename DoFHandler<2>::active_cell_iterator> &,
+           const std::size_t,
+           const std::size_t)> &work) const;
+  template void
+  MembraneProblem<2>::assemble_system();
+  template void
+  MembraneProblem<2>::initialize_iterate();
+} // namespace StepMembranes

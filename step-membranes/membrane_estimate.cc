@@ -1,0 +1,333 @@
+// step-membranes, conforming Q_p: an iterate as the estimators see it (fields,
+// residual, equilibrated fluxes) and its guaranteed estimate.
+#include <deal.II/base/parallel.h>
+#include <deal.II/fe/fe_values.h>
+
+#include <vi/cell_function_values.h>
+#include <vi/nodal_fields.h>
+
+#include "membrane_problem.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace StepMembranes
+{
+  using VI::NodalFields::index;
+  using VI::NodalFields::multiplier;
+  using VI::NodalFields::n_fields;
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::describe_iterate(const Vector &X,
+                                         const Vector &contact,
+                                         Iterate      &it,
+                                         const bool    fluxes) const
+  {
+    {
+      TimerOutput::Scope t(timer, "estimators: fields");
+      describe_fields(X, contact, it);
+    }
+    it.has_fluxes = false;
+    if (fluxes)
+      add_fluxes(it);
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::describe_fields(const Vector &X,
+                                        const Vector &contact,
+                                        Iterate      &it) const
+  {
+    it.X = X;
+
+    Vector u1(owned_nodes, comm), u2(owned_nodes, comm), s1(owned_nodes, comm),
+      s2(owned_nodes, comm), moments(owned_nodes, comm),
+      function(owned_nodes, comm);
+
+    VI::NodalFields::extract(X, VI::NodalFields::u1, u1);
+    VI::NodalFields::extract(X, VI::NodalFields::u2, u2);
+    // (a GMRES iterate need not satisfy the hanging node constraints; its
+    // conforming version has the same residual in the condensed rows)
+    hanging_node_constraints.distribute(u1);
+    hanging_node_constraints.distribute(u2);
+    VI::average_at_violated_nodes(data.mu1, data.mu2, u1, u2, s1, s2);
+    // (hanging nodes follow the averaged values of their parents)
+    hanging_node_constraints.distribute(s1);
+    hanging_node_constraints.distribute(s2);
+    ghosted_nodes.copy(u1, it.u1);
+    ghosted_nodes.copy(u2, it.u2);
+    ghosted_nodes.copy(s1, it.s1);
+    ghosted_nodes.copy(s2, it.s2);
+
+    // lambda_h: <lambda_h, psi_i>_h = D_i X3_i = m_i.
+    VI::NodalFields::extract(X, multiplier, moments);
+    moments.scale(contact_system.coupling());
+    if (cell_multiplier)
+      {
+        // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i).
+        Vector gap(u1);
+        gap -= u2;
+        it.complementarity = 2. * (moments * gap);
+        Vector m;
+        ghosted_nodes.copy(moments, m);
+        cell_multiplier->distribute(m, contact, it.lambda_cells);
+        for (double &value : moments)
+          value = std::max(value, 0.);
+        ghosted_nodes.copy(moments, m);
+        cell_multiplier->distribute(m, contact, it.lambda_nonnegative_cells);
+      }
+    else
+      multiplier_function.with_nonnegative_part(moments,
+                                                it.lambda,
+                                                it.lambda_nonnegative);
+
+    // r_h from the residual F - E X of the rows of u1 and u2.
+    Vector R(owned_system, comm);
+    contact_system.matrix.vmult(R, X);
+    R.sadd(-1., 1., contact_system.rhs);
+    Vector *r[2] = {&it.r1, &it.r2};
+    for (const unsigned int field : {VI::NodalFields::u1, VI::NodalFields::u2})
+      {
+        VI::NodalFields::extract(R, field, moments);
+        for (const types::global_dof_index i : owned_nodes)
+          if (u1_constraints.is_constrained(i))
+            moments(i) = 0;
+        moments.compress(VectorOperation::insert);
+        multiplier_function.from_moments(moments, function);
+        ghosted_nodes.copy(function, *r[field]);
+      }
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::add_fluxes(Iterate &it) const
+  {
+    TimerOutput::Scope t(timer, "estimators: fluxes");
+    Vector            *r[2] = {&it.r1, &it.r2};
+
+    // The fluxes: sigma_alpha ~ -mu_alpha grad u_alpha,h, equilibrated with
+    // f_alpha -/+ lambda_h - r_alpha,h; for p = 1 the multiplier and the
+    // residual enter each patch as the constants of its vertex (lumping).
+    const bool    lumped  = fe.degree == 1;
+    const Vector *u[2]    = {&it.u1, &it.u2};
+    const double  mu[2]   = {data.mu1, data.mu2};
+    const double  sign[2] = {-1., 1.}; // (-1)^alpha
+
+    typename VI::FluxReconstruction<dim>::Sources sources;
+    sources.n_fields         = 2;
+    sources.make_cell_values = [&]() {
+      // per thread: FEValues of the potential and the multiplier's and
+      // residual's values
+      return [&,
+              values_of = std::make_shared<FEValues<dim>>(
+                *mapping,
+                fe,
+                flux_reconstruction->get_quadrature(),
+                update_values | update_gradients),
+              lambda_values = std::vector<double>(quadrature.size()),
+              r_values      = std::vector<double>(quadrature.size()),
+              coefficients  = std::vector<double>()](const auto &cell,
+                                                    auto       &flux,
+                                                    auto &source) mutable {
+        typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
+                                                                cell->level(),
+                                                                cell->index(),
+                                                                &dof_handler);
+        FEValues<dim>                                 &values = *values_of;
+        values.reinit(dof_cell);
+        if (cell_multiplier)
+          cell_multiplier->values(it.lambda_cells,
+                                  cell->active_cell_index(),
+                                  lambda_values);
+        else if (!lumped)
+          VI::cell_function_values(
+            values, dof_cell, it.lambda, coefficients, &lambda_values);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            VI::cell_function_values(
+              values, dof_cell, *u[a], coefficients, nullptr, &flux[a]);
+            for (auto &F : flux[a])
+              F *= mu[a];
+            std::copy_n(load_values[a].begin() +
+                          cell->active_cell_index() * source[a].size(),
+                        source[a].size(),
+                        source[a].begin());
+            if (!lumped)
+              {
+                VI::cell_function_values(
+                  values, dof_cell, *r[a], coefficients, &r_values);
+                for (unsigned int q = 0; q < source[a].size(); ++q)
+                  source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+              }
+          }
+      };
+    };
+    if (lumped)
+      sources.vertex_source = [&](const unsigned int vertex,
+                                  const unsigned int a) {
+        const auto i = vertex_dofs[vertex];
+        return -sign[a] * it.lambda(i) - (*r[a])(i);
+      };
+    flux_reconstruction->reconstruct(sources, {&it.sigma1, &it.sigma2});
+    it.has_fluxes = true;
+  }
+
+
+  template <int dim>
+  std::optional<double>
+  MembraneProblem<dim>::predicted_eta_disc() const
+  {
+    if (last_eta_disc_dofs == 0 || !(last_eta_disc > 0))
+      return std::nullopt;
+    // eta_disc ~ N^(-p/d) at the optimal rate
+    return last_eta_disc *
+           std::pow(double(last_eta_disc_dofs) / double(dof_handler.n_dofs()),
+                    double(fe.degree) / dim);
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::remember_eta_disc(const VI::ContactEstimate &e)
+  {
+    if (e.complete)
+      {
+        last_eta_disc      = e.eta_disc;
+        last_eta_disc_dofs = dof_handler.n_dofs();
+      }
+  }
+
+
+  template <int dim>
+  VI::ContactEstimate
+  MembraneProblem<dim>::estimate(
+    const Iterate                                          &it,
+    const Iterate                                          &ahead,
+    const bool                                              equilibrated,
+    const std::function<bool(const VI::ContactEstimate &)> &sharpen_remainder)
+    const
+  {
+    // (the flux-free evaluations of the deferred checks timed apart)
+    TimerOutput::Scope t(timer,
+                         it.has_fluxes ?
+                           "estimators: evaluation" :
+                           "estimators: evaluation without fluxes");
+    const bool         undershoots =
+      equilibrated || parameters.estimators.dual_norm_undershoots;
+    const bool remainder =
+      equilibrated || parameters.estimators.dual_norm_remainder;
+    VI::ContactEstimatorInput<dim> in;
+    in.mapping               = mapping.get();
+    in.potential             = &dof_handler;
+    in.flux                  = &flux_reconstruction->get_dof_handler();
+    in.quadrature            = &flux_reconstruction->get_quadrature();
+    in.flux_signs            = &flux_reconstruction->get_piola_signs();
+    in.mu1                   = data.mu1;
+    in.mu2                   = data.mu2;
+    in.f1                    = data.f1.get();
+    in.f2                    = data.f2.get();
+    in.f1_values             = &load_values[0];
+    in.f2_values             = &load_values[1];
+    in.g1                    = data.g1.get();
+    in.g2                    = data.g2.get();
+    in.friedrichs_constant   = VI::friedrichs_constant(geometry);
+    in.mass_lumped           = fe.degree == 1;
+    in.u1                    = &it.u1;
+    in.u2                    = &it.u2;
+    in.s1                    = &it.s1;
+    in.s2                    = &it.s2;
+    in.lambda                = &it.lambda;
+    in.lambda_nonnegative    = &it.lambda_nonnegative;
+    in.sigma1_disc           = &it.sigma1;
+    in.sigma2_disc           = &it.sigma2;
+    in.lambda_ahead          = &ahead.lambda;
+    in.r1_ahead              = &ahead.r1;
+    in.r2_ahead              = &ahead.r2;
+    in.sigma1_ahead          = &ahead.sigma1;
+    in.sigma2_ahead          = &ahead.sigma2;
+    in.dual_norm             = dual_norm.get();
+    in.dual_norm_undershoots = undershoots;
+    in.dual_norm_remainder   = remainder;
+    in.sharpen_remainder     = sharpen_remainder;
+    in.without_fluxes        = !it.has_fluxes;
+    AssertThrow(it.has_fluxes || &ahead == &it, ExcInternalError());
+    if (cell_multiplier)
+      {
+        in.cell_multiplier          = cell_multiplier.get();
+        in.lambda_cells             = &it.lambda_cells;
+        in.lambda_nonnegative_cells = &it.lambda_nonnegative_cells;
+        in.lambda_ahead_cells       = &ahead.lambda_cells;
+        in.complementarity          = it.complementarity;
+      }
+    return VI::estimate_contact_error(in);
+  }
+
+
+  // The estimate of X with itself as look-ahead: sigma_alg = 0, and the
+  // whole algebraic residual goes into the remainder.
+  template <int dim>
+  VI::ContactEstimate
+  MembraneProblem<dim>::estimate(const Vector &X, const bool equilibrated) const
+  {
+    Iterate it;
+    Vector  contact;
+    if (cell_multiplier)
+      contact_nodes(X, contact);
+    describe_iterate(X, contact, it);
+    return estimate(it, it, equilibrated);
+  }
+
+
+  // The estimate a solve ends with bounds the dual norms of the multiplier's
+  // undershoot means and of the algebraic remainder with Friedrichs'
+  // inequality, and for an iterate of the adaptive strategy it is the one
+  // the stopping tests saw (often with a look-ahead). Equilibration bounds
+  // both dual norms more sharply (doc/estimators.md), at the price of up to
+  // three Poisson solves, which are worth paying once per mesh but not at
+  // every check. Both bounds are guaranteed for the same iterate, so the
+  // smaller one is reported; the stopping decisions are not affected.
+  template <int dim>
+  void
+  MembraneProblem<dim>::sharpen_final_estimate()
+  {
+    if (!parameters.estimators.sharpen_final || !final_estimate)
+      return;
+    VI::ContactEstimate sharpened = estimate(solution, true);
+    final_estimate_sharpened      = sharpened.eta < final_estimate->eta;
+    if (final_estimate_sharpened)
+      final_estimate = std::move(sharpened);
+  }
+
+
+  // Explicit instantiations of this file's members.
+  template void
+  MembraneProblem<2>::describe_iterate(const Vector &X,
+                                       const Vector &contact,
+                                       Iterate      &it,
+                                       const bool    fluxes) const;
+  template void
+  MembraneProblem<2>::describe_fields(const Vector &X,
+                                      const Vector &contact,
+                                      Iterate      &it) const;
+  template void
+  MembraneProblem<2>::add_fluxes(Iterate &it) const;
+  template std::optional<double>
+  MembraneProblem<2>::predicted_eta_disc() const;
+  template void
+  MembraneProblem<2>::remember_eta_disc(const VI::ContactEstimate &e);
+  template VI::ContactEstimate
+  MembraneProblem<2>::estimate(
+    const Iterate                                          &it,
+    const Iterate                                          &ahead,
+    const bool                                              equilibrated,
+    const std::function<bool(const VI::ContactEstimate &)> &sharpen_remainder)
+    const;
+  template VI::ContactEstimate
+  MembraneProblem<2>::estimate(const Vector &X, const bool equilibrated) const;
+  template void
+  MembraneProblem<2>::sharpen_final_estimate();
+} // namespace StepMembranes
