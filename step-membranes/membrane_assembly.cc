@@ -1,6 +1,7 @@
 // step-membranes, conforming Q_p: the discrete system on a mesh (DoFs,
 // constraints, sparsity, assembly of E, F and the coupling D) and the
 // initial iterate.
+
 #include <deal.II/base/parallel.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/dofs/dof_tools.h>

@@ -1,5 +1,6 @@
 // step-membranes, conforming Q_p: the benchmarks beside a solve, the PETSc
 // SNES VI peer and the reference Poisson solves.
+
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/trilinos_index_access.h>
 

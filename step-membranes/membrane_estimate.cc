@@ -1,5 +1,6 @@
 // step-membranes, conforming Q_p: an iterate as the estimators see it (fields,
 // residual, equilibrated fluxes) and its guaranteed estimate.
+
 #include <deal.II/base/parallel.h>
 #include <deal.II/fe/fe_values.h>
 

@@ -1,5 +1,6 @@
 // step-membranes, conforming Q_p: what is done with a solution: its fields,
 // errors, VTU output, the next mesh, the cycle's record and the tables.
+
 #include <deal.II/base/parallel.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_values.h>

@@ -1,5 +1,6 @@
 // The .prm interface of step-membranes: the shared sections and the
 // program's own entries (Benchmark, Nonlinear solver/Solver).
+
 #include <vi/errors.h>
 
 #include "membrane_problem.h"

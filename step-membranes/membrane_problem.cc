@@ -1,5 +1,6 @@
 // step-membranes, conforming Q_p: the problem, its data checks and mesh, and
 // the loop over the meshes (run()).
+
 #include "membrane_problem.h"
 
 #include <deal.II/base/utilities.h>

@@ -1,5 +1,6 @@
 // step-membranes, conforming Q_p: semismooth Newton on the contact system,
 // with the adaptive stopping of the estimators.
+
 #include <vi/nodal_fields.h>
 
 #include "membrane_problem.h"

@@ -190,6 +190,18 @@ namespace StepParabolic
     void
     store_previous_step();
 
+    // The run's phases.
+    void
+    start_run();
+    void
+    solve_until_accepted();
+    void
+    accept_time_step();
+    void
+    print_step(const double wall_seconds) const;
+    void
+    finish_run(const bool stopped);
+
     // One time step.
     void
     solve_time_step();

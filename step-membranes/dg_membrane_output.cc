@@ -1,0 +1,590 @@
+// step-membranes, interior penalty dG: the multiplier and the fields of a
+// solution, its guaranteed estimate, errors, output and the cycle's record.
+
+#include <deal.II/base/utilities.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_interface_values.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_q.h>
+#include <deal.II/grid/filtered_iterator.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/sparsity_tools.h>
+#include <deal.II/meshworker/mesh_loop.h>
+#include <deal.II/meshworker/scratch_data.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <vi/errors.h>
+#include <vi/estimators.h>
+#include <vi/nodal_fields.h>
+#include <vi/program.h>
+
+#include "dg_membrane_problem.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+namespace StepMembranes
+{
+  using VI::NodalFields::index;
+  using VI::NodalFields::multiplier;
+  using VI::NodalFields::n_fields;
+
+
+  // v = M_K^{-1} moments on every owned cell: the broken function whose
+  // L2 moments against the nodal basis are the given ones. The mass matrix
+  // is integrated with the quadrature of the flux reconstruction, so that
+  // (v, psi)_K computed there reproduces the moments exactly.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::function_from_moments(const Vector &moments,
+                                                Vector       &v) const
+  {
+    FEValues<dim>                        values(*mapping,
+                         fe,
+                         quadrature,
+                         update_values | update_JxW_values);
+    const unsigned int                   n = fe.n_dofs_per_cell();
+    FullMatrix<double>                   mass(n, n);
+    dealii::Vector<double>               local(n), coefficients(n);
+    std::vector<types::global_dof_index> dofs(n);
+    Vector                               owned(owned_nodes, comm);
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          mass = 0;
+          for (const unsigned int q : values.quadrature_point_indices())
+            for (unsigned int i = 0; i < n; ++i)
+              for (unsigned int j = 0; j < n; ++j)
+                mass(i, j) += values.shape_value(i, q) *
+                              values.shape_value(j, q) * values.JxW(q);
+          mass.gauss_jordan();
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < n; ++i)
+            local(i) = moments(dofs[i]);
+          mass.vmult(coefficients, local);
+          for (unsigned int i = 0; i < n; ++i)
+            owned(dofs[i]) = coefficients(i);
+        }
+    owned.compress(VectorOperation::insert);
+    ghosted_nodes.copy(owned, v);
+  }
+
+
+  template <int dim>
+  bool
+  DGMembraneProblem<dim>::mass_lumped() const
+  {
+    return fe.degree == 1;
+  }
+
+
+  // lambda_h from its coefficients X3 in the dual basis: the nodal values
+  // for the lumped bracket of p = 1, M_K^{-1} X3 for the L2 bracket.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::multiplier_function(const Vector &X3,
+                                              Vector       &lambda) const
+  {
+    if (mass_lumped())
+      ghosted_nodes.copy(X3, lambda);
+    else
+      function_from_moments(X3, lambda);
+  }
+
+
+  // On every owned cell: the nodal values lambda_N(x_I) = m_I / (psi_I,
+  // 1)_K, whose mean is sum_I m_I / |K|; where lambda_N < 0 at a point of
+  // the estimator's quadrature and the mean is positive, lambda = mean +
+  // theta (lambda_N - mean) with the largest theta in [0, 1] that keeps
+  // lambda >= 0 at those points (the limiter of Zhang and Shu); with a
+  // negative mean, the mean.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::limited_nodal_function(const Vector &moments,
+                                                 Vector       &lambda) const
+  {
+    FEValues<dim>                        values(*mapping,
+                         fe,
+                         flux_reconstruction->get_quadrature(),
+                         update_values | update_JxW_values);
+    const unsigned int                   n = fe.n_dofs_per_cell();
+    std::vector<types::global_dof_index> dofs(n);
+    std::vector<double>                  nodal(n);
+    Vector                               owned(owned_nodes, comm);
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          cell->get_dof_indices(dofs);
+          double sum = 0, volume = 0;
+          for (unsigned int i = 0; i < n; ++i)
+            {
+              nodal[i] = moments(dofs[i]) / lumped_mass(dofs[i]);
+              sum += moments(dofs[i]);
+            }
+          for (const unsigned int q : values.quadrature_point_indices())
+            volume += values.JxW(q);
+          const double mean    = sum / volume;
+          double       minimum = *std::min_element(nodal.begin(), nodal.end());
+          for (const unsigned int q : values.quadrature_point_indices())
+            {
+              double value = 0;
+              for (unsigned int i = 0; i < n; ++i)
+                value += nodal[i] * values.shape_value(i, q);
+              minimum = std::min(minimum, value);
+            }
+          double theta = 1.;
+          if (mean <= 0)
+            theta = 0.;
+          else if (minimum < 0)
+            theta = mean / (mean - minimum);
+          for (unsigned int i = 0; i < n; ++i)
+            owned(dofs[i]) = mean + theta * (nodal[i] - mean);
+        }
+    owned.compress(VectorOperation::insert);
+    ghosted_nodes.copy(owned, lambda);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::moments_of_function(const Vector &v,
+                                              Vector       &moments) const
+  {
+    FEValues<dim>                        values(*mapping,
+                         fe,
+                         quadrature,
+                         update_values | update_JxW_values);
+    const unsigned int                   n = fe.n_dofs_per_cell();
+    std::vector<double>                  v_values(quadrature.size());
+    std::vector<types::global_dof_index> dofs(n);
+    moments = 0;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          values.get_function_values(v, v_values);
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < n; ++i)
+            {
+              double moment = 0;
+              for (const unsigned int q : values.quadrature_point_indices())
+                moment +=
+                  v_values[q] * values.shape_value(i, q) * values.JxW(q);
+              moments(dofs[i]) = moment;
+            }
+        }
+    moments.compress(VectorOperation::insert);
+  }
+
+
+  // The estimate of the iterate X (doc/step-membranes.md, dG section):
+  // - lambda_h and r_h: the broken functions with moments X3 and F - E X;
+  // - s_h: Oswald interpolation into FE_Q(p) with the nodal values of g on
+  //   the boundary, averaged where s1 < s2;
+  // - sigma_alpha: the vertex-patch reconstruction of the flux
+  //   -mu_alpha (grad_h u_alpha,h + epsilon L(u_alpha,h)), L the lifting of
+  //   the jumps, in equilibrium with f_alpha -/+ lambda_h - r_alpha,h.
+  template <int dim>
+  VI::DGContactEstimate
+  DGMembraneProblem<dim>::estimate(const Vector &X) const
+  {
+    TimerOutput::Scope t(timer, "estimators");
+    Vector             field(owned_nodes, comm);
+    Vector             u[2], r[2], lambda, lambda_nonnegative;
+    for (const unsigned int a : {VI::NodalFields::u1, VI::NodalFields::u2})
+      {
+        VI::NodalFields::extract(X, a, field);
+        ghosted_nodes.copy(field, u[a]);
+      }
+    // The multiplier of the estimate: on every cell, the nodal function
+    // lambda_N(x_I) = <lambda_h, psi_I>_h / (psi_I, 1)_K (the discrete
+    // lambda_h itself for p = 1), scaled towards its cell mean where it is
+    // negative at a quadrature point (positivity-preserving limiter). It has
+    // the cell means of the L2 representative lambda* = M_K^{-1}
+    // (<lambda_h, psi_I>_h)_I, which the fluxes equilibrate (compatibility),
+    // and that is all the theorem needs (doc/step-membranes.md).
+    Vector lambda_source, moments(owned_nodes, comm);
+    VI::NodalFields::extract(X, multiplier, moments);
+    moments.scale(contact_system.coupling());
+    function_from_moments(moments, lambda_source);
+    limited_nodal_function(moments, lambda);
+    for (double &m : moments)
+      m = std::max(m, 0.);
+    limited_nodal_function(moments, lambda_nonnegative);
+
+    Vector R(owned_system, comm);
+    contact_system.matrix.vmult(R, X);
+    R.sadd(-1., 1., contact_system.rhs);
+    for (const unsigned int a : {VI::NodalFields::u1, VI::NodalFields::u2})
+      {
+        VI::NodalFields::extract(R, a, field);
+        function_from_moments(field, r[a]);
+      }
+
+    const Function<dim> *g[2] = {data.g1.get(), data.g2.get()};
+    Vector               s_owned[2], s_averaged[2], s[2], L[2];
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        s_owned[a].reinit(owned_continuous, comm);
+        s_averaged[a].reinit(owned_continuous, comm);
+        VI::oswald_interpolation(*mapping,
+                                 dof_handler,
+                                 u[a],
+                                 continuous_dof_handler,
+                                 g[a],
+                                 s_owned[a]);
+        lifting->compute(dof_handler, u[a], *g[a], L[a]);
+      }
+    VI::average_at_violated_nodes(
+      data.mu1, data.mu2, s_owned[0], s_owned[1], s_averaged[0], s_averaged[1]);
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        s[a].reinit(owned_continuous, relevant_continuous, comm);
+        s[a] = s_averaged[a];
+      }
+
+    const double         epsilon = penalty.symmetry();
+    const double         mu[2]   = {data.mu1, data.mu2};
+    const double         sign[2] = {-1., 1.}; // (-1)^alpha
+    const Function<dim> *f[2]    = {data.f1.get(), data.f2.get()};
+
+    typename VI::FluxReconstruction<dim>::Sources sources;
+    sources.n_fields         = 2;
+    sources.make_cell_values = [&]() {
+      // per thread: FEValues of u_h and of the lifting, value arrays
+      const unsigned int n_q = quadrature.size();
+      return [&,
+              values_of = std::make_shared<FEValues<dim>>(
+                *mapping,
+                fe,
+                flux_reconstruction->get_quadrature(),
+                update_values | update_gradients | update_quadrature_points),
+              lifting_values_of =
+                std::shared_ptr<FEValues<dim>>(lifting->make_cell_values()),
+              lambda_values  = std::vector<double>(n_q),
+              r_values       = std::vector<double>(n_q),
+              lifting_values = std::vector<Tensor<1, dim>>(
+                n_q)](const auto &cell, auto &flux, auto &source) mutable {
+        const typename DoFHandler<dim>::active_cell_iterator dof_cell(
+          &triangulation, cell->level(), cell->index(), &dof_handler);
+        FEValues<dim> &values = *values_of;
+        values.reinit(dof_cell);
+        values.get_function_values(lambda_source, lambda_values);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            values.get_function_gradients(u[a], flux[a]);
+            lifting->values(cell, L[a], *lifting_values_of, lifting_values);
+            for (unsigned int q = 0; q < flux[a].size(); ++q)
+              flux[a][q] = mu[a] * (flux[a][q] + epsilon * lifting_values[q]);
+            f[a]->value_list(values.get_quadrature_points(), source[a]);
+            values.get_function_values(r[a], r_values);
+            for (unsigned int q = 0; q < source[a].size(); ++q)
+              source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+          }
+      };
+    };
+    Vector sigma[2];
+    flux_reconstruction->reconstruct(sources, {&sigma[0], &sigma[1]});
+
+    VI::DGContactEstimatorInput<dim> in;
+    in.mapping             = mapping.get();
+    in.broken              = &dof_handler;
+    in.continuous          = &continuous_dof_handler;
+    in.flux                = &flux_reconstruction->get_dof_handler();
+    in.quadrature          = &flux_reconstruction->get_quadrature();
+    in.face_quadrature     = &face_quadrature;
+    in.penalty             = &penalty;
+    in.mu1                 = data.mu1;
+    in.mu2                 = data.mu2;
+    in.f1                  = data.f1.get();
+    in.f2                  = data.f2.get();
+    in.g1                  = data.g1.get();
+    in.g2                  = data.g2.get();
+    in.friedrichs_constant = VI::friedrichs_constant(geometry);
+    in.mass_lumped         = true; // the nodal multiplier, see above
+    in.u1                  = &u[0];
+    in.u2                  = &u[1];
+    in.lambda              = &lambda;
+    in.lambda_nonnegative  = &lambda_nonnegative;
+    in.r1                  = &r[0];
+    in.r2                  = &r[1];
+    in.s1                  = &s[0];
+    in.s2                  = &s[1];
+    in.sigma1              = &sigma[0];
+    in.sigma2              = &sigma[1];
+    return VI::estimate_dg_contact_error(in);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::postprocess()
+  {
+    TimerOutput::Scope t(timer, "postprocess");
+    Vector             u1(owned_nodes, comm), u2(owned_nodes, comm),
+      field(owned_nodes, comm);
+    VI::NodalFields::extract(solution, VI::NodalFields::u1, u1);
+    VI::NodalFields::extract(solution, VI::NodalFields::u2, u2);
+    u1_h = u1;
+    u2_h = u2;
+    u1 -= u2;
+    gap_h = u1;
+    VI::NodalFields::extract(solution, multiplier, field);
+    multiplier_function(field, lambda_h);
+    n_contact_nodes =
+      contact_system.contact_rows().contact_set(solution, field);
+    contact_set = field;
+  }
+
+
+  // The dG energy error |||u - u_h|||_dG^2 = sum_alpha mu_alpha
+  // (|grad_h (u_alpha - u_alpha,h)|^2 + sum_F gamma_F / h_F |[[u_alpha -
+  // u_alpha,h]]|_F^2): the broken H1 seminorm and the jumps of u_h (with
+  // g - u_h on the boundary); and the L2 error of the multiplier.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::compute_errors()
+  {
+    if (!data.has_exact_solution())
+      return;
+    TimerOutput::Scope     t(timer, "errors");
+    const QGauss<dim>      error_quadrature(fe.degree + 3);
+    dealii::Vector<double> cellwise(triangulation.n_active_cells());
+    const auto             error = [&](const Vector               &uh,
+                           const Function<dim>        &exact,
+                           const VectorTools::NormType norm) {
+      VectorTools::integrate_difference(
+        *mapping, dof_handler, uh, exact, cellwise, error_quadrature, norm);
+      return VectorTools::compute_global_error(triangulation, cellwise, norm);
+    };
+    const double e1 = error(u1_h, *data.exact_u1, VectorTools::H1_seminorm);
+    const double e2 = error(u2_h, *data.exact_u2, VectorTools::H1_seminorm);
+    error_broken    = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
+    error_jump      = VI::jump_seminorm(*mapping,
+                                   dof_handler,
+                                   face_quadrature,
+                                   penalty,
+                                   data.mu1,
+                                   data.mu2,
+                                   u1_h,
+                                   u2_h,
+                                   *data.g1,
+                                   *data.g2);
+    error_energy =
+      std::sqrt(error_broken * error_broken + error_jump * error_jump);
+    if (data.exact_lambda)
+      error_multiplier =
+        error(lambda_h, *data.exact_lambda, VectorTools::L2_norm);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::output_results(const unsigned int cycle) const
+  {
+    if (!parameters.output.write_vtu)
+      return;
+    TimerOutput::Scope t(timer, "output");
+    DataOut<dim>       data_out;
+    data_out.attach_dof_handler(dof_handler);
+    data_out.add_data_vector(u1_h, "u1");
+    data_out.add_data_vector(u2_h, "u2");
+    data_out.add_data_vector(gap_h, "gap");
+    data_out.add_data_vector(lambda_h, "lambda");
+    data_out.add_data_vector(contact_set, "contact");
+    dealii::Vector<float> subdomain(triangulation.n_active_cells());
+    subdomain = triangulation.locally_owned_subdomain();
+    data_out.add_data_vector(subdomain, "partition");
+
+    // Per-cell estimators.
+    std::vector<std::pair<std::string, dealii::Vector<float>>> indicators;
+    if (final_estimate)
+      indicators = VI::cell_indicators(*final_estimate);
+    for (const auto &[name, values] : indicators)
+      data_out.add_data_vector(values, name, DataOut<dim>::type_cell_data);
+    data_out.build_patches(*mapping,
+                           fe.degree,
+                           VI::has_curved_cells(geometry) ?
+                             DataOut<dim>::curved_inner_cells :
+                             DataOut<dim>::curved_boundary);
+    data_out.write_vtu_with_pvtu_record(
+      parameters.output.directory + "/", "solution", cycle, comm, 2, 8);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::refine_mesh()
+  {
+    TimerOutput::Scope t(timer, "refinement");
+    for (const auto &cell : triangulation.active_cell_iterators())
+      if (cell->is_locally_owned())
+        cell->set_refine_flag();
+    triangulation.prepare_coarsening_and_refinement();
+    if (parameters.nonlinear_solver.nested_iteration)
+      {
+        solution_transfer = std::make_unique<
+          parallel::distributed::SolutionTransfer<dim, Vector>>(dof_handler);
+        solution_transfer->prepare_for_coarsening_and_refinement(
+          std::vector<const Vector *>{&u1_h, &u2_h, &lambda_h});
+      }
+    triangulation.execute_coarsening_and_refinement();
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::record_cycle(const unsigned int cycle)
+  {
+    const double wall = run_record.cycle_seconds();
+    table.add_value("cycle", cycle);
+    table.add_value("cells", triangulation.n_global_active_cells());
+    table.add_value("dofs", dof_handler.n_dofs());
+    table.add_value("newton", newton_report.iterations);
+    table.add_value("linear", newton_report.linear_iterations);
+    table.add_value("contact", n_contact_nodes);
+    const auto scientific = [&](const std::string &key, const double value) {
+      table.add_value(key, value);
+      table.set_scientific(key, true);
+      table.set_precision(key, 4);
+    };
+    if (data.has_exact_solution())
+      {
+        scientific("error_energy", error_energy);
+        if (data.exact_lambda)
+          scientific("error_lambda", error_multiplier);
+      }
+    if (final_estimate)
+      {
+        scientific("eta", final_estimate->eta);
+        if (data.has_exact_solution())
+          {
+            table.add_value("effectivity", final_estimate->eta / error_energy);
+            table.set_precision("effectivity", 3);
+          }
+      }
+    table.add_value("wall_s", wall);
+    table.set_precision("wall_s", 3);
+
+    VI::Json record             = VI::Json::object();
+    record["cycle"]             = cycle;
+    record["cells"]             = triangulation.n_global_active_cells();
+    record["dofs"]              = n_fields * dof_handler.n_dofs();
+    record["dofs_per_field"]    = dof_handler.n_dofs();
+    record["newton_iterations"] = newton_report.iterations;
+    record["linear_iterations"] = newton_report.linear_iterations;
+    record["contact_nodes"]     = n_contact_nodes;
+    if (data.has_exact_solution())
+      {
+        record["error_energy"] = error_energy;
+        record["error_broken"] = error_broken;
+        record["error_jump"]   = error_jump;
+      }
+    if (data.exact_lambda)
+      record["error_lambda_l2"] = error_multiplier;
+    if (final_estimate)
+      {
+        const VI::DGContactEstimate &e = *final_estimate;
+        record["eta"]                  = e.eta;
+        record["eta_disc"]             = e.eta_disc;
+        record["eta_lin"]              = e.eta_lin;
+        record["eta_alg"]              = e.eta_alg;
+        if (data.has_exact_solution())
+          {
+            record["effectivity"]        = e.eta / error_energy;
+            record["effectivity_broken"] = e.broken / error_broken;
+          }
+        VI::Json json        = VI::Json::object();
+        json["eta"]          = e.eta;
+        json["eta_broken"]   = e.broken;
+        json["jump"]         = e.jump;
+        json["flux"]         = e.flux_disc;
+        json["residual"]     = e.residual;
+        json["remainder"]    = e.remainder;
+        json["nonc_1"]       = e.nonc_1;
+        json["oswald"]       = e.oswald;
+        json["nonc_2"]       = e.nonc_2;
+        json["nonc_3"]       = e.nonc_3;
+        json["contact_pos"]  = e.contact_pos;
+        json["contact_cone"] = e.contact_cone;
+        json["contact_lin"]  = e.contact_lin;
+        json["dirichlet"]    = e.dirichlet;
+        record["estimate"]   = json;
+      }
+    record["wall_seconds"] = wall;
+    record["newton_steps"] = VI::newton_steps(newton_report);
+    run_record.add(record);
+  }
+
+
+  // The convergence table with rates in h (from the DoF counts): on the
+  // screen with the wall time, in convergence.txt without it.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::write_tables() const
+  {
+    std::vector<std::string> errors;
+    if (data.has_exact_solution())
+      errors.push_back("error_energy");
+    if (data.exact_lambda)
+      errors.push_back("error_lambda");
+    if (parameters.estimators.enabled)
+      errors.push_back("eta");
+    ConvergenceTable with_rates = table;
+    for (const std::string &key : errors)
+      with_rates.evaluate_convergence_rates(
+        key, "dofs", ConvergenceTable::reduction_rate_log2, dim);
+    pcout << std::endl;
+    if (Utilities::MPI::this_mpi_process(comm) == 0)
+      {
+        with_rates.write_text(std::cout, TableHandler::org_mode_table);
+        std::ofstream file(parameters.output.directory + "/convergence.txt");
+        std::vector<std::string> columns = {
+          "cycle", "cells", "dofs", "newton", "linear", "contact"};
+        columns.insert(columns.end(), errors.begin(), errors.end());
+        if (parameters.estimators.enabled && data.has_exact_solution())
+          columns.push_back("effectivity");
+        ConvergenceTable file_table = with_rates;
+        file_table.set_column_order(columns);
+        file_table.write_text(file, TableHandler::org_mode_table);
+      }
+  }
+
+
+  // Explicit instantiations of this file's members.
+  template void
+  DGMembraneProblem<2>::function_from_moments(const Vector &moments,
+                                              Vector       &v) const;
+  template bool
+  DGMembraneProblem<2>::mass_lumped() const;
+  template void
+  DGMembraneProblem<2>::multiplier_function(const Vector &X3,
+                                            Vector       &lambda) const;
+  template void
+  DGMembraneProblem<2>::limited_nodal_function(const Vector &moments,
+                                               Vector       &lambda) const;
+  template void
+  DGMembraneProblem<2>::moments_of_function(const Vector &v,
+                                            Vector       &moments) const;
+  template VI::DGContactEstimate
+  DGMembraneProblem<2>::estimate(const Vector &X) const;
+  template void
+  DGMembraneProblem<2>::postprocess();
+  template void
+  DGMembraneProblem<2>::compute_errors();
+  template void
+  DGMembraneProblem<2>::output_results(const unsigned int cycle) const;
+  template void
+  DGMembraneProblem<2>::refine_mesh();
+  template void
+  DGMembraneProblem<2>::record_cycle(const unsigned int cycle);
+  template void
+  DGMembraneProblem<2>::write_tables() const;
+} // namespace StepMembranes

@@ -1,0 +1,526 @@
+// step-parabolic: an iterate as the estimators see it and its guaranteed
+// space-time estimate on I_n.
+
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/grid/filtered_iterator.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <vi/nodal_fields.h>
+
+#include "parabolic_problem.h"
+
+#include <cmath>
+
+namespace StepParabolic
+{
+  using VI::NodalFields::index;
+  using VI::NodalFields::multiplier;
+  using VI::NodalFields::n_fields;
+
+
+  // The iterate as the estimators need it (see step-membranes): u_h, s_h,
+  // lambda_h and its part from nonnegative coefficients, the residual r_h
+  // (<r_h, psi_i>_h = (F - E X)_i), d_t u_h = (u_h - u_h^(n-1)) / dt_n, and
+  // the fluxes equilibrated with f(t_n) - d_t u_h -/+ lambda_h - r_h.
+  template <int dim>
+  void
+  ParabolicProblem<dim>::describe_iterate(const Vector &X, Iterate &it) const
+  {
+    TimerOutput::Scope t(timer, "estimators: fluxes");
+    it.X = X;
+
+    Vector u1(owned_nodes, comm), u2(owned_nodes, comm), s1(owned_nodes, comm),
+      s2(owned_nodes, comm), moments(owned_nodes, comm),
+      function(owned_nodes, comm);
+    // (The layout of u1_h, copied, is much cheaper than a new one.)
+
+    VI::NodalFields::extract(X, VI::NodalFields::u1, u1);
+    VI::NodalFields::extract(X, VI::NodalFields::u2, u2);
+    VI::average_at_violated_nodes(data.mu1, data.mu2, u1, u2, s1, s2);
+    ghosted_nodes.copy(u1, it.u1);
+    ghosted_nodes.copy(u2, it.u2);
+    ghosted_nodes.copy(s1, it.s1);
+    ghosted_nodes.copy(s2, it.s2);
+    it.owned[0] = u1;
+    it.owned[1] = u2;
+    it.owned[2] = s1;
+    it.owned[3] = s2;
+
+    // d_t u_h, from the owned values of u_h^(n-1).
+    for (const auto &[u, old, target] :
+         {std::tuple<Vector *, const Vector *, Vector *>{&u1,
+                                                         &previous_u1,
+                                                         &it.dt_u1},
+          {&u2, &previous_u2, &it.dt_u2}})
+      {
+        for (const types::global_dof_index i : owned_nodes)
+          function(i) = ((*u)(i) - (*old)(i)) / time_step;
+        function.compress(VectorOperation::insert);
+        ghosted_nodes.copy(function, *target);
+      }
+
+    VI::NodalFields::extract(X, multiplier, moments);
+    moments.scale(contact_system.coupling());
+    multiplier_function.with_nonnegative_part(moments,
+                                              it.lambda,
+                                              it.lambda_nonnegative);
+
+    Vector R(owned_system, comm);
+    contact_system.matrix.vmult(R, X);
+    R.sadd(-1., 1., contact_system.rhs);
+    Vector *r[2] = {&it.r1, &it.r2};
+    for (const unsigned int field : {VI::NodalFields::u1, VI::NodalFields::u2})
+      {
+        VI::NodalFields::extract(R, field, moments);
+        for (const types::global_dof_index i : owned_nodes)
+          if (u1_constraints.is_constrained(i))
+            moments(i) = 0;
+        moments.compress(VectorOperation::insert);
+        multiplier_function.from_moments(moments, function);
+        ghosted_nodes.copy(function, *r[field]);
+      }
+
+    // The mass term enters the source at the quadrature points, as in the
+    // assembly, so that the patch problems stay compatible; for p = 1 the
+    // multiplier and the residual enter as vertex constants (lumping).
+    const bool           lumped  = fe.degree == 1;
+    const Vector        *u[2]    = {&it.u1, &it.u2};
+    const Vector        *dt_u[2] = {&it.dt_u1, &it.dt_u2};
+    const Function<dim> *f[2]    = {data.f1.get(), data.f2.get()};
+    const double         mu[2]   = {data.mu1, data.mu2};
+    const double         sign[2] = {-1., 1.}; // (-1)^alpha
+
+    typename VI::FluxReconstruction<dim>::Sources sources;
+    sources.n_fields         = 2;
+    sources.make_cell_values = [&]() {
+      // per thread: FEValues of the potential and value arrays
+      const unsigned int n_q = quadrature.size();
+      return [&,
+              values_of = std::make_shared<FEValues<dim>>(
+                *mapping,
+                fe,
+                flux_reconstruction->get_quadrature(),
+                update_values | update_gradients | update_quadrature_points),
+              lambda_values = std::vector<double>(n_q),
+              r_values      = std::vector<double>(n_q),
+              dt_values     = std::vector<double>(
+                n_q)](const auto &cell, auto &flux, auto &source) mutable {
+        typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
+                                                                cell->level(),
+                                                                cell->index(),
+                                                                &dof_handler);
+        FEValues<dim>                                 &values = *values_of;
+        values.reinit(dof_cell);
+        if (!lumped)
+          values.get_function_values(it.lambda, lambda_values);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            values.get_function_gradients(*u[a], flux[a]);
+            for (auto &F : flux[a])
+              F *= mu[a];
+            f[a]->value_list(values.get_quadrature_points(), source[a]);
+            values.get_function_values(*dt_u[a], dt_values);
+            if (!lumped)
+              values.get_function_values(*r[a], r_values);
+            for (unsigned int q = 0; q < source[a].size(); ++q)
+              {
+                source[a][q] -= dt_values[q];
+                if (!lumped)
+                  source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+              }
+          }
+      };
+    };
+    if (lumped)
+      sources.vertex_source = [&](const unsigned int vertex,
+                                  const unsigned int a) {
+        const auto i = vertex_dofs[vertex];
+        return -sign[a] * it.lambda(i) - (*r[a])(i);
+      };
+    flux_reconstruction->reconstruct(sources, {&it.sigma1, &it.sigma2});
+  }
+
+
+  template <int dim>
+  std::vector<std::pair<double, double>>
+  ParabolicProblem<dim>::time_points() const
+  {
+    // The trapezoidal rule. The integrand is convex in t when s~_ht is
+    // linear in t, which holds at the end points (where the cone
+    // reconstruction is computed), so the rule bounds the integral from
+    // above; for the temporal part |||u_h^n - u_h^(n-1)|||^2 it gives 1/2
+    // where the exact integral has 1/3.
+    return {{0., 0.5}, {1., 0.5}};
+  }
+
+
+  template <int dim>
+  void
+  ParabolicProblem<dim>::interpolate_in_time(const Vector &a,
+                                             const Vector &b,
+                                             const double  theta,
+                                             Vector       &result) const
+  {
+    Assert(!a.has_ghost_elements() && !b.has_ghost_elements(),
+           ExcMessage("Interpolate vectors without ghosts."));
+    if (interpolation_buffer.size() != a.size())
+      interpolation_buffer.reinit(owned_nodes, comm);
+    interpolation_buffer.equ(1. - theta, a);
+    interpolation_buffer.add(theta, b);
+    if (!result.has_ghost_elements() || result.size() != a.size())
+      result.reinit(u1_h, true);
+    result = interpolation_buffer;
+  }
+
+
+  // The terms of the step estimate that are not those of the steady
+  // problem, from one loop over the cells: with the cone correction
+  // d = s~_h - u_h (d_lin = s_h - u_h at the nodes, d_disc = s~_h - s_h the
+  // pointwise correction (theta w, -(1 - theta) w), w = (s2 - s1)^+, zero
+  // for p = 1),
+  // - eta_dt = C_F (sum_alpha mu_alpha^-1 |d_t d_alpha|^2)^(1/2), which
+  //   bounds (d_t d, v) by |||v|||, split into disc and lin parts, and the
+  //   part of this step alone, C_F |d_lin^n| / dt (stopping criterion);
+  // - |d^n| (L2) and its parts, for the final-time term;
+  // - |||u_h^n - u_h^(n-1)|||, for the temporal estimator.
+  template <int dim>
+  typename ParabolicProblem<dim>::ParabolicTerms
+  ParabolicProblem<dim>::parabolic_terms(const Iterate &it) const
+  {
+    TimerOutput::Scope          t(timer, "estimators: evaluation");
+    FEValues<dim>               values(*mapping,
+                         fe,
+                         quadrature,
+                         update_values | update_gradients | update_JxW_values);
+    const unsigned int          n_q   = quadrature.size();
+    const double                mu[2] = {data.mu1, data.mu2};
+    const double                theta = data.mu2 / (data.mu1 + data.mu2);
+    std::vector<double>         u[2], s[2], u_old[2], s_old[2];
+    std::vector<Tensor<1, dim>> grad_u[2], grad_u_old[2];
+    for (unsigned int a = 0; a < 2; ++a)
+      for (auto *v : {&u[a], &s[a], &u_old[a], &s_old[a]})
+        v->resize(n_q);
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        grad_u[a].resize(n_q);
+        grad_u_old[a].resize(n_q);
+      }
+    const Vector *now_u[2] = {&it.u1, &it.u2}, *now_s[2] = {&it.s1, &it.s2},
+                 *old_u[2] = {&previous_u1, &previous_u2},
+                 *old_s[2] = {&previous_s1, &previous_s2};
+
+    // Squared norms: dt-change of d (disc, lin) weighted by 1/mu, d^n
+    // (lin, weighted by 1/mu), |d^n|^2 (total, disc, lin), |||du|||^2.
+    enum
+    {
+      change_disc,
+      change_lin,
+      now_lin_weighted,
+      final_total,
+      final_disc,
+      final_lin,
+      time_energy,
+      n_sums
+    };
+    double sums[n_sums] = {};
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              values.get_function_values(*now_u[a], u[a]);
+              values.get_function_values(*now_s[a], s[a]);
+              values.get_function_values(*old_u[a], u_old[a]);
+              values.get_function_values(*old_s[a], s_old[a]);
+              values.get_function_gradients(*now_u[a], grad_u[a]);
+              values.get_function_gradients(*old_u[a], grad_u_old[a]);
+            }
+          for (unsigned int q = 0; q < n_q; ++q)
+            {
+              const double dx      = values.JxW(q);
+              const double w       = std::max(s[1][q] - s[0][q], 0.);
+              const double w_old   = std::max(s_old[1][q] - s_old[0][q], 0.);
+              const double disc[2] = {theta * w, -(1. - theta) * w};
+              const double disc_old[2] = {theta * w_old, -(1. - theta) * w_old};
+              for (unsigned int a = 0; a < 2; ++a)
+                {
+                  const double lin     = s[a][q] - u[a][q];
+                  const double lin_old = s_old[a][q] - u_old[a][q];
+                  sums[change_disc] +=
+                    std::pow(disc[a] - disc_old[a], 2) / mu[a] * dx;
+                  sums[change_lin] += std::pow(lin - lin_old, 2) / mu[a] * dx;
+                  sums[now_lin_weighted] += lin * lin / mu[a] * dx;
+                  sums[final_total] += std::pow(lin + disc[a], 2) * dx;
+                  sums[final_disc] += disc[a] * disc[a] * dx;
+                  sums[final_lin] += lin * lin * dx;
+                  sums[time_energy] +=
+                    mu[a] * (grad_u[a][q] - grad_u_old[a][q]).norm_square() *
+                    dx;
+                }
+            }
+        }
+    double total[n_sums];
+    Utilities::MPI::sum(ArrayView<const double>(sums, n_sums),
+                        comm,
+                        ArrayView<double>(total, n_sums));
+    std::copy(total, total + n_sums, sums);
+
+    ParabolicTerms terms;
+    const double   factor = friedrichs_constant / time_step;
+    terms.eta_dt_disc     = factor * std::sqrt(sums[change_disc]);
+    terms.eta_dt_lin      = factor * std::sqrt(sums[change_lin]);
+    // |d_t d| <= |d_t d_disc| + |d_t d_lin|: the bound and its split.
+    terms.eta_dt                = terms.eta_dt_disc + terms.eta_dt_lin;
+    terms.eta_dt_lin_controlled = factor * std::sqrt(sums[now_lin_weighted]);
+    terms.final_nonc            = std::sqrt(sums[final_total]);
+    terms.final_nonc_disc       = std::sqrt(sums[final_disc]);
+    terms.final_nonc_lin        = std::sqrt(sums[final_lin]);
+    terms.time_energy           = std::sqrt(sums[time_energy]);
+    return terms;
+  }
+
+
+  // The estimate of the step for an iterate (with a look-ahead iterate for
+  // the algebraic part, see step-membranes): the steady estimators of
+  // VI::estimate_contact_error at the points of time_points() for u_ht(t),
+  // s_ht(t) (linear in t), lambda_h^n, sigma^n, combined as in StepEstimate.
+  // With A(t) = eta_1 + eta_nonc1 + eta_nonc2 + eta_dt and its split
+  // A + (eta_C)^(1/2) <= D + L + G,
+  //   D = eta_1,disc + eta_nonc1,disc + eta_nonc2,disc + eta_dt,disc
+  //       + (eta_C,disc^+)^(1/2),
+  //   L = eta_nonc1,lin + eta_nonc2,lin + eta_dt,lin + (eta_C,lin^+)^(1/2),
+  //   G = |mu^-1/2 sigma_alg| + remainder,
+  // eta_n <= |D|_In + |L|_In + |G|_In + |eta_osc|_In.
+  template <int dim>
+  StepEstimate
+  ParabolicProblem<dim>::estimate(const Iterate &it, const Iterate &ahead) const
+  {
+    const ParabolicTerms terms = parabolic_terms(it);
+
+    TimerOutput::Scope             t(timer, "estimators: evaluation");
+    VI::ContactEstimatorInput<dim> in;
+    in.mapping             = mapping.get();
+    in.potential           = &dof_handler;
+    in.flux                = &flux_reconstruction->get_dof_handler();
+    in.quadrature          = &flux_reconstruction->get_quadrature();
+    in.flux_signs          = &flux_reconstruction->get_piola_signs();
+    in.mu1                 = data.mu1;
+    in.mu2                 = data.mu2;
+    in.f1                  = data.f1.get();
+    in.f2                  = data.f2.get();
+    in.friedrichs_constant = friedrichs_constant;
+    in.mass_lumped         = fe.degree == 1;
+    in.lambda              = &it.lambda;
+    in.lambda_nonnegative  = &it.lambda_nonnegative;
+    in.sigma1_disc         = &it.sigma1;
+    in.sigma2_disc         = &it.sigma2;
+    in.dt_u1               = &it.dt_u1;
+    in.dt_u2               = &it.dt_u2;
+    in.lambda_ahead        = &ahead.lambda;
+    in.r1_ahead            = &ahead.r1;
+    in.r2_ahead            = &ahead.r2;
+    in.sigma1_ahead        = &ahead.sigma1;
+    in.sigma2_ahead        = &ahead.sigma2;
+    in.dt_u1_ahead         = &ahead.dt_u1;
+    in.dt_u2_ahead         = &ahead.dt_u2;
+
+    StepEstimate e;
+    double       integral[4] = {}; // of A^2 + eta_C, D^2, L^2, G^2
+    Vector       u1, u2, s1, s2;
+    double       D_end = 0;
+    for (const auto &[theta, weight] : time_points())
+      {
+        if (theta == 1.)
+          {
+            in.u1 = &it.u1;
+            in.u2 = &it.u2;
+            in.s1 = &it.s1;
+            in.s2 = &it.s2;
+          }
+        else if (theta == 0.)
+          {
+            in.u1 = &previous_u1;
+            in.u2 = &previous_u2;
+            in.s1 = &previous_s1;
+            in.s2 = &previous_s2;
+          }
+        else
+          {
+            interpolate_in_time(previous_owned[0], it.owned[0], theta, u1);
+            interpolate_in_time(previous_owned[1], it.owned[1], theta, u2);
+            interpolate_in_time(previous_owned[2], it.owned[2], theta, s1);
+            interpolate_in_time(previous_owned[3], it.owned[3], theta, s2);
+            in.u1 = &u1;
+            in.u2 = &u2;
+            in.s1 = &s1;
+            in.s2 = &s2;
+          }
+        VI::ContactEstimate c = VI::estimate_contact_error(in);
+
+        const double A = c.eta_1 + c.nonc_1 + c.nonc_2 + terms.eta_dt;
+        const double D = c.eta_1_disc + c.nonc_1_disc + c.nonc_2_disc +
+                         terms.eta_dt_disc +
+                         std::sqrt(std::max(c.contact_disc, 0.));
+        const double L_other =
+          c.nonc_1_lin + c.nonc_2_lin + std::sqrt(std::max(c.contact_lin, 0.));
+        const double L = L_other + terms.eta_dt_lin;
+        const double G = c.flux_alg + c.remainder;
+        integral[0] += weight * (A * A + c.contact_cone);
+        integral[1] += weight * D * D;
+        integral[2] += weight * L * L;
+        integral[3] += weight * G * G;
+        e.nonc_squared += weight * c.nonc_1 * c.nonc_1;
+        e.nonc_squared_disc += weight * c.nonc_1_disc * c.nonc_1_disc;
+        e.nonc_squared_lin += weight * c.nonc_1_lin * c.nonc_1_lin;
+        if (theta == 1.)
+          {
+            D_end = D;
+            // What this Newton iteration controls: the iterate at t_n (at
+            // earlier times u_ht mixes in u_h^(n-1)).
+            e.eta_lin_controlled =
+              std::sqrt(time_step) * (L_other + terms.eta_dt_lin_controlled);
+            e.at_end = std::move(c);
+          }
+      }
+
+    const double dt = time_step;
+    e.oscillation   = step_oscillation;
+    e.eta           = std::sqrt(dt * integral[0]) + e.oscillation;
+    e.eta_disc      = std::sqrt(dt * integral[1]) + e.oscillation;
+    e.eta_lin       = std::sqrt(dt * integral[2]);
+    e.eta_alg       = std::sqrt(dt * integral[3]);
+    e.eta_dt        = terms.eta_dt;
+    e.nonc_squared *= dt;
+    e.nonc_squared_disc *= dt;
+    e.nonc_squared_lin *= dt;
+    e.final_nonc      = terms.final_nonc;
+    e.final_nonc_disc = terms.final_nonc_disc;
+    e.final_nonc_lin  = terms.final_nonc_lin;
+    e.eta_time        = std::sqrt(dt / 3.) * terms.time_energy;
+    e.eta_space       = std::sqrt(dt) * D_end;
+    return e;
+  }
+
+
+  // The estimate of X with itself as look-ahead (sigma_alg = 0, the whole
+  // algebraic residual in the remainder).
+  template <int dim>
+  StepEstimate
+  ParabolicProblem<dim>::estimate(const Vector &X) const
+  {
+    Iterate it;
+    describe_iterate(X, it);
+    return estimate(it, it);
+  }
+
+
+  // eta_init = |u^0 - s~_h^0| (L2, both membranes): the initial error of the
+  // cone function the bound is built on (s~_h^0 = u_h^0 for p = 1).
+  template <int dim>
+  double
+  ParabolicProblem<dim>::initial_error_estimate() const
+  {
+    const QGauss<dim>   error_quadrature(fe.degree + 3);
+    FEValues<dim>       values(*mapping,
+                         fe,
+                         error_quadrature,
+                         update_values | update_quadrature_points |
+                           update_JxW_values);
+    const unsigned int  n_q   = error_quadrature.size();
+    const double        theta = data.mu2 / (data.mu1 + data.mu2);
+    std::vector<double> uh[2], sh[2], exact[2];
+    for (unsigned int a = 0; a < 2; ++a)
+      for (auto *v : {&uh[a], &sh[a], &exact[a]})
+        v->resize(n_q);
+    double local = 0;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          values.get_function_values(previous_u1, uh[0]);
+          values.get_function_values(previous_u2, uh[1]);
+          values.get_function_values(previous_s1, sh[0]);
+          values.get_function_values(previous_s2, sh[1]);
+          data.initial_u1->value_list(values.get_quadrature_points(), exact[0]);
+          data.initial_u2->value_list(values.get_quadrature_points(), exact[1]);
+          for (unsigned int q = 0; q < n_q; ++q)
+            {
+              const double w             = std::max(sh[1][q] - sh[0][q], 0.);
+              const double correction[2] = {theta * w, -(1. - theta) * w};
+              for (unsigned int a = 0; a < 2; ++a)
+                local += std::pow(exact[a][q] - sh[a][q] - correction[a], 2) *
+                         values.JxW(q);
+            }
+        }
+    return std::sqrt(Utilities::MPI::sum(local, comm));
+  }
+
+
+  // |eta_osc|_L2(In) = C_F (int_In sum_alpha mu_alpha^-1
+  // |f_alpha(t) - f_alpha(t_n)|^2 dt)^(1/2): the load of the scheme is
+  // f(t_n), the equation holds with f(t). Three Gauss points in time; zero
+  // for forces independent of t.
+  template <int dim>
+  double
+  ParabolicProblem<dim>::force_oscillation() const
+  {
+    if (!data.forces_depend_on_time)
+      return 0.;
+    const double        t_n = time + time_step;
+    const QGauss<1>     in_time(3);
+    FEValues<dim>       values(*mapping,
+                         fe,
+                         quadrature,
+                         update_quadrature_points | update_JxW_values);
+    const unsigned int  n_q   = quadrature.size();
+    const double        mu[2] = {data.mu1, data.mu2};
+    Function<dim>      *f[2]  = {data.f1.get(), data.f2.get()};
+    std::vector<double> now(n_q), then(n_q);
+    double              local = 0;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              f[a]->set_time(t_n);
+              f[a]->value_list(values.get_quadrature_points(), now);
+              for (unsigned int k = 0; k < in_time.size(); ++k)
+                {
+                  f[a]->set_time(time + time_step * in_time.point(k)[0]);
+                  f[a]->value_list(values.get_quadrature_points(), then);
+                  for (unsigned int q = 0; q < n_q; ++q)
+                    local += in_time.weight(k) * time_step *
+                             std::pow(then[q] - now[q], 2) / mu[a] *
+                             values.JxW(q);
+                }
+            }
+        }
+    data.set_time(t_n);
+    return friedrichs_constant * std::sqrt(Utilities::MPI::sum(local, comm));
+  }
+
+
+  // Explicit instantiations of this file's members.
+  template void
+  ParabolicProblem<2>::describe_iterate(const Vector &X, Iterate &it) const;
+  template std::vector<std::pair<double, double>>
+  ParabolicProblem<2>::time_points() const;
+  template void
+  ParabolicProblem<2>::interpolate_in_time(const Vector &a,
+                                           const Vector &b,
+                                           const double  theta,
+                                           Vector       &result) const;
+  template typename ParabolicProblem<2>::ParabolicTerms
+  ParabolicProblem<2>::parabolic_terms(const Iterate &it) const;
+  template StepEstimate
+  ParabolicProblem<2>::estimate(const Iterate &it, const Iterate &ahead) const;
+  template StepEstimate
+  ParabolicProblem<2>::estimate(const Vector &X) const;
+  template double
+  ParabolicProblem<2>::initial_error_estimate() const;
+  template double
+  ParabolicProblem<2>::force_oscillation() const;
+} // namespace StepParabolic
