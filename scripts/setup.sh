@@ -33,9 +33,17 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q "${missing[@]}"
 fi
 
-echo "== Configuring and building (Release) in build/"
+echo "== Configuring and building (Release) in build/ (log in build.log)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release > build.log 2>&1 ||
   { cat build.log; exit 1; }
-cmake --build build -j "$(nproc)" >> build.log 2>&1 ||
-  { tail -50 build.log; exit 1; }
-echo "   built (log in build.log)"
+# A line per compiled file and linked target, so that a build of several
+# minutes shows where it is; everything goes to build.log as well.
+if ! cmake --build build -j "$(nproc)" 2>&1 | tee -a build.log |
+  awk '/Building CXX object|Linking CXX/ {
+         match($0, /^\[ *[0-9]+%\]/); progress = substr($0, RSTART, RLENGTH)
+         n = split($NF, part, "/"); name = part[n]; sub(/\.o$/, "", name)
+         print "   " progress " " name; fflush() }'; then
+  tail -50 build.log
+  exit 1
+fi
+echo "   built"

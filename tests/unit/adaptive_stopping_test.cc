@@ -1,0 +1,179 @@
+// VI::AdaptiveStopping with a made-up iterate and estimate: the GMRES
+// checks with look-ahead, the accepted update, the Newton criterion and the
+// records; and the progress line of run_record.h.
+#include <deal.II/base/index_set.h>
+#include <deal.II/lac/trilinos_vector.h>
+
+#include <vi/adaptive_stopping.h>
+#include <vi/run_record.h>
+
+#include <gtest/gtest.h>
+
+namespace
+{
+  using Vector = dealii::TrilinosWrappers::MPI::Vector;
+
+  struct Iterate
+  {
+    Vector       X;
+    unsigned int linear_iteration = 0;
+  };
+
+  /// eta_disc = 1, eta_lin = 0.2; eta_alg = 1 for an iterate's own estimate
+  /// and 0.01 with a look-ahead (which is what makes the look-ahead sharper
+  /// in the real estimators).
+  struct Estimate
+  {
+    bool   complete = true;
+    double eta_disc = 1, eta_lin = 0.2, eta_alg = 1;
+  };
+
+  struct AdaptiveStoppingTest : public ::testing::Test
+  {
+    AdaptiveStoppingTest()
+    {
+      parameters.strategy  = "adaptive";
+      parameters.gamma_alg = 0.3;
+      parameters.gamma_lin = 0.3;
+      point.reinit(dealii::complete_index_set(1), MPI_COMM_WORLD);
+      point = 1.;
+
+      hooks.describe = [](const Vector &X, Iterate &it) { it.X = X; };
+      hooks.estimate = [this](const Iterate &it, const Iterate &ahead) {
+        ++n_estimates;
+        Estimate e;
+        e.eta_alg = &it == &ahead ? 1. : 0.01;
+        return e;
+      };
+      hooks.estimate_iterate = [this](const Vector &) {
+        ++n_iterate_estimates;
+        return Estimate();
+      };
+      hooks.components = [](const Estimate &e) {
+        return VI::StoppingComponents{
+          e.complete, 0., e.eta_disc, e.eta_lin, e.eta_alg, e.eta_lin};
+      };
+    }
+
+    Vector
+    update(const double value) const
+    {
+      Vector u(point);
+      u = value;
+      return u;
+    }
+
+    VI::NonlinearSolverParameters                  parameters;
+    VI::AdaptiveStopping<Iterate, Estimate>::Hooks hooks;
+    Vector                                         point;
+    unsigned int n_estimates = 0, n_iterate_estimates = 0;
+  };
+} // namespace
+
+
+// The first check has no previous iterate and its own estimate fails the
+// GMRES test; the second accepts the first check's iterate, estimated with
+// the second as look-ahead, and hands its update back.
+TEST_F(AdaptiveStoppingTest, AcceptsThePreviousIterateWithItsLookAhead)
+{
+  VI::AdaptiveStopping<Iterate, Estimate> stopping(parameters, hooks);
+  stopping.start_solve();
+  stopping.start_step(point);
+  const auto monitor = stopping.gmres_monitor();
+  EXPECT_FALSE(monitor(update(0.5), 10));
+  EXPECT_TRUE(monitor(update(0.25), 20));
+  EXPECT_EQ(n_estimates, 3u);
+
+  Vector dX = update(0.);
+  EXPECT_TRUE(stopping.accepted_update_of_step()(dX));
+  EXPECT_DOUBLE_EQ(dX[0], 0.5);
+
+  ASSERT_EQ(stopping.records.size(), 3u);
+  EXPECT_EQ(stopping.records[0].linear_iteration, 10u);
+  EXPECT_EQ(stopping.records[1].linear_iteration, 20u);
+  EXPECT_EQ(stopping.records[2].linear_iteration, 10u);
+  EXPECT_DOUBLE_EQ(stopping.records[2].estimate.eta_alg, 0.01);
+  for (const VI::EstimateRecord &r : stopping.records)
+    {
+      EXPECT_EQ(r.newton_step, 1u);
+      EXPECT_FALSE(r.accepted);
+    }
+
+  // The Newton iterate is the accepted one: its estimate is reused, and
+  // eta_lin = 0.2 <= 0.3 eta_disc ends the iteration.
+  VI::NewtonStep step;
+  step.linear_iterations = 20;
+  EXPECT_TRUE(stopping.newton_criterion(point, step));
+  EXPECT_TRUE(stopping.step_is_certified());
+  EXPECT_EQ(n_iterate_estimates, 0u);
+  ASSERT_TRUE(stopping.final_estimate.has_value());
+  EXPECT_TRUE(stopping.records.back().accepted);
+}
+
+
+// The other strategies only record: GMRES runs to its tolerance, and a
+// shortened step (line search) is estimated afresh.
+TEST_F(AdaptiveStoppingTest, OtherStrategiesOnlyRecord)
+{
+  parameters.strategy = "inexact";
+  VI::AdaptiveStopping<Iterate, Estimate> stopping(parameters, hooks);
+  stopping.start_solve();
+  stopping.start_step(point);
+  const auto monitor = stopping.gmres_monitor();
+  EXPECT_FALSE(monitor(update(0.5), 10));
+  EXPECT_FALSE(monitor(update(0.25), 20));
+  Vector dX = update(0.75);
+  EXPECT_FALSE(stopping.accepted_update_of_step()(dX));
+  EXPECT_DOUBLE_EQ(dX[0], 0.75);
+
+  VI::NewtonStep step;
+  step.step_length = 0.5;
+  EXPECT_FALSE(stopping.newton_criterion(point, step));
+  EXPECT_EQ(n_iterate_estimates, 1u);
+  EXPECT_EQ(stopping.records.size(), 4u);
+}
+
+
+// An estimate of the flux-free terms only (decide_early) ends GMRES but
+// not Newton, and is not the solve's final estimate.
+TEST_F(AdaptiveStoppingTest, AFluxFreeDecisionDoesNotEndNewton)
+{
+  hooks.decide_early = [](Iterate &) -> std::optional<Estimate> {
+    Estimate e;
+    e.complete = false;
+    e.eta_alg  = 0.;
+    return e;
+  };
+  VI::AdaptiveStopping<Iterate, Estimate> stopping(parameters, hooks);
+  stopping.start_solve();
+  stopping.start_step(point);
+  EXPECT_TRUE(stopping.gmres_monitor()(update(0.5), 10));
+  EXPECT_FALSE(stopping.step_is_certified());
+  EXPECT_FALSE(stopping.newton_criterion(point, VI::NewtonStep()));
+  EXPECT_FALSE(stopping.final_estimate.has_value());
+
+  const VI::Json     records = VI::to_json(stopping.records, true);
+  std::ostringstream text;
+  records.write(text);
+  EXPECT_NE(text.str().find("\"fluxes\": false"), std::string::npos);
+}
+
+
+TEST(CycleLine, NamesTheKnownParts)
+{
+  VI::CycleLine line;
+  line.solver            = "Newton-min";
+  line.newton_iterations = 3;
+  line.contact_nodes     = 12;
+  line.seconds           = 0.5;
+  EXPECT_EQ(VI::to_string(line),
+            "   Newton-min: 3 iterations, 12 nodes in contact, 0.5 s");
+  line.linear_iterations = 40;
+  line.linear_solver     = "GMRES";
+  line.error             = 0.01;
+  line.estimate          = 0.011;
+  EXPECT_EQ(VI::to_string(line),
+            "   Newton-min: 3 iterations, 40 GMRES, 12 nodes in contact, "
+            "energy error 1.000e-02, estimate 1.100e-02 (effectivity 1.1), "
+            "0.5 s");
+}
