@@ -190,7 +190,26 @@ namespace StepHHO
   HHOProblem<dim>::setup_system()
   {
     TimerOutput::Scope t(timer, "setup");
+    distribute_unknowns();
+    index_local_unknowns();
+    project_boundary_data();
+    // Every cell node carries a complementarity pair.
+    contact_rows.reinit(owned_nodes, AffineConstraints<double>());
 
+    if (parameters.static_condensation)
+      make_face_sparsity();
+    else
+      make_jacobian_sparsity();
+    reinit_vectors();
+  }
+
+
+  // The cell DoFs (the nodes) and the face DoFs, and the unknowns X they
+  // carry: those of the nodes and faces a process owns, and those it sees.
+  template <int dim>
+  void
+  HHOProblem<dim>::distribute_unknowns()
+  {
     cell_dof_handler.distribute_dofs(cell_fe);
     face_dof_handler.distribute_dofs(face_fe);
     owned_nodes = cell_dof_handler.locally_owned_dofs();
@@ -214,35 +233,47 @@ namespace StepHHO
     };
     owned_system    = unknowns_of(owned_nodes, owned_faces);
     relevant_system = unknowns_of(relevant_nodes, relevant_faces);
+  }
 
-    {
-      const unsigned int n_c = cell_fe.n_dofs_per_cell();
-      const unsigned int n_f = face_fe.n_dofs_per_cell();
-      const unsigned int n   = n_fields * n_c + 2 * n_f;
-      unknown_indices.assign(triangulation.n_active_cells() * n,
-                             numbers::invalid_dof_index);
-      std::vector<types::global_dof_index> nodes(n_c), face_dofs(n_f);
-      for (const auto &cell : cell_dof_handler.active_cell_iterators())
-        if (cell->is_locally_owned())
-          {
-            cell->get_dof_indices(nodes);
-            face_cell(cell)->get_dof_indices(face_dofs);
-            types::global_dof_index *unknowns =
-              unknown_indices.data() + cell->active_cell_index() * n;
-            for (unsigned int alpha = 0; alpha < n_fields; ++alpha)
-              for (unsigned int I = 0; I < n_c; ++I)
-                unknowns[alpha * n_c + I] = index(nodes[I], alpha);
-            for (unsigned int alpha = 0; alpha < 2; ++alpha)
-              for (unsigned int k = 0; k < n_f; ++k)
-                unknowns[n_fields * n_c + alpha * n_f + k] =
-                  face_unknown(face_dofs[k], alpha);
-          }
-    }
 
-    // Dirichlet data: on each boundary face F, u_alpha,F = Pi_F g_alpha, the
-    // L2 projection onto P_{p-1}(F). These face unknowns are fixed: Newton
-    // updates vanish there (homogeneous constraints), and X carries the
-    // projected values from the start.
+  // The positions in X of the unknowns of every locally owned cell, in the
+  // local order of static_condensation.h (local_unknowns()).
+  template <int dim>
+  void
+  HHOProblem<dim>::index_local_unknowns()
+  {
+    const unsigned int n_c = cell_fe.n_dofs_per_cell();
+    const unsigned int n_f = face_fe.n_dofs_per_cell();
+    const unsigned int n   = n_fields * n_c + 2 * n_f;
+    unknown_indices.assign(triangulation.n_active_cells() * n,
+                           numbers::invalid_dof_index);
+    std::vector<types::global_dof_index> nodes(n_c), face_dofs(n_f);
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          cell->get_dof_indices(nodes);
+          face_cell(cell)->get_dof_indices(face_dofs);
+          types::global_dof_index *unknowns =
+            unknown_indices.data() + cell->active_cell_index() * n;
+          for (unsigned int alpha = 0; alpha < n_fields; ++alpha)
+            for (unsigned int I = 0; I < n_c; ++I)
+              unknowns[alpha * n_c + I] = index(nodes[I], alpha);
+          for (unsigned int alpha = 0; alpha < 2; ++alpha)
+            for (unsigned int k = 0; k < n_f; ++k)
+              unknowns[n_fields * n_c + alpha * n_f + k] =
+                face_unknown(face_dofs[k], alpha);
+        }
+  }
+
+
+  // Dirichlet data: on each boundary face F, u_alpha,F = Pi_F g_alpha, the
+  // L2 projection onto P_{p-1}(F). These face unknowns are fixed: Newton
+  // updates vanish there (homogeneous constraints), and X carries the
+  // projected values from the start.
+  template <int dim>
+  void
+  HHOProblem<dim>::project_boundary_data()
+  {
     face_constraints.clear();
     face_constraints.reinit(relevant_faces);
     boundary_values.reinit(owned_system, comm);
@@ -310,74 +341,92 @@ namespace StepHHO
       for (unsigned int alpha = 0; alpha < 2; ++alpha)
         system_constraints.add_line(face_unknown(line.index, alpha));
     system_constraints.close();
+  }
 
-    // Every cell node carries a complementarity pair.
-    contact_rows.reinit(owned_nodes, AffineConstraints<double>());
 
-    if (parameters.static_condensation)
-      {
-        DynamicSparsityPattern pattern(relevant_faces);
-        DoFTools::make_sparsity_pattern(face_dof_handler,
-                                        pattern,
-                                        face_constraints,
-                                        /*keep_constrained_dofs=*/false);
-        SparsityTools::distribute_sparsity_pattern(pattern,
-                                                   owned_faces,
-                                                   comm,
-                                                   relevant_faces);
-        mean_matrix.reinit(owned_faces, owned_faces, pattern, comm);
-        difference_matrix.reinit(owned_faces, owned_faces, pattern, comm);
-        system_matrix.clear();
-      }
-    else
-      {
-        // The couplings of a cell: (x1; x1, x3, y1), (x2; x2, x3, y2),
-        // (x3; x1, x2, x3) at each node, (y1; x1, y1), (y2; x2, y2).
-        const unsigned int n_c = cell_fe.n_dofs_per_cell();
-        const unsigned int n_f = face_fe.n_dofs_per_cell();
-        const unsigned int n   = n_fields * n_c + 2 * n_f;
-        // 0, 1: x1, x2; 2: x3; 3, 4: y1, y2
-        const auto block = [&](const unsigned int i) {
-          return i < n_fields * n_c ? i / n_c : 3 + (i - n_fields * n_c) / n_f;
-        };
-        const auto membrane = [&](const unsigned int b) {
-          return b >= 3 ? b - 3 : b;
-        };
-        Table<2, bool> couples(n, n);
-        for (unsigned int i = 0; i < n; ++i)
-          for (unsigned int j = 0; j < n; ++j)
-            {
-              const unsigned int bi = block(i), bj = block(j);
-              const bool same_node = bi < 3 && bj < 3 && i % n_c == j % n_c;
-              if (bi != 2 && bj != 2)
-                couples(i, j) = membrane(bi) == membrane(bj);
-              else if (bi == 2) // complementarity row
-                couples(i, j) = bj < 3 && same_node;
-              else // coupling -I, +I to the multiplier
-                couples(i, j) = bi < 2 && same_node;
-            }
+  // With static condensation: the sparsity of the two face systems (the
+  // mean and the difference of the membranes), which share the pattern of
+  // the face DoFs.
+  template <int dim>
+  void
+  HHOProblem<dim>::make_face_sparsity()
+  {
+    DynamicSparsityPattern pattern(relevant_faces);
+    DoFTools::make_sparsity_pattern(face_dof_handler,
+                                    pattern,
+                                    face_constraints,
+                                    /*keep_constrained_dofs=*/false);
+    SparsityTools::distribute_sparsity_pattern(pattern,
+                                               owned_faces,
+                                               comm,
+                                               relevant_faces);
+    mean_matrix.reinit(owned_faces, owned_faces, pattern, comm);
+    difference_matrix.reinit(owned_faces, owned_faces, pattern, comm);
+    system_matrix.clear();
+  }
 
-        DynamicSparsityPattern pattern(relevant_system);
-        for (const auto &cell : cell_dof_handler.active_cell_iterators())
-          if (cell->is_locally_owned())
-            {
-              const auto unknowns = local_unknowns(cell);
-              system_constraints.add_entries_local_to_global(
-                std::vector<types::global_dof_index>(unknowns.begin(),
-                                                     unknowns.end()),
-                pattern,
-                false,
-                couples);
-            }
-        SparsityTools::distribute_sparsity_pattern(pattern,
-                                                   owned_system,
-                                                   comm,
-                                                   relevant_system);
-        system_matrix.reinit(owned_system, owned_system, pattern, comm);
-        mean_matrix.clear();
-        difference_matrix.clear();
-      }
 
+  // Without static condensation: the sparsity of the whole Jacobian
+  // A = [E ; J_C], from the couplings within each cell.
+  template <int dim>
+  void
+  HHOProblem<dim>::make_jacobian_sparsity()
+  {
+    // The couplings of a cell: (x1; x1, x3, y1), (x2; x2, x3, y2),
+    // (x3; x1, x2, x3) at each node, (y1; x1, y1), (y2; x2, y2).
+    const unsigned int n_c = cell_fe.n_dofs_per_cell();
+    const unsigned int n_f = face_fe.n_dofs_per_cell();
+    const unsigned int n   = n_fields * n_c + 2 * n_f;
+    // 0, 1: x1, x2; 2: x3; 3, 4: y1, y2
+    const auto block = [&](const unsigned int i) {
+      return i < n_fields * n_c ? i / n_c : 3 + (i - n_fields * n_c) / n_f;
+    };
+    const auto membrane = [&](const unsigned int b) {
+      return b >= 3 ? b - 3 : b;
+    };
+    Table<2, bool> couples(n, n);
+    for (unsigned int i = 0; i < n; ++i)
+      for (unsigned int j = 0; j < n; ++j)
+        {
+          const unsigned int bi = block(i), bj = block(j);
+          const bool         same_node = bi < 3 && bj < 3 && i % n_c == j % n_c;
+          if (bi != 2 && bj != 2)
+            couples(i, j) = membrane(bi) == membrane(bj);
+          else if (bi == 2) // complementarity row
+            couples(i, j) = bj < 3 && same_node;
+          else // coupling -I, +I to the multiplier
+            couples(i, j) = bi < 2 && same_node;
+        }
+
+    DynamicSparsityPattern pattern(relevant_system);
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          const auto unknowns = local_unknowns(cell);
+          system_constraints.add_entries_local_to_global(
+            std::vector<types::global_dof_index>(unknowns.begin(),
+                                                 unknowns.end()),
+            pattern,
+            false,
+            couples);
+        }
+    SparsityTools::distribute_sparsity_pattern(pattern,
+                                               owned_system,
+                                               comm,
+                                               relevant_system);
+    system_matrix.reinit(owned_system, owned_system, pattern, comm);
+    mean_matrix.clear();
+    difference_matrix.clear();
+  }
+
+
+  // The vectors of the three layouts, the copies into ghosted ones, the
+  // constant modes of the face space (for AMG), and the cells'
+  // eliminations.
+  template <int dim>
+  void
+  HHOProblem<dim>::reinit_vectors()
+  {
     load.reinit(owned_system, comm);
     solution.reinit(owned_system, comm);
     ghosted_iterate.reinit(owned_system, relevant_system, comm);
