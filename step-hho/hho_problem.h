@@ -114,6 +114,19 @@ namespace StepHHO
     make_grid();
     void
     setup_system();
+    // The phases of setup_system().
+    void
+    distribute_unknowns();
+    void
+    index_local_unknowns();
+    void
+    project_boundary_data();
+    void
+    make_face_sparsity();
+    void
+    make_jacobian_sparsity();
+    void
+    reinit_vectors();
     void
     assemble_system();
     void

@@ -28,6 +28,13 @@ namespace StepTwoPhase
 {
   using namespace dealii;
 
+  /// A time in seconds in years, the unit of the output.
+  inline double
+  years(const double seconds)
+  {
+    return seconds / seconds_per_year;
+  }
+
   /// One Newton iteration of a time step (what summary.json records).
   struct IterationRecord
   {
@@ -123,6 +130,14 @@ namespace StepTwoPhase
     write_tables() const;
     void
     write_summary(const std::string &status, const std::string &failure);
+    // What run() prints: the method, and at the end the totals and the
+    // benchmark's quantities at x = 0.
+    void
+    print_description() const;
+    void
+    print_totals() const;
+    void
+    print_gas_at_x0() const;
 
     void
     write_checkpoint() const;

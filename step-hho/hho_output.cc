@@ -1,0 +1,294 @@
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/utilities.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <vi/nodal_fields.h>
+
+#include "hho_problem.h"
+
+#include <cmath>
+#include <fstream>
+
+namespace StepHHO
+{
+  using VI::NodalFields::index;
+  using VI::NodalFields::multiplier;
+  using VI::NodalFields::n_fields;
+
+  // ------------------------------------------------------------------------
+  // Results.
+
+  // The cell unknowns as FE_DGP functions: u_alpha,K = sum_j (T X_alpha)_j
+  // P_j, lambda_h with coefficients M^{-1} V^T X3 (from X3 = T^T M c), and
+  // the nodes in contact.
+  template <int dim>
+  void
+  HHOProblem<dim>::postprocess()
+  {
+    TimerOutput::Scope            t(timer, "postprocess");
+    const unsigned int            n_c = cell_fe.n_dofs_per_cell();
+    TrilinosWrappers::MPI::Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
+      gap(owned_nodes, comm), lambda(owned_nodes, comm),
+      indicator(owned_nodes, comm);
+
+    std::vector<types::global_dof_index> nodes(n_c);
+    Vector<double>                       x(n_c), c(n_c), Vx(n_c);
+    FullMatrix<double>                   M_inverse;
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          cell->get_dof_indices(nodes);
+          Vector<double> c_alpha[2] = {Vector<double>(n_c),
+                                       Vector<double>(n_c)};
+          for (unsigned int alpha = 0; alpha < 2; ++alpha)
+            {
+              for (unsigned int I = 0; I < n_c; ++I)
+                x(I) = solution(index(nodes[I], alpha));
+              T.vmult(c_alpha[alpha], x);
+            }
+          for (unsigned int I = 0; I < n_c; ++I)
+            x(I) = solution(index(nodes[I], multiplier));
+          V.Tvmult(Vx, x);
+          M_inverse = local_matrices_of(cell).mass;
+          M_inverse.gauss_jordan();
+          M_inverse.vmult(c, Vx);
+          for (unsigned int j = 0; j < n_c; ++j)
+            {
+              u1(nodes[j])     = c_alpha[0](j);
+              u2(nodes[j])     = c_alpha[1](j);
+              gap(nodes[j])    = c_alpha[0](j) - c_alpha[1](j);
+              lambda(nodes[j]) = c(j);
+            }
+        }
+    for (auto *v : {&u1, &u2, &gap, &lambda})
+      v->compress(VectorOperation::insert);
+    ghosted_nodes.copy(u1, u1_h);
+    ghosted_nodes.copy(u2, u2_h);
+    ghosted_nodes.copy(gap, gap_h);
+    ghosted_nodes.copy(lambda, lambda_h);
+
+    // Nodes where u1 = u2 is enforced, and their share on each cell.
+    n_contact_nodes = contact_rows.contact_set(solution, indicator);
+    contact_fraction.reinit(triangulation.n_active_cells());
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          cell->get_dof_indices(nodes);
+          double in_contact = 0;
+          for (const auto i : nodes)
+            in_contact += indicator(i);
+          contact_fraction(cell->active_cell_index()) = in_contact / n_c;
+        }
+  }
+
+
+  // The energy error of the slides, |||u - u_h|||^2 = sum_K mu1 |u1 -
+  // u1,K|^2_{1,K} + mu2 |u2 - u2,K|^2_{1,K} with the cell polynomials, and the
+  // L2 error of the multiplier.
+  template <int dim>
+  void
+  HHOProblem<dim>::compute_errors()
+  {
+    if (!data.has_exact_solution())
+      return;
+    TimerOutput::Scope t(timer, "errors");
+
+    const QGauss<dim> quadrature(degree + 3);
+    Vector<float>     cellwise(triangulation.n_active_cells());
+    const auto        error = [&](const TrilinosWrappers::MPI::Vector &uh,
+                           const Function<dim>                 &exact,
+                           const VectorTools::NormType          norm) {
+      VectorTools::integrate_difference(
+        *mapping, cell_dof_handler, uh, exact, cellwise, quadrature, norm);
+      return VectorTools::compute_global_error(triangulation, cellwise, norm);
+    };
+    const double e1 = error(u1_h, *data.exact_u1, VectorTools::H1_seminorm);
+    const double e2 = error(u2_h, *data.exact_u2, VectorTools::H1_seminorm);
+    error_energy    = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
+    if (data.exact_lambda)
+      error_multiplier =
+        error(lambda_h, *data.exact_lambda, VectorTools::L2_norm);
+  }
+
+
+  // The cell unknowns for ParaView: u1, u2, gap = u1 - u2 and lambda as
+  // discontinuous P_p functions, the share of each cell's nodes in contact,
+  // and the owning process.
+  template <int dim>
+  void
+  HHOProblem<dim>::output_results(const unsigned int cycle) const
+  {
+    if (!parameters.output.write_vtu)
+      return;
+    TimerOutput::Scope t(timer, "output");
+
+    DataOut<dim> data_out;
+    data_out.attach_dof_handler(cell_dof_handler);
+    data_out.add_data_vector(u1_h, "u1");
+    data_out.add_data_vector(u2_h, "u2");
+    data_out.add_data_vector(gap_h, "gap");
+    data_out.add_data_vector(lambda_h, "lambda");
+    data_out.add_data_vector(contact_fraction,
+                             "contact",
+                             DataOut<dim>::type_cell_data);
+    Vector<float> subdomain(triangulation.n_active_cells());
+    subdomain = triangulation.locally_owned_subdomain();
+    data_out.add_data_vector(subdomain,
+                             "partition",
+                             DataOut<dim>::type_cell_data);
+    data_out.build_patches(*mapping,
+                           degree,
+                           VI::has_curved_cells(geometry) ?
+                             DataOut<dim>::curved_inner_cells :
+                             DataOut<dim>::curved_boundary);
+    data_out.write_vtu_with_pvtu_record(
+      parameters.output.directory + "/", "solution", cycle, comm, 2, 8);
+  }
+
+
+  // Global refinement; with nested iteration the cell polynomials u1,K,
+  // u2,K and lambda_h are carried to the new mesh by SolutionTransfer.
+  template <int dim>
+  void
+  HHOProblem<dim>::refine_mesh()
+  {
+    TimerOutput::Scope t(timer, "refinement");
+    for (const auto &cell : triangulation.active_cell_iterators())
+      if (cell->is_locally_owned())
+        cell->set_refine_flag();
+    triangulation.prepare_coarsening_and_refinement();
+
+    if (parameters.nonlinear_solver.nested_iteration)
+      {
+        solution_transfer =
+          std::make_unique<parallel::distributed::SolutionTransfer<
+            dim,
+            TrilinosWrappers::MPI::Vector>>(cell_dof_handler);
+        solution_transfer->prepare_for_coarsening_and_refinement(
+          std::vector<const TrilinosWrappers::MPI::Vector *>{&u1_h,
+                                                             &u2_h,
+                                                             &lambda_h});
+      }
+    triangulation.execute_coarsening_and_refinement();
+  }
+
+
+  template <int dim>
+  void
+  HHOProblem<dim>::record_cycle(const unsigned int cycle)
+  {
+    const double wall = run_record.cycle_seconds();
+
+    // Unknowns as counted in the seed: 2 (cells dim P_p + interior faces
+    // dim P_{p-1}) + cells dim P_p (the multiplier) without static
+    // condensation, 2 (interior faces) dim P_{p-1} with it; the fixed
+    // boundary face values are not unknowns.
+    const types::global_dof_index dofs_condensed =
+      2 * (face_dof_handler.n_dofs() - n_boundary_face_dofs);
+    const types::global_dof_index dofs =
+      n_fields * cell_dof_handler.n_dofs() + dofs_condensed;
+
+    table.add_value("cycle", cycle);
+    table.add_value("cells", triangulation.n_global_active_cells());
+    table.add_value("dofs", dofs);
+    table.add_value("dofs_condensed", dofs_condensed);
+    table.add_value("newton", newton_report.iterations);
+    table.add_value("linear", newton_report.linear_iterations);
+    table.add_value("contact", n_contact_nodes);
+    if (data.has_exact_solution())
+      {
+        table.add_value("error_energy", error_energy);
+        table.set_scientific("error_energy", true);
+        table.set_precision("error_energy", 4);
+        if (data.exact_lambda)
+          {
+            table.add_value("error_lambda", error_multiplier);
+            table.set_scientific("error_lambda", true);
+            table.set_precision("error_lambda", 4);
+          }
+      }
+    table.add_value("wall_s", wall);
+    table.set_precision("wall_s", 3);
+
+    VI::Json record             = VI::Json::object();
+    record["cycle"]             = cycle;
+    record["cells"]             = triangulation.n_global_active_cells();
+    record["dofs"]              = dofs;
+    record["dofs_condensed"]    = dofs_condensed;
+    record["dofs_cell"]         = n_fields * cell_dof_handler.n_dofs();
+    record["newton_iterations"] = newton_report.iterations;
+    record["linear_iterations"] = newton_report.linear_iterations;
+    record["contact_nodes"]     = n_contact_nodes;
+    if (data.has_exact_solution())
+      record["error_energy"] = error_energy;
+    if (data.exact_lambda)
+      record["error_lambda_l2"] = error_multiplier;
+    record["wall_seconds"] = wall;
+
+    // The TimerOutput sections of this cycle.
+    record["timing"] = run_record.cycle_timing();
+
+    VI::Json iterations = VI::Json::array();
+    for (const VI::NewtonStep &step : newton_report.steps)
+      {
+        VI::Json it                    = VI::Json::object();
+        it["k"]                        = step.iteration;
+        it["i"]                        = step.linear_iterations;
+        it["residual_equations"]       = step.residual.equations;
+        it["residual_complementarity"] = step.residual.complementarity;
+        it["step_length"]              = step.step_length;
+        iterations.push_back(it);
+      }
+    record["iterations"] = iterations;
+    run_record.add(record);
+  }
+
+
+  // The convergence table, with rates in h (from the DoF counts, d = 2):
+  // to the screen with the linear iterations and the wall time, and to
+  // convergence.txt without them, so that the file is reproducible on any
+  // number of processes (AMG, and with it the CG iteration count, depends
+  // on the partition) and diffable.
+  template <int dim>
+  void
+  HHOProblem<dim>::write_tables() const
+  {
+    std::vector<std::string> errors;
+    if (data.has_exact_solution())
+      errors.push_back("error_energy");
+    if (data.exact_lambda)
+      errors.push_back("error_lambda");
+
+    ConvergenceTable with_rates = table;
+    for (const std::string &key : errors)
+      with_rates.evaluate_convergence_rates(
+        key, "dofs", ConvergenceTable::reduction_rate_log2, dim);
+    pcout << std::endl;
+    if (Utilities::MPI::this_mpi_process(comm) == 0)
+      {
+        with_rates.write_text(std::cout, TableHandler::org_mode_table);
+        std::ofstream file(parameters.output.directory + "/convergence.txt");
+        std::vector<std::string> columns = {
+          "cycle", "cells", "dofs", "dofs_condensed", "newton", "contact"};
+        columns.insert(columns.end(), errors.begin(), errors.end());
+        ConvergenceTable file_table = with_rates;
+        file_table.set_column_order(columns);
+        file_table.write_text(file, TableHandler::org_mode_table);
+      }
+  }
+
+
+  template void
+  HHOProblem<2>::postprocess();
+  template void
+  HHOProblem<2>::compute_errors();
+  template void
+  HHOProblem<2>::output_results(const unsigned int) const;
+  template void
+  HHOProblem<2>::refine_mesh();
+  template void
+  HHOProblem<2>::record_cycle(const unsigned int);
+  template void
+  HHOProblem<2>::write_tables() const;
+} // namespace StepHHO

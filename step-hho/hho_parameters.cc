@@ -1,0 +1,99 @@
+#include <vi/errors.h>
+
+#include "hho_problem.h"
+
+namespace StepHHO
+{
+  void
+  Parameters::declare(ParameterHandler &prm)
+  {
+    VI::ProblemParameters::declare(prm,
+                                   VI::membrane_test_case_names(),
+                                   "seed-smooth");
+    VI::MeshParameters::declare(prm, "global");
+    // The shared declaration's default method is "fem", which must be among
+    // the accepted values; step-hho then narrows "Method" to "hho" (a later
+    // declaration of an entry replaces the earlier one).
+    VI::DiscretizationParameters::declare(prm, "fem|hho");
+    prm.enter_subsection("Discretization");
+    {
+      prm.declare_entry("Method",
+                        "hho",
+                        Patterns::Selection("hho"),
+                        "Discretisation of the membranes: hho (cell "
+                        "polynomials of degree p, face polynomials of degree "
+                        "p - 1).");
+      prm.declare_entry("Static condensation",
+                        "true",
+                        Patterns::Bool(),
+                        "true: in every Newton step, eliminate the cell "
+                        "unknowns (both membranes and the multiplier) cell by "
+                        "cell and solve the system on the faces only; false: "
+                        "solve the whole linearised system (for comparison; "
+                        "needs Linear solver/Solver = direct).");
+      prm.declare_entry("Gradient degree",
+                        "p",
+                        Patterns::Selection("p|p-1"),
+                        "Degree k of the gradient reconstruction G_K in "
+                        "P_k(K)^2: p as in the seed (exact on P_p on "
+                        "parallelograms), or p-1 (exact on P_p on "
+                        "parallelograms, and a projection of the gradient on "
+                        "any straight-sided cell).");
+      prm.declare_entry("Contact nodes",
+                        "gauss-padua",
+                        Patterns::Selection("gauss-padua|padua"),
+                        "The nodes x_I of each cell at which u1 - u2 >= 0 is "
+                        "imposed: the checkerboard half of a (p+1) x (p+2) "
+                        "grid of Gauss-Legendre points (gauss-padua: all "
+                        "interpolatory weights positive), or of "
+                        "Chebyshev-Lobatto points (padua: some weights <= 0 "
+                        "for p >= 2, which spoils the multiplier).");
+    }
+    prm.leave_subsection();
+    VI::NonlinearSolverParameters::declare(prm, "exact");
+    VI::LinearSolverParameters::declare(prm, "direct|cg", "cg");
+    prm.enter_subsection("Linear solver");
+    {
+      prm.declare_entry("Solver",
+                        "cg",
+                        Patterns::Selection("direct|cg"),
+                        "cg: conjugate gradients with the preconditioner "
+                        "below on the condensed face system (symmetric "
+                        "positive definite); direct: sparse LU through "
+                        "Trilinos Amesos, on the face system with static "
+                        "condensation and on the whole system without.");
+      prm.declare_entry("Preconditioner",
+                        "amg",
+                        Patterns::Selection("ilu|amg"),
+                        "Preconditioner of CG on each of the two face "
+                        "systems (the mean and the difference of the "
+                        "membranes): amg (Trilinos ML) or ilu (Trilinos "
+                        "Ifpack).");
+    }
+    prm.leave_subsection();
+    VI::OutputParameters::declare(prm);
+  }
+
+
+  void
+  Parameters::parse(ParameterHandler &prm)
+  {
+    problem.parse(prm);
+    mesh.parse(prm);
+    discretization.parse(prm);
+    prm.enter_subsection("Discretization");
+    static_condensation = prm.get_bool("Static condensation");
+    contact_nodes       = prm.get("Contact nodes");
+    gradient_degree     = prm.get("Gradient degree");
+    prm.leave_subsection();
+    nonlinear_solver.parse(prm);
+    linear_solver.parse(prm);
+    output.parse(prm);
+
+    if (linear_solver.solver == "cg" && !static_condensation)
+      throw VI::InputError(
+        "Linear solver/Solver = cg needs Discretization/Static condensation "
+        "= true: without condensation the Newton system is a nonsymmetric "
+        "saddle-point system (use Solver = direct)");
+  }
+} // namespace StepHHO
