@@ -29,6 +29,116 @@ namespace VI
       ghosted = values;
       return ghosted;
     }
+
+
+    // The moments of the hanging nodes back from their parents (see the
+    // class documentation): the densities m_i / (phi_i + sum_j c_ji phi_j,
+    // 1) at the nodes that carry a moment, then at each locally owned
+    // hanging node x_j its moment M_j, which its parents give up; not
+    // where a parent has a contact cell and x_j none (at the free
+    // boundary), since a moment on x_j would leave the contact cells and
+    // add a contact term.
+    TrilinosWrappers::MPI::Vector
+    hanging_node_moments(
+      const TrilinosWrappers::MPI::Vector &moments,
+      const AffineConstraints<double>     &no_moment,
+      const TrilinosWrappers::MPI::Vector &node_integral,
+      const TrilinosWrappers::MPI::Vector &conforming_integral,
+      const TrilinosWrappers::MPI::Vector &contact_cells_at,
+      const IndexSet                      &owned,
+      const IndexSet                      &relevant)
+    {
+      const MPI_Comm                comm = moments.get_mpi_communicator();
+      TrilinosWrappers::MPI::Vector density(owned, comm), nodal(owned, comm);
+      for (const types::global_dof_index i : owned)
+        if (!no_moment.is_constrained(i) && conforming_integral(i) > 0)
+          density(i) = moments(i) / conforming_integral(i);
+      density.compress(VectorOperation::insert);
+      const TrilinosWrappers::MPI::Vector parents_density =
+        with_ghosts(density, relevant);
+      // First the interpolated moments M_j and what each parent would give
+      // up, G_i = sum_j c_ji M_j.
+      struct Interpolated
+      {
+        types::global_dof_index                                        j;
+        const std::vector<std::pair<types::global_dof_index, double>> *entries;
+        double                                                         moment;
+      };
+      std::vector<Interpolated>            interpolated;
+      std::vector<types::global_dof_index> parents;
+      std::vector<double>                  given_up;
+      for (const types::global_dof_index j : owned)
+        if (const auto *entries = no_moment.get_constraint_entries(j))
+          {
+            // Only where every parent carries a moment: the constraints of
+            // the Dirichlet nodes have no entries, and a hanging node next to
+            // them has lost those parents (its weights no longer sum to 1),
+            // whose hats, also conforming, would not see its moment.
+            double density_j = 0, weights = 0;
+            for (const auto &[i, c] : *entries)
+              {
+                density_j += c * parents_density(i);
+                weights += c;
+              }
+            if (std::abs(weights - 1.) > 1e-12)
+              continue;
+            if (!(contact_cells_at(j) > 0) &&
+                std::any_of(entries->begin(),
+                            entries->end(),
+                            [&](const auto &e) {
+                              return contact_cells_at(e.first) > 0;
+                            }))
+              continue;
+            interpolated.push_back({j, entries, node_integral(j) * density_j});
+            for (const auto &[i, c] : *entries)
+              {
+                parents.push_back(i);
+                given_up.push_back(c * interpolated.back().moment);
+              }
+          }
+      TrilinosWrappers::MPI::Vector give(owned, comm);
+      give.add(parents, given_up);
+      give.compress(VectorOperation::add);
+      // A parent gives up at most its own moment: alpha_i G_i with alpha_i =
+      // m_i / G_i clamped to [0, 1] (below 1 where the parents' densities
+      // differ much, at the free boundary; 0 where m_i has the other sign,
+      // among them the moments that are zero up to round-off, so that
+      // lambda~ is continuous in them); a hanging node takes the least alpha
+      // of its parents. (alpha = 1 wherever the density varies little, and
+      // for a constant.)
+      TrilinosWrappers::MPI::Vector limit(owned, comm);
+      for (const types::global_dof_index i : owned)
+        {
+          const double m = no_moment.is_constrained(i) ? 0. : moments(i),
+                       g = give(i);
+          limit(i)       = (g == 0) ? 1. : std::clamp(m / g, 0., 1.);
+        }
+      limit.compress(VectorOperation::insert);
+      const TrilinosWrappers::MPI::Vector parents_limit =
+        with_ghosts(limit, relevant);
+
+      given_up.clear();
+      parents.clear();
+      for (const types::global_dof_index i : owned)
+        if (!no_moment.is_constrained(i))
+          nodal(i) = moments(i);
+      for (const auto &[j, entries, moment] : interpolated)
+        {
+          double alpha = 1;
+          for (const auto &[i, c] : *entries)
+            alpha = std::min(alpha, static_cast<double>(parents_limit(i)));
+          nodal(j) = alpha * moment;
+          for (const auto &[i, c] : *entries)
+            {
+              parents.push_back(i);
+              given_up.push_back(-c * nodal(j));
+            }
+        }
+      nodal.compress(VectorOperation::insert);
+      nodal.add(parents, given_up);
+      nodal.compress(VectorOperation::add);
+      return with_ghosts(nodal, relevant);
+    }
   } // namespace
 
   template <int dim>
@@ -182,101 +292,16 @@ namespace VI
     const TrilinosWrappers::MPI::Vector contact_cells_at =
       with_ghosts(contact_cells, relevant);
 
-    // The moments of the hanging nodes back from their parents (see the
-    // class documentation): the densities m_i / (phi_i + sum_j c_ji phi_j,
-    // 1) at the nodes that carry a moment, then at each locally owned
-    // hanging node x_j its moment M_j, which its parents give up; not
-    // where a parent has a contact cell and x_j none (at the free
-    // boundary), since a moment on x_j would leave the contact cells and
-    // add a contact term.
-    TrilinosWrappers::MPI::Vector density(owned, comm), nodal(owned, comm);
-    for (const types::global_dof_index i : owned)
-      if (!no_moment->is_constrained(i) && conforming_integral(i) > 0)
-        density(i) = moments(i) / conforming_integral(i);
-    density.compress(VectorOperation::insert);
-    const TrilinosWrappers::MPI::Vector parents_density =
-      with_ghosts(density, relevant);
-    // First the interpolated moments M_j and what each parent would give
-    // up, G_i = sum_j c_ji M_j.
-    struct Interpolated
-    {
-      types::global_dof_index                                        j;
-      const std::vector<std::pair<types::global_dof_index, double>> *entries;
-      double                                                         moment;
-    };
-    std::vector<Interpolated>            interpolated;
-    std::vector<types::global_dof_index> parents;
-    std::vector<double>                  given_up;
-    for (const types::global_dof_index j : owned)
-      if (const auto *entries = no_moment->get_constraint_entries(j))
-        {
-          // Only where every parent carries a moment: the constraints of
-          // the Dirichlet nodes have no entries, and a hanging node next to
-          // them has lost those parents (its weights no longer sum to 1),
-          // whose hats, also conforming, would not see its moment.
-          double density_j = 0, weights = 0;
-          for (const auto &[i, c] : *entries)
-            {
-              density_j += c * parents_density(i);
-              weights += c;
-            }
-          if (std::abs(weights - 1.) > 1e-12)
-            continue;
-          if (!(contact_cells_at(j) > 0) &&
-              std::any_of(entries->begin(), entries->end(), [&](const auto &e) {
-                return contact_cells_at(e.first) > 0;
-              }))
-            continue;
-          interpolated.push_back({j, entries, node_integral(j) * density_j});
-          for (const auto &[i, c] : *entries)
-            {
-              parents.push_back(i);
-              given_up.push_back(c * interpolated.back().moment);
-            }
-        }
-    TrilinosWrappers::MPI::Vector give(owned, comm);
-    give.add(parents, given_up);
-    give.compress(VectorOperation::add);
-    // A parent gives up at most its own moment: alpha_i G_i with alpha_i =
-    // m_i / G_i clamped to [0, 1] (below 1 where the parents' densities
-    // differ much, at the free boundary; 0 where m_i has the other sign,
-    // among them the moments that are zero up to round-off, so that
-    // lambda~ is continuous in them); a hanging node takes the least alpha
-    // of its parents. (alpha = 1 wherever the density varies little, and
-    // for a constant.)
-    TrilinosWrappers::MPI::Vector limit(owned, comm);
-    for (const types::global_dof_index i : owned)
-      {
-        const double m = no_moment->is_constrained(i) ? 0. : moments(i),
-                     g = give(i);
-        limit(i)       = (g == 0) ? 1. : std::clamp(m / g, 0., 1.);
-      }
-    limit.compress(VectorOperation::insert);
-    const TrilinosWrappers::MPI::Vector parents_limit =
-      with_ghosts(limit, relevant);
-
-    given_up.clear();
-    parents.clear();
-    for (const types::global_dof_index i : owned)
-      if (!no_moment->is_constrained(i))
-        nodal(i) = moments(i);
-    for (const auto &[j, entries, moment] : interpolated)
-      {
-        double alpha = 1;
-        for (const auto &[i, c] : *entries)
-          alpha = std::min(alpha, static_cast<double>(parents_limit(i)));
-        nodal(j) = alpha * moment;
-        for (const auto &[i, c] : *entries)
-          {
-            parents.push_back(i);
-            given_up.push_back(-c * nodal(j));
-          }
-      }
-    nodal.compress(VectorOperation::insert);
-    nodal.add(parents, given_up);
-    nodal.compress(VectorOperation::add);
+    // The moments of the nodes, those of the hanging nodes back from
+    // their parents.
     const TrilinosWrappers::MPI::Vector node_moments =
-      with_ghosts(nodal, relevant);
+      hanging_node_moments(moments,
+                           *no_moment,
+                           node_integral,
+                           conforming_integral,
+                           contact_cells_at,
+                           owned,
+                           relevant);
 
     // The dofs and moments of a cell (zero on the nodes that carry none).
     const auto read_cell = [&](const auto &cell) {

@@ -123,96 +123,83 @@ namespace VI
       dirichlet_squared, // |||G|||^2
       n_sums
     };
-  } // namespace
 
-
-  template <int dim>
-  DGContactEstimate
-  estimate_dg_contact_error(const DGContactEstimatorInput<dim> &in)
-  {
-    const Triangulation<dim> &tria  = in.broken->get_triangulation();
-    const double              mu[2] = {in.mu1, in.mu2};
-    const double              theta = in.mu2 / (in.mu1 + in.mu2);
-
-    DGContactEstimate estimate;
-    for (auto *cell_values : {&estimate.cell_flux,
-                              &estimate.cell_residual,
-                              &estimate.cell_algebraic,
-                              &estimate.cell_nonconformity,
-                              &estimate.cell_contact,
-                              &estimate.cell_total})
-      cell_values->reinit(tria.n_active_cells());
-
-    const Quadrature<dim> &quadrature = *in.quadrature;
-    const unsigned int     n_q        = quadrature.size();
-    FEValues<dim>          broken_values(*in.mapping,
-                                in.broken->get_fe(),
-                                quadrature,
-                                update_values | update_gradients |
-                                  update_quadrature_points | update_JxW_values);
-    FEValues<dim>          continuous_values(*in.mapping,
-                                    in.continuous->get_fe(),
-                                    quadrature,
-                                    update_values | update_gradients |
-                                      update_inverse_jacobians);
-    FEValues<dim>          flux_values(*in.mapping,
-                              in.flux->get_fe(),
-                              quadrature,
-                              PiolaDivergence<dim>::update_flags());
-    PiolaDivergence<dim>   divergence(in.flux->get_fe(), quadrature);
-    std::vector<double> sigma_coefficients(in.flux->get_fe().n_dofs_per_cell());
-
-    std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], flux[2];
-    std::vector<double> u[2], s[2], r[2], div_flux[2], f(n_q), lambda(n_q),
-      lambda_nonnegative(n_q);
-    for (unsigned int a = 0; a < 2; ++a)
+    // The cell terms of the DG contact estimate, the per-cell quadrature
+    // work: the values of u_h, s_h, the fluxes and the multipliers at the
+    // quadrature points of a cell, the lifting G of the boundary data, and
+    // the terms of the cell.
+    template <int dim>
+    struct DGCellTerms
+    {
+      explicit DGCellTerms(const DGContactEstimatorInput<dim> &in)
+          : in(in)
+          , tria(in.broken->get_triangulation())
+          , mu{in.mu1, in.mu2}
+          , theta(in.mu2 / (in.mu1 + in.mu2))
+          , n_q(in.quadrature->size())
+          , broken_values(*in.mapping,
+                          in.broken->get_fe(),
+                          *in.quadrature,
+                          update_values | update_gradients |
+                            update_quadrature_points | update_JxW_values)
+          , continuous_values(*in.mapping,
+                              in.continuous->get_fe(),
+                              *in.quadrature,
+                              update_values | update_gradients |
+                                update_inverse_jacobians)
+          , flux_values(*in.mapping,
+                        in.flux->get_fe(),
+                        *in.quadrature,
+                        PiolaDivergence<dim>::update_flags())
+          , divergence(in.flux->get_fe(), *in.quadrature)
+          , sigma_coefficients(in.flux->get_fe().n_dofs_per_cell())
+          , f(n_q)
+          , lambda(n_q)
+          , lambda_nonnegative(n_q)
+          , u_vectors{in.u1, in.u2}
+          , s_vectors{in.s1, in.s2}
+          , r_vectors{in.r1, in.r2}
+          , flux_vectors{in.sigma1, in.sigma2}
+          , forces{in.f1, in.f2}
+          , g{in.g1, in.g2}
+          , c_mu(std::sqrt(1. / in.mu1 + 1. / in.mu2))
+          , C(in.friedrichs_constant * c_mu)
       {
-        for (auto *v : {&grad_u[a], &grad_s[a], &flux[a]})
-          v->resize(n_q);
-        for (auto *v : {&u[a], &s[a], &r[a], &div_flux[a]})
-          v->resize(n_q);
-      }
-    const TrilinosWrappers::MPI::Vector *u_vectors[2]    = {in.u1, in.u2},
-                                        *s_vectors[2]    = {in.s1, in.s2},
-                                        *r_vectors[2]    = {in.r1, in.r2},
-                                        *flux_vectors[2] = {in.sigma1,
-                                                            in.sigma2};
-    const Function<dim> *forces[2]                       = {in.f1, in.f2};
-    const Function<dim> *g[2]                            = {in.g1, in.g2};
-
-    // The lifting G of g - s_h into the cells at the boundary: s_h
-    // interpolates g at the boundary nodes only. On a cell with a boundary
-    // face F, G = delta_F(t) (1 - n) in the reference coordinates (t along
-    // F, n away from it), delta_F = g - s_h on F; delta vanishes at the
-    // vertices, so G is continuous and s_h + G = g on the boundary. Face
-    // values at the points that share the tangential coordinate of the
-    // (tensor-product Gauss) cell quadrature points.
-    std::vector<std::unique_ptr<FEValues<dim>>> face_values;
-    for (unsigned int face = 0; face < GeometryInfo<dim>::faces_per_cell;
-         ++face)
-      face_values.emplace_back(
-        std::make_unique<FEValues<dim>>(*in.mapping,
-                                        in.continuous->get_fe(),
-                                        lifting_face_points<dim>(n_q, face),
-                                        update_values | update_gradients |
-                                          update_jacobians |
-                                          update_quadrature_points));
-    std::vector<double>         G[2];
-    std::vector<Tensor<1, dim>> grad_G[2];
-    for (unsigned int a = 0; a < 2; ++a)
-      {
-        G[a].resize(n_q);
-        grad_G[a].resize(n_q);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            for (auto *v : {&grad_u[a], &grad_s[a], &flux[a]})
+              v->resize(n_q);
+            for (auto *v : {&u[a], &s[a], &r[a], &div_flux[a]})
+              v->resize(n_q);
+          }
+        // The lifting G of g - s_h into the cells at the boundary: s_h
+        // interpolates g at the boundary nodes only. On a cell with a boundary
+        // face F, G = delta_F(t) (1 - n) in the reference coordinates (t along
+        // F, n away from it), delta_F = g - s_h on F; delta vanishes at the
+        // vertices, so G is continuous and s_h + G = g on the boundary. Face
+        // values at the points that share the tangential coordinate of the
+        // (tensor-product Gauss) cell quadrature points.
+        for (unsigned int face = 0; face < GeometryInfo<dim>::faces_per_cell;
+             ++face)
+          face_values.emplace_back(
+            std::make_unique<FEValues<dim>>(*in.mapping,
+                                            in.continuous->get_fe(),
+                                            lifting_face_points<dim>(n_q, face),
+                                            update_values | update_gradients |
+                                              update_jacobians |
+                                              update_quadrature_points));
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            G[a].resize(n_q);
+            grad_G[a].resize(n_q);
+          }
       }
 
-    std::array<double, n_sums> sums{};
-    const double               c_mu = std::sqrt(1. / in.mu1 + 1. / in.mu2);
-    const double               C    = in.friedrichs_constant * c_mu;
-
-    for (const auto &broken_cell : in.broken->active_cell_iterators())
+      // The values at the quadrature points of the cell, and G.
+      void
+      read_values(
+        const typename DoFHandler<dim>::active_cell_iterator &broken_cell)
       {
-        if (!broken_cell->is_locally_owned())
-          continue;
         const typename DoFHandler<dim>::active_cell_iterator continuous_cell(
           &tria, broken_cell->level(), broken_cell->index(), in.continuous),
           flux_cell(&tria, broken_cell->level(), broken_cell->index(), in.flux);
@@ -258,11 +245,16 @@ namespace VI
                                    G[a],
                                    grad_G[a]);
               }
+      }
 
-        const double h_K          = broken_cell->diameter();
-        const auto   index        = broken_cell->active_cell_index();
-        double       cell[n_sums] = {};
-        double       flux_norm[2] = {}, residual[2] = {};
+      // The flux and residual terms of both membranes, and the remainder;
+      // flux_norm = eta_F of each.
+      void
+      add_flux_residual_terms(const double h_K,
+                              double       cell[n_sums],
+                              double       flux_norm[2])
+      {
+        double residual[2] = {};
         for (unsigned int a = 0; a < 2; ++a)
           {
             // (-1)^alpha for alpha = a + 1.
@@ -287,7 +279,11 @@ namespace VI
             cell[flux_squared] += std::pow(flux_norm[a], 2);
             cell[residual_squared] += std::pow(residual[a], 2);
           }
+      }
 
+      MultiplierSplit
+      add_multiplier_terms(const double h_K, double cell[n_sums]) const
+      {
         // The multiplier: lambda_h = c_K lambda_h^pos + delta (and the same
         // for the multiplier lambda~ of the nonnegative coefficients).
         const std::vector<double> &JxW   = broken_values.get_JxW_values();
@@ -301,6 +297,12 @@ namespace VI
           poincare_squared * split_disc.oscillation_squared;
         cell[multiplier_mean_disc] = split_disc.mean_squared;
 
+        return split;
+      }
+
+      void
+      add_cone_terms(const MultiplierSplit &split, double cell[n_sums]) const
+      {
         // The cone reconstruction s~ = (s + G) + (theta w, -(1 - theta) w),
         // w = ((s2 + G2) - (s1 + G1))^+: s~1 - s~2 = ((s1 + G1) - (s2 +
         // G2))^+ >= 0 and s~ = g on the boundary, i.e. s~ is in K_g.
@@ -336,6 +338,138 @@ namespace VI
                                         mu[1] * grad_G[1][q].norm_square()) *
                                        dx;
           }
+      }
+
+      const DGContactEstimatorInput<dim> &in;
+      const Triangulation<dim>           &tria;
+      const double                        mu[2];
+      const double                        theta;
+      const unsigned int                  n_q;
+      FEValues<dim>               broken_values, continuous_values, flux_values;
+      PiolaDivergence<dim>        divergence;
+      std::vector<double>         sigma_coefficients;
+      std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], flux[2];
+      std::vector<double>         u[2], s[2], r[2], div_flux[2], f, lambda,
+        lambda_nonnegative;
+      const TrilinosWrappers::MPI::Vector *u_vectors[2], *s_vectors[2],
+        *r_vectors[2], *flux_vectors[2];
+      const Function<dim>                        *forces[2];
+      const Function<dim>                        *g[2];
+      std::vector<std::unique_ptr<FEValues<dim>>> face_values;
+      std::vector<double>                         G[2];
+      std::vector<Tensor<1, dim>>                 grad_G[2];
+      const double                                c_mu;
+      const double                                C;
+    };
+
+
+    // The combination of the cell terms: the jumps and the estimators from
+    // the global sums, and the final formula.
+    template <int dim>
+    void
+    combine_dg_terms(const DGContactEstimatorInput<dim> &in,
+                     const std::array<double, n_sums>   &total,
+                     const double                        c_mu,
+                     const double                        C,
+                     DGContactEstimate                  &e)
+    {
+      // The jumps, and their share of the local indicators.
+      dealii::Vector<float> cell_jumps;
+      e.jump = jump_seminorm(*in.mapping,
+                             *in.broken,
+                             *in.face_quadrature,
+                             *in.penalty,
+                             in.mu1,
+                             in.mu2,
+                             *in.u1,
+                             *in.u2,
+                             *in.g1,
+                             *in.g2,
+                             &cell_jumps);
+      for (unsigned int c = 0; c < cell_jumps.size(); ++c)
+        e.cell_total(c) += cell_jumps(c);
+
+      e.remainder =
+        in.friedrichs_constant *
+        std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
+      const double eta_flux = std::sqrt(total[flux_residual]);
+      e.eta_1               = eta_flux + e.remainder;
+      e.flux_disc           = std::sqrt(total[flux_squared]);
+      e.residual            = std::sqrt(total[residual_squared]);
+      e.flux_alg            = 0;
+      e.nonc_1              = std::sqrt(total[nonc_total]);
+      e.nonc_1_disc         = e.nonc_1;
+      e.nonc_1_lin          = 0;
+      e.oswald              = std::sqrt(total[oswald_squared]);
+      // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w||| (w in
+      // H^1_0).
+      e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
+                 C * std::sqrt(total[multiplier_mean]);
+      e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
+                      C * std::sqrt(total[multiplier_mean_disc]);
+      e.nonc_2_lin   = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
+      e.nonc_3       = 2. * C * std::sqrt(total[positive]) * e.nonc_1;
+      e.contact_pos  = total[contact_total];
+      e.contact_cone = total[contact_cone];
+      // 2 (lambda_h, u1h - u2h) = 2 sum_i X3_i (X1_i - X2_i) vanishes with the
+      // discrete complementarity (the dual basis); the rest is discretisation.
+      e.contact_lin  = in.mass_lumped ? 0. : total[contact_discrete];
+      e.contact_disc = e.contact_cone - e.contact_lin;
+      e.dirichlet    = std::sqrt(total[dirichlet_squared]);
+
+      // |||e|||_h^2 <= a |||e|||_h + b (the proof of the conforming case with
+      // broken gradients), hence |||e|||_h <= a/2 + (a^2/4 + b)^(1/2), and the
+      // jumps of the error are those of u_h.
+      const double a = e.eta_1 + e.nonc_1 + e.nonc_2;
+      const double b = (e.eta_1 + e.nonc_2) * e.nonc_1 + 0.5 * e.contact_cone;
+      e.broken       = 0.5 * a + std::sqrt(std::max(0.25 * a * a + b, 0.));
+      e.eta          = std::sqrt(e.broken * e.broken + e.jump * e.jump);
+
+      // Components: broken <= D + L + A with the parts below (a/2 + (a^2/4 +
+      // b)^(1/2) <= a + b^(1/2)), and (broken^2 + J^2)^(1/2) <= (D^2 +
+      // J^2)^(1/2) + L + A.
+      const double cross = std::sqrt((e.eta_1 + e.nonc_2) * e.nonc_1);
+      const double D     = eta_flux + e.nonc_1 + e.nonc_2_disc + cross +
+                       std::sqrt(std::max(e.contact_disc, 0.) / 2.);
+      e.eta_disc = std::sqrt(D * D + e.jump * e.jump);
+      e.eta_lin  = e.nonc_2_lin + std::sqrt(std::max(e.contact_lin, 0.) / 2.);
+      e.eta_alg  = e.remainder;
+    }
+  } // namespace
+
+
+  template <int dim>
+  DGContactEstimate
+  estimate_dg_contact_error(const DGContactEstimatorInput<dim> &in)
+  {
+    const Triangulation<dim> &tria = in.broken->get_triangulation();
+
+    DGContactEstimate estimate;
+    for (auto *cell_values : {&estimate.cell_flux,
+                              &estimate.cell_residual,
+                              &estimate.cell_algebraic,
+                              &estimate.cell_nonconformity,
+                              &estimate.cell_contact,
+                              &estimate.cell_total})
+      cell_values->reinit(tria.n_active_cells());
+    DGCellTerms<dim>           terms(in);
+    const double               c_mu = terms.c_mu;
+    const double               C    = terms.C;
+    std::array<double, n_sums> sums{};
+
+    for (const auto &broken_cell : in.broken->active_cell_iterators())
+      {
+        if (!broken_cell->is_locally_owned())
+          continue;
+        terms.read_values(broken_cell);
+
+        const double h_K          = broken_cell->diameter();
+        const auto   index        = broken_cell->active_cell_index();
+        double       cell[n_sums] = {};
+        double       flux_norm[2] = {};
+        terms.add_flux_residual_terms(h_K, cell, flux_norm);
+        const MultiplierSplit split = terms.add_multiplier_terms(h_K, cell);
+        terms.add_cone_terms(split, cell);
 
         for (unsigned int k = 0; k < n_sums; ++k)
           sums[k] += cell[k];
@@ -356,68 +490,7 @@ namespace VI
     Utilities::MPI::sum(ArrayView<const double>(sums.data(), n_sums),
                         comm,
                         ArrayView<double>(total.data(), n_sums));
-
-    // The jumps, and their share of the local indicators.
-    dealii::Vector<float> cell_jumps;
-    DGContactEstimate    &e = estimate;
-    e.jump                  = jump_seminorm(*in.mapping,
-                           *in.broken,
-                           *in.face_quadrature,
-                           *in.penalty,
-                           in.mu1,
-                           in.mu2,
-                           *in.u1,
-                           *in.u2,
-                           *in.g1,
-                           *in.g2,
-                           &cell_jumps);
-    for (unsigned int c = 0; c < cell_jumps.size(); ++c)
-      e.cell_total(c) += cell_jumps(c);
-
-    e.remainder =
-      in.friedrichs_constant *
-      std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
-    const double eta_flux = std::sqrt(total[flux_residual]);
-    e.eta_1               = eta_flux + e.remainder;
-    e.flux_disc           = std::sqrt(total[flux_squared]);
-    e.residual            = std::sqrt(total[residual_squared]);
-    e.flux_alg            = 0;
-    e.nonc_1              = std::sqrt(total[nonc_total]);
-    e.nonc_1_disc         = e.nonc_1;
-    e.nonc_1_lin          = 0;
-    e.oswald              = std::sqrt(total[oswald_squared]);
-    // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w||| (w in H^1_0).
-    e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
-               C * std::sqrt(total[multiplier_mean]);
-    e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
-                    C * std::sqrt(total[multiplier_mean_disc]);
-    e.nonc_2_lin   = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
-    e.nonc_3       = 2. * C * std::sqrt(total[positive]) * e.nonc_1;
-    e.contact_pos  = total[contact_total];
-    e.contact_cone = total[contact_cone];
-    // 2 (lambda_h, u1h - u2h) = 2 sum_i X3_i (X1_i - X2_i) vanishes with the
-    // discrete complementarity (the dual basis); the rest is discretisation.
-    e.contact_lin  = in.mass_lumped ? 0. : total[contact_discrete];
-    e.contact_disc = e.contact_cone - e.contact_lin;
-    e.dirichlet    = std::sqrt(total[dirichlet_squared]);
-
-    // |||e|||_h^2 <= a |||e|||_h + b (the proof of the conforming case with
-    // broken gradients), hence |||e|||_h <= a/2 + (a^2/4 + b)^(1/2), and the
-    // jumps of the error are those of u_h.
-    const double a = e.eta_1 + e.nonc_1 + e.nonc_2;
-    const double b = (e.eta_1 + e.nonc_2) * e.nonc_1 + 0.5 * e.contact_cone;
-    e.broken       = 0.5 * a + std::sqrt(std::max(0.25 * a * a + b, 0.));
-    e.eta          = std::sqrt(e.broken * e.broken + e.jump * e.jump);
-
-    // Components: broken <= D + L + A with the parts below (a/2 + (a^2/4 +
-    // b)^(1/2) <= a + b^(1/2)), and (broken^2 + J^2)^(1/2) <= (D^2 +
-    // J^2)^(1/2) + L + A.
-    const double cross = std::sqrt((e.eta_1 + e.nonc_2) * e.nonc_1);
-    const double D     = eta_flux + e.nonc_1 + e.nonc_2_disc + cross +
-                     std::sqrt(std::max(e.contact_disc, 0.) / 2.);
-    e.eta_disc = std::sqrt(D * D + e.jump * e.jump);
-    e.eta_lin  = e.nonc_2_lin + std::sqrt(std::max(e.contact_lin, 0.) / 2.);
-    e.eta_alg  = e.remainder;
+    combine_dg_terms(in, total, c_mu, C, estimate);
     return estimate;
   }
 

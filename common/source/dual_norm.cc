@@ -134,6 +134,221 @@ namespace VI
   }
 
 
+  namespace
+  {
+    using CellSource = std::function<double(unsigned int, unsigned int)>;
+
+    // One thread's work space: the Q1 values and Jacobians on a cell; the
+    // Raviart-Thomas values of rho come from their reference values, the
+    // Jacobians and the signs (no Raviart-Thomas FEValues).
+    template <int dim>
+    struct EquilibrationScratch
+    {
+      EquilibrationScratch(const Mapping<dim>       &mapping,
+                           const FiniteElement<dim> &fe,
+                           const FiniteElement<dim> &flux_fe,
+                           const Quadrature<dim>    &quadrature)
+          : flux_fe(flux_fe)
+          , values(mapping,
+                   fe,
+                   quadrature,
+                   PiolaDivergence<dim>::update_flags())
+          , piola(flux_fe, quadrature)
+          , coefficients(flux_fe.n_dofs_per_cell())
+          , rho_values(quadrature.size())
+          , rho_divergences(quadrature.size())
+          , c_values(quadrature.size())
+      {
+      }
+      EquilibrationScratch(const EquilibrationScratch &other)
+          : EquilibrationScratch(other.values.get_mapping(),
+                                 other.values.get_fe(),
+                                 other.flux_fe,
+                                 other.values.get_quadrature())
+      {
+      }
+      const FiniteElement<dim>   &flux_fe;
+      FEValues<dim>               values;
+      PiolaDivergence<dim>        piola;
+      std::vector<double>         coefficients;
+      std::vector<Tensor<1, dim>> rho_values;
+      std::vector<double>         rho_divergences, c_values;
+    };
+
+
+    // The loads (m, v_h) of the sources and the Friedrichs bounds' |m|^2
+    // (on this process).
+    template <int dim, class Cells>
+    void
+    assemble_loads(const Cells                                &owned_cells,
+                   const EquilibrationScratch<dim>            &sample,
+                   const std::vector<CellSource>              &m,
+                   const AffineConstraints<double>            &constraints,
+                   const unsigned int                          dofs_per_cell,
+                   std::vector<TrilinosWrappers::MPI::Vector> &loads,
+                   std::vector<double>                        &m_squared)
+    {
+      using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
+      const unsigned int n_sources = m.size();
+      struct LoadShare
+      {
+        std::vector<Vector<double>>          cell_loads;
+        std::vector<types::global_dof_index> dofs;
+        std::vector<double>                  m_squared;
+      };
+      WorkStream::run(
+        owned_cells,
+        [&](const CellIterator        &cell,
+            EquilibrationScratch<dim> &scratch,
+            LoadShare                 &share) {
+          scratch.values.reinit(cell);
+          const FEValues<dim> &values = scratch.values;
+          const unsigned int   K      = cell->active_cell_index();
+          for (unsigned int k = 0; k < n_sources; ++k)
+            {
+              share.cell_loads[k] = 0;
+              share.m_squared[k]  = 0;
+              for (const unsigned int q : values.quadrature_point_indices())
+                {
+                  const double m_q = m[k](K, q);
+                  share.m_squared[k] += m_q * m_q * values.JxW(q);
+                  for (const unsigned int i : values.dof_indices())
+                    share.cell_loads[k](i) +=
+                      m_q * values.shape_value(i, q) * values.JxW(q);
+                }
+            }
+          cell->get_dof_indices(share.dofs);
+        },
+        [&](const LoadShare &share) {
+          for (unsigned int k = 0; k < n_sources; ++k)
+            {
+              constraints.distribute_local_to_global(share.cell_loads[k],
+                                                     share.dofs,
+                                                     loads[k]);
+              m_squared[k] += share.m_squared[k];
+            }
+        },
+        sample,
+        LoadShare{std::vector<Vector<double>>(n_sources,
+                                              Vector<double>(dofs_per_cell)),
+                  std::vector<types::global_dof_index>(dofs_per_cell),
+                  std::vector<double>(n_sources, 0.)},
+        /*queue_length=*/2 * MultithreadInfo::n_threads(),
+        /*chunk_size=*/32);
+    }
+
+
+    // z_h of a load, solved well below the size of the bound, and c_h, with
+    // ghosts.
+    void
+    solve_potential(const TrilinosWrappers::SparseMatrix       &laplacian,
+                    const TrilinosWrappers::PreconditionAMG    &amg,
+                    const AffineConstraints<double>            &constraints,
+                    const TrilinosWrappers::MPI::Vector        &hat_integrals,
+                    const IndexSet                             &owned,
+                    const IndexSet                             &relevant,
+                    const MPI_Comm                              comm,
+                    TrilinosWrappers::MPI::Vector              &load,
+                    std::vector<TrilinosWrappers::MPI::Vector> &z_ghosted,
+                    std::vector<TrilinosWrappers::MPI::Vector> &c_ghosted)
+    {
+      load.compress(VectorOperation::add);
+      TrilinosWrappers::MPI::Vector z(owned, comm);
+      SolverControl                 control(1000, 1e-10 * load.l2_norm());
+      SolverCG<TrilinosWrappers::MPI::Vector> cg(control);
+      try
+        {
+          cg.solve(laplacian, z, load, amg);
+        }
+      catch (const SolverControl::NoConvergence &)
+        {
+          throw SolverFailure("the Poisson solve of a dual norm bound "
+                              "(CG + AMG) did not converge in 1000 "
+                              "iterations");
+        }
+      TrilinosWrappers::MPI::Vector residual(owned, comm);
+      laplacian.vmult(residual, z);
+      residual.sadd(-1., 1., load);
+      TrilinosWrappers::MPI::Vector c(owned, comm);
+      for (const auto i : owned)
+        if (!constraints.is_constrained(i))
+          c(i) = -residual(i) / hat_integrals(i);
+      c.compress(VectorOperation::insert);
+      constraints.distribute(z);
+      constraints.distribute(c);
+      z_ghosted.emplace_back(owned, relevant, comm);
+      c_ghosted.emplace_back(owned, relevant, comm);
+      z_ghosted.back() = z;
+      c_ghosted.back() = c;
+    }
+
+
+    // ||rho||^2 and ||c_h||^2 of each field (on this process).
+    template <int dim, class Cells>
+    std::vector<double>
+    flux_and_constant_norms(
+      const Cells                                      &owned_cells,
+      const EquilibrationScratch<dim>                  &sample,
+      const DoFHandler<dim>                            &dof_handler,
+      const DoFHandler<dim>                            &flux_dofs,
+      const std::vector<std::int8_t>                   &signs,
+      const std::vector<TrilinosWrappers::MPI::Vector> &rho,
+      const std::vector<TrilinosWrappers::MPI::Vector> &c_ghosted)
+    {
+      using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
+      const unsigned int  n_tau    = flux_dofs.get_fe().n_dofs_per_cell();
+      const unsigned int  n_fields = rho.size();
+      std::vector<double> local_sums(2 * n_fields, 0.);
+      WorkStream::run(
+        owned_cells,
+        [&](const CellIterator        &cell,
+            EquilibrationScratch<dim> &scratch,
+            std::vector<double>       &share) {
+          scratch.values.reinit(cell);
+          const FEValues<dim> &values = scratch.values;
+          scratch.piola.reinit(
+            values,
+            ArrayView<const std::int8_t>(signs.data() +
+                                           cell->active_cell_index() * n_tau,
+                                         n_tau));
+          const typename DoFHandler<dim>::active_cell_iterator flux_cell(
+            &dof_handler.get_triangulation(),
+            cell->level(),
+            cell->index(),
+            &flux_dofs);
+          std::fill(share.begin(), share.end(), 0.);
+          for (unsigned int f = 0; f < n_fields; ++f)
+            {
+              flux_cell->get_dof_values(rho[f],
+                                        scratch.coefficients.begin(),
+                                        scratch.coefficients.end());
+              scratch.piola.function_values_and_divergences(
+                make_array_view(scratch.coefficients),
+                scratch.rho_values,
+                scratch.rho_divergences);
+              values.get_function_values(c_ghosted[f], scratch.c_values);
+              for (const unsigned int q : values.quadrature_point_indices())
+                {
+                  share[2 * f] +=
+                    scratch.rho_values[q].norm_square() * values.JxW(q);
+                  share[2 * f + 1] +=
+                    scratch.c_values[q] * scratch.c_values[q] * values.JxW(q);
+                }
+            }
+        },
+        [&](const std::vector<double> &share) {
+          for (unsigned int k = 0; k < share.size(); ++k)
+            local_sums[k] += share[k];
+        },
+        sample,
+        std::vector<double>(2 * n_fields, 0.),
+        /*queue_length=*/2 * MultithreadInfo::n_threads(),
+        /*chunk_size=*/32);
+      return local_sums;
+    }
+  } // namespace
+
+
   // m[k](cell, q): source k at point q of the reconstruction's quadrature on
   // the cell of that active index. All sources share the cell loops and one
   // reconstruction (a field each); each has its own Poisson solve. The cell
@@ -149,97 +364,27 @@ namespace VI
     const IndexSet        &owned      = dof_handler.locally_owned_dofs();
     const Quadrature<dim> &quadrature = reconstruction.get_quadrature();
     const DoFHandler<dim> &flux_dofs  = reconstruction.get_dof_handler();
-    const unsigned int     n_tau      = flux_dofs.get_fe().n_dofs_per_cell();
     const unsigned int     n_sources  = m.size();
     const auto             owned_cells =
       filter_iterators(dof_handler.active_cell_iterators(),
                        IteratorFilters::LocallyOwnedCell());
-    using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
 
-    // One thread's work space: the Q1 values and Jacobians on a cell; the
-    // Raviart-Thomas values of rho come from their reference values, the
-    // Jacobians and the signs (no Raviart-Thomas FEValues).
-    struct Scratch
-    {
-      Scratch(const Mapping<dim>       &mapping,
-              const FiniteElement<dim> &fe,
-              const FiniteElement<dim> &flux_fe,
-              const Quadrature<dim>    &quadrature)
-          : flux_fe(flux_fe)
-          , values(mapping,
-                   fe,
-                   quadrature,
-                   PiolaDivergence<dim>::update_flags())
-          , piola(flux_fe, quadrature)
-          , coefficients(flux_fe.n_dofs_per_cell())
-          , rho_values(quadrature.size())
-          , rho_divergences(quadrature.size())
-          , c_values(quadrature.size())
-      {
-      }
-      Scratch(const Scratch &other)
-          : Scratch(other.values.get_mapping(),
-                    other.values.get_fe(),
-                    other.flux_fe,
-                    other.values.get_quadrature())
-      {
-      }
-      const FiniteElement<dim>   &flux_fe;
-      FEValues<dim>               values;
-      PiolaDivergence<dim>        piola;
-      std::vector<double>         coefficients;
-      std::vector<Tensor<1, dim>> rho_values;
-      std::vector<double>         rho_divergences, c_values;
-    };
-    const Scratch sample(mapping, fe, flux_dofs.get_fe(), quadrature);
+    const EquilibrationScratch<dim> sample(mapping,
+                                           fe,
+                                           flux_dofs.get_fe(),
+                                           quadrature);
 
     // The loads (m, v_h) and the Friedrichs bounds' |m|^2.
-    struct LoadShare
-    {
-      std::vector<Vector<double>>          cell_loads;
-      std::vector<types::global_dof_index> dofs;
-      std::vector<double>                  m_squared;
-    };
     std::vector<TrilinosWrappers::MPI::Vector> loads(
       n_sources, TrilinosWrappers::MPI::Vector(owned, comm));
     std::vector<double> m_squared(n_sources, 0.);
-    WorkStream::run(
-      owned_cells,
-      [&](const CellIterator &cell, Scratch &scratch, LoadShare &share) {
-        scratch.values.reinit(cell);
-        const FEValues<dim> &values = scratch.values;
-        const unsigned int   K      = cell->active_cell_index();
-        for (unsigned int k = 0; k < n_sources; ++k)
-          {
-            share.cell_loads[k] = 0;
-            share.m_squared[k]  = 0;
-            for (const unsigned int q : values.quadrature_point_indices())
-              {
-                const double m_q = m[k](K, q);
-                share.m_squared[k] += m_q * m_q * values.JxW(q);
-                for (const unsigned int i : values.dof_indices())
-                  share.cell_loads[k](i) +=
-                    m_q * values.shape_value(i, q) * values.JxW(q);
-              }
-          }
-        cell->get_dof_indices(share.dofs);
-      },
-      [&](const LoadShare &share) {
-        for (unsigned int k = 0; k < n_sources; ++k)
-          {
-            constraints.distribute_local_to_global(share.cell_loads[k],
-                                                   share.dofs,
-                                                   loads[k]);
-            m_squared[k] += share.m_squared[k];
-          }
-      },
-      sample,
-      LoadShare{std::vector<Vector<double>>(
-                  n_sources, Vector<double>(fe.n_dofs_per_cell())),
-                std::vector<types::global_dof_index>(fe.n_dofs_per_cell()),
-                std::vector<double>(n_sources, 0.)},
-      /*queue_length=*/2 * MultithreadInfo::n_threads(),
-      /*chunk_size=*/32);
+    assemble_loads(owned_cells,
+                   sample,
+                   m,
+                   constraints,
+                   fe.n_dofs_per_cell(),
+                   loads,
+                   m_squared);
     Utilities::MPI::sum(ArrayView<const double>(m_squared),
                         comm,
                         ArrayView<double>(m_squared));
@@ -257,37 +402,16 @@ namespace VI
     // interior vertices, c_h the conforming Q1 function of these values.
     std::vector<TrilinosWrappers::MPI::Vector> z_ghosted, c_ghosted;
     for (const unsigned int k : fields)
-      {
-        TrilinosWrappers::MPI::Vector &load = loads[k];
-        load.compress(VectorOperation::add);
-        TrilinosWrappers::MPI::Vector z(owned, comm);
-        SolverControl                 control(1000, 1e-10 * load.l2_norm());
-        SolverCG<TrilinosWrappers::MPI::Vector> cg(control);
-        try
-          {
-            cg.solve(laplacian, z, load, amg);
-          }
-        catch (const SolverControl::NoConvergence &)
-          {
-            throw SolverFailure("the Poisson solve of a dual norm bound "
-                                "(CG + AMG) did not converge in 1000 "
-                                "iterations");
-          }
-        TrilinosWrappers::MPI::Vector residual(owned, comm);
-        laplacian.vmult(residual, z);
-        residual.sadd(-1., 1., load);
-        TrilinosWrappers::MPI::Vector c(owned, comm);
-        for (const auto i : owned)
-          if (!constraints.is_constrained(i))
-            c(i) = -residual(i) / hat_integrals(i);
-        c.compress(VectorOperation::insert);
-        constraints.distribute(z);
-        constraints.distribute(c);
-        z_ghosted.emplace_back(owned, relevant, comm);
-        c_ghosted.emplace_back(owned, relevant, comm);
-        z_ghosted.back() = z;
-        c_ghosted.back() = c;
-      }
+      solve_potential(laplacian,
+                      amg,
+                      constraints,
+                      hat_integrals,
+                      owned,
+                      relevant,
+                      comm,
+                      loads[k],
+                      z_ghosted,
+                      c_ghosted);
 
     // rho: equilibrates m (+ c_h) with the flux grad z_h (div rho = m + c_h
     // exactly where m is in Q_p on every cell), one field per source.
@@ -328,52 +452,14 @@ namespace VI
     reconstruction.reconstruct(sources, rho_pointers);
 
     // ||rho||^2 and ||c_h||^2 of each field.
-    const std::vector<std::int8_t> &signs = reconstruction.get_piola_signs();
-    std::vector<double>             local_sums(2 * n_fields, 0.);
-    WorkStream::run(
-      owned_cells,
-      [&](const CellIterator  &cell,
-          Scratch             &scratch,
-          std::vector<double> &share) {
-        scratch.values.reinit(cell);
-        const FEValues<dim> &values = scratch.values;
-        scratch.piola.reinit(values,
-                             ArrayView<const std::int8_t>(
-                               signs.data() + cell->active_cell_index() * n_tau,
-                               n_tau));
-        const typename DoFHandler<dim>::active_cell_iterator flux_cell(
-          &dof_handler.get_triangulation(),
-          cell->level(),
-          cell->index(),
-          &flux_dofs);
-        std::fill(share.begin(), share.end(), 0.);
-        for (unsigned int f = 0; f < n_fields; ++f)
-          {
-            flux_cell->get_dof_values(rho[f],
-                                      scratch.coefficients.begin(),
-                                      scratch.coefficients.end());
-            scratch.piola.function_values_and_divergences(
-              make_array_view(scratch.coefficients),
-              scratch.rho_values,
-              scratch.rho_divergences);
-            values.get_function_values(c_ghosted[f], scratch.c_values);
-            for (const unsigned int q : values.quadrature_point_indices())
-              {
-                share[2 * f] +=
-                  scratch.rho_values[q].norm_square() * values.JxW(q);
-                share[2 * f + 1] +=
-                  scratch.c_values[q] * scratch.c_values[q] * values.JxW(q);
-              }
-          }
-      },
-      [&](const std::vector<double> &share) {
-        for (unsigned int k = 0; k < share.size(); ++k)
-          local_sums[k] += share[k];
-      },
-      sample,
-      std::vector<double>(2 * n_fields, 0.),
-      /*queue_length=*/2 * MultithreadInfo::n_threads(),
-      /*chunk_size=*/32);
+    const std::vector<double> local_sums =
+      flux_and_constant_norms(owned_cells,
+                              sample,
+                              dof_handler,
+                              flux_dofs,
+                              reconstruction.get_piola_signs(),
+                              rho,
+                              c_ghosted);
     std::vector<double> sums(local_sums.size());
     Utilities::MPI::sum(ArrayView<const double>(local_sums),
                         comm,

@@ -48,64 +48,14 @@ namespace VI
       dirichlet_squared,  // |||G|||^2
       n_sums
     };
-  } // namespace
 
-
-  template <int dim>
-  ContactEstimate
-  estimate_contact_error(const ContactEstimatorInput<dim> &in)
-  {
-    const Triangulation<dim> &tria  = in.potential->get_triangulation();
-    const double              mu[2] = {in.mu1, in.mu2};
-    const double              theta = in.mu2 / (in.mu1 + in.mu2);
-
-    ContactEstimate estimate;
-    for (auto *cell_values : {&estimate.cell_flux,
-                              &estimate.cell_residual,
-                              &estimate.cell_algebraic,
-                              &estimate.cell_nonconformity,
-                              &estimate.cell_contact,
-                              &estimate.cell_total})
-      cell_values->reinit(tria.n_active_cells());
-
-    const Quadrature<dim> &quadrature = *in.quadrature;
-    const unsigned int     n_q        = quadrature.size();
-    // The fluxes from their reference values, signs and the Jacobians of
-    // the potential's FEValues.
-    Assert(in.flux_signs,
-           ExcMessage("The Piola signs of the fluxes are needed."));
-    const unsigned int n_tau = in.flux->get_fe().n_dofs_per_cell();
-
-    const TrilinosWrappers::MPI::Vector *u_vectors[2]     = {in.u1, in.u2},
-                                        *s_vectors[2]     = {in.s1, in.s2},
-                                        *r_vectors[2]     = {in.r1_ahead,
-                                                             in.r2_ahead},
-                                        *disc_vectors[2]  = {in.sigma1_disc,
-                                                             in.sigma2_disc},
-                                        *ahead_vectors[2] = {in.sigma1_ahead,
-                                                             in.sigma2_ahead};
-    const Function<dim>       *forces[2]                  = {in.f1, in.f2};
-    const std::vector<double> *load_values[2] = {in.f1_values, in.f2_values};
-    const TrilinosWrappers::MPI::Vector *dt_vectors[2] = {in.dt_u1, in.dt_u2},
-                                        *dt_ahead_vectors[2] = {in.dt_u1_ahead,
-                                                                in.dt_u2_ahead};
-    Assert((in.dt_u1 && in.dt_u2 && in.dt_u1_ahead && in.dt_u2_ahead) ||
-             !(in.dt_u1 || in.dt_u2 || in.dt_u1_ahead || in.dt_u2_ahead),
-           ExcMessage("Give all four time derivatives, or none."));
-
-    // The lifting G of g - I_h g on the cells at the boundary (see the
-    // function comment below) needs the values of u_h, g and the mapping on
-    // the boundary faces, at the points that share the tangential
-    // coordinate of the (tensor-product Gauss) cell quadrature points
-    // (lifting_face_points()).
-    const bool           lifting        = in.g1 && in.g2;
-    const Function<dim> *g_functions[2] = {in.g1, in.g2};
 
     // What one thread needs on a cell: FEValues and the values at the
     // quadrature points (WorkStream copies it once per thread).
-    struct Scratch
+    template <int dim>
+    struct ContactScratch
     {
-      Scratch(const ContactEstimatorInput<dim> &in, const bool lifting)
+      ContactScratch(const ContactEstimatorInput<dim> &in, const bool lifting)
           : in(in)
           , lifting(lifting)
           , potential_values(*in.mapping,
@@ -151,8 +101,8 @@ namespace VI
             }
       }
 
-      Scratch(const Scratch &other)
-          : Scratch(other.in, other.lifting)
+      ContactScratch(const ContactScratch &other)
+          : ContactScratch(other.in, other.lifting)
       {
       }
 
@@ -171,6 +121,7 @@ namespace VI
         s_coefficients;
       std::vector<std::unique_ptr<FEValues<dim>>> face_values;
     };
+
     // The sums of one cell, added in the order of the cells (so that the
     // estimate does not depend on the number of threads).
     struct CellShare
@@ -178,75 +129,148 @@ namespace VI
       std::array<double, n_sums> cell;
     };
 
-    // An iterate estimated with itself as look-ahead (sigma_alg = 0): its
-    // fluxes and multiplier are read once.
-    const bool own_look_ahead =
-      in.sigma1_ahead == in.sigma1_disc && in.sigma2_ahead == in.sigma2_disc &&
-      (in.cell_multiplier ? in.lambda_ahead_cells == in.lambda_cells :
-                            in.lambda_ahead == in.lambda);
-    const bool with_fluxes = !in.without_fluxes;
-    AssertThrow(with_fluxes || (own_look_ahead &&
-                                !(in.dual_norm && in.dual_norm_undershoots)),
-                ExcMessage("The estimate without fluxes is that of an iterate "
-                           "with itself as look-ahead and Friedrichs' bound of "
-                           "the undershoots."));
+    // The cell terms of the contact estimate, the per-cell quadrature work:
+    // on every owned cell the flux, residual and algebraic terms of both
+    // membranes, the remainder, the multiplier's sums, the non-conformity and
+    // contact terms and the lifting of the boundary data; with the inputs
+    // they read and the cell means and remainders they keep for the dual norm
+    // bounds.
+    template <int dim>
+    struct ContactCellTerms
+    {
+      using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
 
-    std::array<double, n_sums> sums{};
-    const double               c_mu = std::sqrt(1. / in.mu1 + 1. / in.mu2);
-    const double               C    = in.friedrichs_constant * c_mu;
-    // The cell means m_K of the multiplier's undershoots (of lambda_h and of
-    // lambda~), for the dual norm bound.
-    std::vector<double> means, means_disc;
-    const bool          undershoots = in.dual_norm && in.dual_norm_undershoots;
-    if (undershoots)
+      ContactCellTerms(const ContactEstimatorInput<dim> &in,
+                       ContactEstimate                  &estimate)
+          : in(in)
+          , estimate(estimate)
+          , tria(in.potential->get_triangulation())
+          , mu{in.mu1, in.mu2}
+          , theta(in.mu2 / (in.mu1 + in.mu2))
+          , n_q(in.quadrature->size())
+          , n_tau(in.flux->get_fe().n_dofs_per_cell())
+          , u_vectors{in.u1, in.u2}
+          , s_vectors{in.s1, in.s2}
+          , r_vectors{in.r1_ahead, in.r2_ahead}
+          , disc_vectors{in.sigma1_disc, in.sigma2_disc}
+          , ahead_vectors{in.sigma1_ahead, in.sigma2_ahead}
+          , forces{in.f1, in.f2}
+          , load_values{in.f1_values, in.f2_values}
+          , dt_vectors{in.dt_u1, in.dt_u2}
+          , dt_ahead_vectors{in.dt_u1_ahead, in.dt_u2_ahead}
+          , lifting(in.g1 && in.g2)
+          , g_functions{in.g1, in.g2}
+          , own_look_ahead(in.sigma1_ahead == in.sigma1_disc &&
+                           in.sigma2_ahead == in.sigma2_disc &&
+                           (in.cell_multiplier ?
+                              in.lambda_ahead_cells == in.lambda_cells :
+                              in.lambda_ahead == in.lambda))
+          , with_fluxes(!in.without_fluxes)
+          , c_mu(std::sqrt(1. / in.mu1 + 1. / in.mu2))
+          , C(in.friedrichs_constant * c_mu)
+          , undershoots(in.dual_norm && in.dual_norm_undershoots)
+          , remainder(in.dual_norm && in.dual_norm_remainder)
+          , contact_linearised_needed(!in.mass_lumped && !in.cell_multiplier)
       {
-        means.assign(tria.n_active_cells(), 0.);
-        means_disc.assign(tria.n_active_cells(), 0.);
+        // The fluxes from their reference values, signs and the Jacobians of
+        // the potential's FEValues.
+        Assert(in.flux_signs,
+               ExcMessage("The Piola signs of the fluxes are needed."));
+        Assert((in.dt_u1 && in.dt_u2 && in.dt_u1_ahead && in.dt_u2_ahead) ||
+                 !(in.dt_u1 || in.dt_u2 || in.dt_u1_ahead || in.dt_u2_ahead),
+               ExcMessage("Give all four time derivatives, or none."));
+        AssertThrow(with_fluxes ||
+                      (own_look_ahead &&
+                       !(in.dual_norm && in.dual_norm_undershoots)),
+                    ExcMessage("The estimate without fluxes is that of an "
+                               "iterate with itself as look-ahead and "
+                               "Friedrichs' bound of the undershoots."));
+        if (undershoots)
+          {
+            means.assign(tria.n_active_cells(), 0.);
+            means_disc.assign(tria.n_active_cells(), 0.);
+          }
+        if (remainder)
+          for (auto &values : remainders)
+            values.assign(std::size_t(tria.n_active_cells()) * n_q, 0.);
       }
-    // The remainders rho_alpha at the quadrature points, for the same.
-    std::vector<double> remainders[2];
-    const bool          remainder = in.dual_norm && in.dual_norm_remainder;
-    if (remainder)
-      for (auto &values : remainders)
-        values.assign(std::size_t(tria.n_active_cells()) * n_q, 0.);
 
-    // The multiplier's sums of a cell: lambda_h = c_K lambda_h^pos + delta
-    // (and the same for the multiplier lambda~ of the nonnegative
-    // coefficients).
-    const auto add_multiplier_sums = [&](const std::vector<double>  &JxW,
-                                         const double                h_K,
-                                         const unsigned int          index,
-                                         Scratch                    &scratch,
-                                         std::array<double, n_sums> &cell) {
-      const MultiplierSplit split = split_multiplier(scratch.lambda, JxW),
-                            split_disc =
-                              split_multiplier(scratch.lambda_nonnegative, JxW);
-      const double poincare_squared = std::pow(h_K / numbers::PI, 2);
-      cell[multiplier_local] = poincare_squared * split.oscillation_squared;
-      cell[multiplier_mean]  = split.mean_squared;
-      cell[multiplier_local_disc] =
-        poincare_squared * split_disc.oscillation_squared;
-      cell[multiplier_mean_disc] = split_disc.mean_squared;
-      if (undershoots)
-        {
-          means[index]      = split.mean;
-          means_disc[index] = split_disc.mean;
-        }
-      return split;
-    };
+      // Every cell writes its indicators (and means, remainders) at its own
+      // index, and hands its sums to the copier.
+      void
+      cell_terms(const CellIterator  &potential_cell,
+                 ContactScratch<dim> &scratch,
+                 CellShare           &share)
+      {
+        if (lean_cell(potential_cell, scratch))
+          {
+            add_lean_terms(potential_cell, scratch, share.cell);
+            return;
+          }
+        read_values(potential_cell, scratch);
+        add_lifting(potential_cell, scratch);
 
-    // Without fluxes, only eta_lin (from below) and eta_alg (from above) are
-    // asked for: the remainder (the residual r_h, the iterate being its own
-    // look-ahead), the multiplier's sums and |||s_h - u_h|||, which vanishes
-    // on the cells where s_h = u_h at every node; and 2 (lambda_h, u1h -
-    // u2h) for p >= 2, which vanishes where lambda_h = 0. On the other cells
-    // these terms need values and weights only, not the gradients, the
-    // boundary lifting G and the loads: a fraction of the cost of a cell.
-    const bool contact_linearised_needed =
-      !in.mass_lumped && !in.cell_multiplier;
-    const auto lean_cell =
-      [&](const typename DoFHandler<dim>::active_cell_iterator &cell,
-          Scratch                                              &scratch) {
+        const double h_K   = potential_cell->diameter();
+        const auto   index = potential_cell->active_cell_index();
+        auto        &cell  = share.cell;
+        cell.fill(0.);
+        double flux_total[2] = {};
+        add_flux_residual_terms(index, h_K, scratch, flux_total, cell);
+
+        const MultiplierSplit split = add_multiplier_sums(
+          scratch.potential_values.get_JxW_values(), h_K, index, scratch, cell);
+        add_nonconformity_contact_terms(scratch, split, cell);
+
+        estimate.cell_flux(index) =
+          std::pow(flux_total[0], 2) + std::pow(flux_total[1], 2);
+        estimate.cell_residual(index)      = cell[residual_squared];
+        estimate.cell_algebraic(index)     = cell[algebraic_squared];
+        estimate.cell_nonconformity(index) = cell[nonc_total];
+        estimate.cell_contact(index)       = cell[contact_cone];
+        estimate.cell_total(index) =
+          cell[flux_residual_total] + cell[nonc_total] +
+          c_mu * c_mu * cell[multiplier_local] + C * C * cell[multiplier_mean] +
+          cell[contact_cone] + cell[dirichlet_squared];
+      }
+
+      // The multiplier's sums of a cell: lambda_h = c_K lambda_h^pos + delta
+      // (and the same for the multiplier lambda~ of the nonnegative
+      // coefficients).
+      MultiplierSplit
+      add_multiplier_sums(const std::vector<double>  &JxW,
+                          const double                h_K,
+                          const unsigned int          index,
+                          ContactScratch<dim>        &scratch,
+                          std::array<double, n_sums> &cell)
+      {
+        const MultiplierSplit split = split_multiplier(scratch.lambda, JxW),
+                              split_disc =
+                                split_multiplier(scratch.lambda_nonnegative,
+                                                 JxW);
+        const double poincare_squared = std::pow(h_K / numbers::PI, 2);
+        cell[multiplier_local] = poincare_squared * split.oscillation_squared;
+        cell[multiplier_mean]  = split.mean_squared;
+        cell[multiplier_local_disc] =
+          poincare_squared * split_disc.oscillation_squared;
+        cell[multiplier_mean_disc] = split_disc.mean_squared;
+        if (undershoots)
+          {
+            means[index]      = split.mean;
+            means_disc[index] = split_disc.mean;
+          }
+        return split;
+      }
+
+      // Without fluxes, only eta_lin (from below) and eta_alg (from above) are
+      // asked for: the remainder (the residual r_h, the iterate being its own
+      // look-ahead), the multiplier's sums and |||s_h - u_h|||, which vanishes
+      // on the cells where s_h = u_h at every node; and 2 (lambda_h, u1h -
+      // u2h) for p >= 2, which vanishes where lambda_h = 0. On the other cells
+      // these terms need values and weights only, not the gradients, the
+      // boundary lifting G and the loads: a fraction of the cost of a cell.
+      bool
+      lean_cell(const CellIterator &cell, ContactScratch<dim> &scratch) const
+      {
         // (time derivatives: the remainder holds their change)
         if (with_fluxes || dt_vectors[0])
           return false;
@@ -270,389 +294,385 @@ namespace VI
                 return false;
           }
         return true;
-      };
+      }
 
-    // Every cell writes its indicators (and means, remainders) at its own
-    // index, and hands its sums to the copier.
-    const auto worker = [&](const typename DoFHandler<dim>::active_cell_iterator
-                                      &potential_cell,
-                            Scratch   &scratch,
-                            CellShare &share) {
-      FEValues<dim>        &potential_values   = scratch.potential_values;
-      PiolaDivergence<dim> &divergence         = scratch.divergence;
-      std::vector<double>  &sigma_coefficients = scratch.sigma_coefficients;
-      std::vector<double>  &potential_coefficients =
-        scratch.potential_coefficients;
-      std::vector<double> &unused_divergences = scratch.unused_divergences;
-      auto                &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
-           &sigma_disc = scratch.sigma_disc, &sigma_ahead = scratch.sigma_ahead,
-           &grad_G = scratch.grad_G;
-      auto &u = scratch.u, &s = scratch.s, &r_ahead = scratch.r_ahead,
-           &div_ahead = scratch.div_ahead, &dt_u = scratch.dt_u,
-           &dt_u_ahead = scratch.dt_u_ahead, &G = scratch.G;
-      std::vector<double> &f = scratch.f, &lambda = scratch.lambda,
-                          &lambda_nonnegative = scratch.lambda_nonnegative,
-                          &lambda_ahead       = scratch.lambda_ahead;
-      auto &face_values                       = scratch.face_values;
-
-      if (lean_cell(potential_cell, scratch))
-        {
-          FEValues<dim> &lean = scratch.lean_values;
-          lean.reinit(potential_cell);
-          const auto index  = potential_cell->active_cell_index();
-          const auto values = [&](const TrilinosWrappers::MPI::Vector &v,
-                                  std::vector<double> &at_points) {
-            cell_function_values(lean,
-                                 potential_cell,
-                                 v,
-                                 scratch.potential_coefficients,
-                                 &at_points);
-          };
-          auto &cell = share.cell;
-          cell.fill(0.);
-          for (unsigned int a = 0; a < 2; ++a)
-            {
-              std::vector<double> &r = scratch.r_ahead[a];
-              values(*r_vectors[a], r);
-              for (unsigned int q = 0; q < n_q; ++q)
-                {
-                  cell[remainder_1 + a] += r[q] * r[q] * lean.JxW(q);
-                  if (remainder)
-                    remainders[a][index * n_q + q] = r[q];
-                }
-            }
-          if (in.cell_multiplier)
-            {
-              in.cell_multiplier->values(*in.lambda_cells,
-                                         index,
-                                         scratch.lambda);
-              in.cell_multiplier->values(*in.lambda_nonnegative_cells,
-                                         index,
-                                         scratch.lambda_nonnegative);
-            }
-          else
-            {
-              values(*in.lambda, scratch.lambda);
-              values(*in.lambda_nonnegative, scratch.lambda_nonnegative);
-            }
-          add_multiplier_sums(lean.get_JxW_values(),
-                              potential_cell->diameter(),
-                              index,
-                              scratch,
-                              cell);
-          return;
-        }
-
-      typename DoFHandler<dim>::active_cell_iterator flux_cell(
-        &tria, potential_cell->level(), potential_cell->index(), in.flux);
-      potential_values.reinit(potential_cell);
-      if (with_fluxes)
-        divergence.reinit(potential_values,
-                          ArrayView<const std::int8_t>(
-                            in.flux_signs->data() +
-                              potential_cell->active_cell_index() * n_tau,
-                            n_tau));
-      // values and divergences of a flux vector at the quadrature points
-      const auto flux_at_points = [&](const TrilinosWrappers::MPI::Vector &v,
-                                      std::vector<Tensor<1, dim>> &values,
-                                      std::vector<double> &divergences) {
-        flux_cell->get_dof_values(v,
-                                  sigma_coefficients.begin(),
-                                  sigma_coefficients.end());
-        divergence.function_values_and_divergences(
-          make_array_view(sigma_coefficients), values, divergences);
-      };
-      for (unsigned int a = 0; a < 2; ++a)
-        {
-          cell_function_values(potential_values,
+      // The terms of a lean cell: the remainder and the multiplier's sums.
+      void
+      add_lean_terms(const CellIterator         &potential_cell,
+                     ContactScratch<dim>        &scratch,
+                     std::array<double, n_sums> &cell)
+      {
+        FEValues<dim> &lean = scratch.lean_values;
+        lean.reinit(potential_cell);
+        const auto index  = potential_cell->active_cell_index();
+        const auto values = [&](const TrilinosWrappers::MPI::Vector &v,
+                                std::vector<double> &at_points) {
+          cell_function_values(lean,
                                potential_cell,
-                               *u_vectors[a],
-                               potential_coefficients,
-                               &u[a],
-                               &grad_u[a]);
-          cell_function_values(potential_values,
-                               potential_cell,
-                               *s_vectors[a],
-                               potential_coefficients,
-                               &s[a],
-                               &grad_s[a]);
-          cell_function_values(potential_values,
-                               potential_cell,
-                               *r_vectors[a],
-                               potential_coefficients,
-                               &r_ahead[a]);
-          if (with_fluxes)
-            flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
-          else
-            {
-              // (the flux terms below are then not used)
-              std::fill(sigma_ahead[a].begin(),
-                        sigma_ahead[a].end(),
-                        Tensor<1, dim>());
-              std::fill(div_ahead[a].begin(), div_ahead[a].end(), 0.);
-            }
-          if (own_look_ahead)
-            sigma_disc[a] = sigma_ahead[a];
-          else
-            flux_at_points(*disc_vectors[a], sigma_disc[a], unused_divergences);
-          if (dt_vectors[a])
-            {
-              cell_function_values(potential_values,
-                                   potential_cell,
-                                   *dt_vectors[a],
-                                   potential_coefficients,
-                                   &dt_u[a]);
-              cell_function_values(potential_values,
-                                   potential_cell,
-                                   *dt_ahead_vectors[a],
-                                   potential_coefficients,
-                                   &dt_u_ahead[a]);
-            }
-        }
-      if (in.cell_multiplier)
-        {
-          const auto index = potential_cell->active_cell_index();
-          in.cell_multiplier->values(*in.lambda_cells, index, lambda);
-          in.cell_multiplier->values(*in.lambda_nonnegative_cells,
-                                     index,
-                                     lambda_nonnegative);
-          if (!own_look_ahead)
-            in.cell_multiplier->values(*in.lambda_ahead_cells,
+                               v,
+                               scratch.potential_coefficients,
+                               &at_points);
+        };
+        cell.fill(0.);
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            std::vector<double> &r = scratch.r_ahead[a];
+            values(*r_vectors[a], r);
+            for (unsigned int q = 0; q < n_q; ++q)
+              {
+                cell[remainder_1 + a] += r[q] * r[q] * lean.JxW(q);
+                if (remainder)
+                  remainders[a][index * n_q + q] = r[q];
+              }
+          }
+        if (in.cell_multiplier)
+          {
+            in.cell_multiplier->values(*in.lambda_cells, index, scratch.lambda);
+            in.cell_multiplier->values(*in.lambda_nonnegative_cells,
                                        index,
-                                       lambda_ahead);
-        }
-      else
-        {
-          cell_function_values(potential_values,
-                               potential_cell,
-                               *in.lambda,
-                               potential_coefficients,
-                               &lambda);
-          cell_function_values(potential_values,
-                               potential_cell,
-                               *in.lambda_nonnegative,
-                               potential_coefficients,
-                               &lambda_nonnegative);
-          if (!own_look_ahead)
+                                       scratch.lambda_nonnegative);
+          }
+        else
+          {
+            values(*in.lambda, scratch.lambda);
+            values(*in.lambda_nonnegative, scratch.lambda_nonnegative);
+          }
+        add_multiplier_sums(lean.get_JxW_values(),
+                            potential_cell->diameter(),
+                            index,
+                            scratch,
+                            cell);
+      }
+
+      // u_h, s_h, the look-ahead residual, the fluxes (and their divergences),
+      // the time derivatives and the multipliers at the quadrature points.
+      void
+      read_values(const CellIterator  &potential_cell,
+                  ContactScratch<dim> &scratch) const
+      {
+        FEValues<dim>        &potential_values   = scratch.potential_values;
+        PiolaDivergence<dim> &divergence         = scratch.divergence;
+        std::vector<double>  &sigma_coefficients = scratch.sigma_coefficients;
+        std::vector<double>  &potential_coefficients =
+          scratch.potential_coefficients;
+        std::vector<double> &unused_divergences = scratch.unused_divergences;
+        auto                &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
+             &sigma_disc  = scratch.sigma_disc,
+             &sigma_ahead = scratch.sigma_ahead;
+        auto &u = scratch.u, &s = scratch.s, &r_ahead = scratch.r_ahead,
+             &div_ahead = scratch.div_ahead, &dt_u = scratch.dt_u,
+             &dt_u_ahead                        = scratch.dt_u_ahead;
+        std::vector<double> &lambda             = scratch.lambda,
+                            &lambda_nonnegative = scratch.lambda_nonnegative,
+                            &lambda_ahead       = scratch.lambda_ahead;
+
+        typename DoFHandler<dim>::active_cell_iterator flux_cell(
+          &tria, potential_cell->level(), potential_cell->index(), in.flux);
+        potential_values.reinit(potential_cell);
+        if (with_fluxes)
+          divergence.reinit(potential_values,
+                            ArrayView<const std::int8_t>(
+                              in.flux_signs->data() +
+                                potential_cell->active_cell_index() * n_tau,
+                              n_tau));
+        // values and divergences of a flux vector at the quadrature points
+        const auto flux_at_points = [&](const TrilinosWrappers::MPI::Vector &v,
+                                        std::vector<Tensor<1, dim>> &values,
+                                        std::vector<double> &divergences) {
+          flux_cell->get_dof_values(v,
+                                    sigma_coefficients.begin(),
+                                    sigma_coefficients.end());
+          divergence.function_values_and_divergences(
+            make_array_view(sigma_coefficients), values, divergences);
+        };
+        for (unsigned int a = 0; a < 2; ++a)
+          {
             cell_function_values(potential_values,
                                  potential_cell,
-                                 *in.lambda_ahead,
+                                 *u_vectors[a],
                                  potential_coefficients,
-                                 &lambda_ahead);
-        }
-      if (own_look_ahead)
-        lambda_ahead = lambda;
+                                 &u[a],
+                                 &grad_u[a]);
+            cell_function_values(potential_values,
+                                 potential_cell,
+                                 *s_vectors[a],
+                                 potential_coefficients,
+                                 &s[a],
+                                 &grad_s[a]);
+            cell_function_values(potential_values,
+                                 potential_cell,
+                                 *r_vectors[a],
+                                 potential_coefficients,
+                                 &r_ahead[a]);
+            if (with_fluxes)
+              flux_at_points(*ahead_vectors[a], sigma_ahead[a], div_ahead[a]);
+            else
+              {
+                // (the flux terms below are then not used)
+                std::fill(sigma_ahead[a].begin(),
+                          sigma_ahead[a].end(),
+                          Tensor<1, dim>());
+                std::fill(div_ahead[a].begin(), div_ahead[a].end(), 0.);
+              }
+            if (own_look_ahead)
+              sigma_disc[a] = sigma_ahead[a];
+            else
+              flux_at_points(*disc_vectors[a],
+                             sigma_disc[a],
+                             unused_divergences);
+            if (dt_vectors[a])
+              {
+                cell_function_values(potential_values,
+                                     potential_cell,
+                                     *dt_vectors[a],
+                                     potential_coefficients,
+                                     &dt_u[a]);
+                cell_function_values(potential_values,
+                                     potential_cell,
+                                     *dt_ahead_vectors[a],
+                                     potential_coefficients,
+                                     &dt_u_ahead[a]);
+              }
+          }
+        if (in.cell_multiplier)
+          {
+            const auto index = potential_cell->active_cell_index();
+            in.cell_multiplier->values(*in.lambda_cells, index, lambda);
+            in.cell_multiplier->values(*in.lambda_nonnegative_cells,
+                                       index,
+                                       lambda_nonnegative);
+            if (!own_look_ahead)
+              in.cell_multiplier->values(*in.lambda_ahead_cells,
+                                         index,
+                                         lambda_ahead);
+          }
+        else
+          {
+            cell_function_values(potential_values,
+                                 potential_cell,
+                                 *in.lambda,
+                                 potential_coefficients,
+                                 &lambda);
+            cell_function_values(potential_values,
+                                 potential_cell,
+                                 *in.lambda_nonnegative,
+                                 potential_coefficients,
+                                 &lambda_nonnegative);
+            if (!own_look_ahead)
+              cell_function_values(potential_values,
+                                   potential_cell,
+                                   *in.lambda_ahead,
+                                   potential_coefficients,
+                                   &lambda_ahead);
+          }
+        if (own_look_ahead)
+          lambda_ahead = lambda;
+      }
 
       // G = sum over boundary faces F of delta_F(t) (1 - n) in the
       // reference coordinates (t along F, n away from it), delta_F = g -
       // u_h on F: zero on the other faces (delta vanishes at the vertices,
       // where u_h interpolates g), so G is in H^1, and u_h + G = g on the
       // boundary.
-      for (unsigned int a = 0; a < 2; ++a)
-        {
-          std::fill(G[a].begin(), G[a].end(), 0.);
-          std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
-        }
-      if (lifting && potential_cell->at_boundary())
-        for (const unsigned int f : potential_cell->face_indices())
-          if (potential_cell->face(f)->at_boundary())
-            {
-              FEValues<dim> &on_face = *face_values[f];
-              on_face.reinit(potential_cell);
-              for (unsigned int a = 0; a < 2; ++a)
-                add_face_lifting(potential_values,
-                                 on_face,
-                                 f,
-                                 *u_vectors[a],
-                                 *g_functions[a],
-                                 G[a],
-                                 grad_G[a]);
-            }
-      // From here on u_h stands for u_h + G, and s for s + G (s - u_h is
-      // unchanged).
-      for (unsigned int a = 0; a < 2; ++a)
-        for (unsigned int q = 0; q < n_q; ++q)
+      void
+      add_lifting(const CellIterator  &potential_cell,
+                  ContactScratch<dim> &scratch) const
+      {
+        FEValues<dim> &potential_values = scratch.potential_values;
+        auto          &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
+             &grad_G = scratch.grad_G;
+        auto &u = scratch.u, &s = scratch.s, &G = scratch.G;
+        auto &face_values = scratch.face_values;
+        for (unsigned int a = 0; a < 2; ++a)
           {
-            u[a][q] += G[a][q];
-            grad_u[a][q] += grad_G[a][q];
-            s[a][q] += G[a][q];
-            grad_s[a][q] += grad_G[a][q];
+            std::fill(G[a].begin(), G[a].end(), 0.);
+            std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
           }
-
-      const double h_K   = potential_cell->diameter();
-      const auto   index = potential_cell->active_cell_index();
-      auto        &cell  = share.cell;
-      cell.fill(0.);
-      double flux_total[2] = {}, flux_disc[2] = {}, residual[2] = {},
-             algebraic = 0;
-
-      for (unsigned int a = 0; a < 2; ++a)
-        {
-          // (-1)^alpha for alpha = a + 1: the multiplier pulls membrane 1
-          // up and membrane 2 down.
-          const double sign = (a == 0) ? -1. : 1.;
-          if (load_values[a])
-            std::copy_n(load_values[a]->begin() + index * n_q, n_q, f.begin());
-          else
-            forces[a]->value_list(potential_values.get_quadrature_points(), f);
+        if (lifting && potential_cell->at_boundary())
+          for (const unsigned int f : potential_cell->face_indices())
+            if (potential_cell->face(f)->at_boundary())
+              {
+                FEValues<dim> &on_face = *face_values[f];
+                on_face.reinit(potential_cell);
+                for (unsigned int a = 0; a < 2; ++a)
+                  add_face_lifting(potential_values,
+                                   on_face,
+                                   f,
+                                   *u_vectors[a],
+                                   *g_functions[a],
+                                   G[a],
+                                   grad_G[a]);
+              }
+        // From here on u_h stands for u_h + G, and s for s + G (s - u_h is
+        // unchanged).
+        for (unsigned int a = 0; a < 2; ++a)
           for (unsigned int q = 0; q < n_q; ++q)
             {
-              const double dx      = potential_values.JxW(q);
-              const double sqrt_mu = std::sqrt(mu[a]);
-              flux_total[a] +=
-                (sqrt_mu * grad_u[a][q] + sigma_ahead[a][q] / sqrt_mu)
-                  .norm_square() *
-                dx;
-              flux_disc[a] +=
-                (sqrt_mu * grad_u[a][q] + sigma_disc[a][q] / sqrt_mu)
-                  .norm_square() *
-                dx;
-              algebraic +=
-                (sigma_ahead[a][q] - sigma_disc[a][q]).norm_square() / mu[a] *
-                dx;
-              residual[a] +=
-                std::pow(f[q] - dt_u_ahead[a][q] - sign * lambda_ahead[q] -
-                           r_ahead[a][q] - div_ahead[a][q],
-                         2) *
-                dx;
-              const double rho = r_ahead[a][q] +
-                                 sign * (lambda_ahead[q] - lambda[q]) +
-                                 dt_u_ahead[a][q] - dt_u[a][q];
-              cell[remainder_1 + a] += rho * rho * dx;
-              if (remainder)
-                remainders[a][potential_cell->active_cell_index() * n_q + q] =
-                  rho;
+              u[a][q] += G[a][q];
+              grad_u[a][q] += grad_G[a][q];
+              s[a][q] += G[a][q];
+              grad_s[a][q] += grad_G[a][q];
             }
-          flux_total[a] = std::sqrt(flux_total[a]);
-          flux_disc[a]  = std::sqrt(flux_disc[a]);
-          residual[a] =
-            h_K / numbers::PI / std::sqrt(mu[a]) * std::sqrt(residual[a]);
-          cell[flux_residual_total] += std::pow(flux_total[a] + residual[a], 2);
-          cell[flux_residual_disc] += std::pow(flux_disc[a] + residual[a], 2);
-          cell[flux_disc_squared] += std::pow(flux_disc[a], 2);
-          cell[residual_squared] += std::pow(residual[a], 2);
-        }
-      cell[algebraic_squared] = algebraic;
-
-      const MultiplierSplit split = add_multiplier_sums(
-        potential_values.get_JxW_values(), h_K, index, scratch, cell);
-
-      // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
-      // is in the cone; s - u_h vanishes once Newton has converged.
-      for (unsigned int q = 0; q < n_q; ++q)
-        {
-          const double         dx     = potential_values.JxW(q);
-          const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
-                                          grad_s[1][q] - grad_s[0][q] :
-                                          Tensor<1, dim>();
-          const Tensor<1, dim> d1     = grad_s[0][q] - grad_u[0][q],
-                               d2     = grad_s[1][q] - grad_u[1][q];
-          cell[nonc_total] +=
-            (mu[0] * (d1 + theta * grad_w).norm_square() +
-             mu[1] * (d2 - (1 - theta) * grad_w).norm_square()) *
-            dx;
-          cell[nonc_lin] +=
-            (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
-          cell[nonc_disc] +=
-            (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
-            grad_w.norm_square() * dx;
-
-          const double positive_part = std::max(lambda[q], 0.);
-          const double gap           = u[0][q] - u[1][q];
-          cell[positive] += positive_part * positive_part * dx;
-          cell[contact_total] += 2. * positive_part * gap * dx;
-          cell[contact_cone] += 2. * split.cone_factor * positive_part *
-                                std::max(s[0][q] - s[1][q], 0.) * dx;
-          cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
-                                      mu[1] * grad_G[1][q].norm_square()) *
-                                     dx;
-          cell[contact_linearised] += 2. * lambda[q] * gap * dx;
-        }
-
-      estimate.cell_flux(index) =
-        std::pow(flux_total[0], 2) + std::pow(flux_total[1], 2);
-      estimate.cell_residual(index)      = cell[residual_squared];
-      estimate.cell_algebraic(index)     = cell[algebraic_squared];
-      estimate.cell_nonconformity(index) = cell[nonc_total];
-      estimate.cell_contact(index)       = cell[contact_cone];
-      estimate.cell_total(index) =
-        cell[flux_residual_total] + cell[nonc_total] +
-        c_mu * c_mu * cell[multiplier_local] + C * C * cell[multiplier_mean] +
-        cell[contact_cone] + cell[dirichlet_squared];
-    };
-    const auto copier = [&](const CellShare &share) {
-      for (unsigned int k = 0; k < n_sums; ++k)
-        sums[k] += share.cell[k];
-    };
-    WorkStream::run(filter_iterators(in.potential->active_cell_iterators(),
-                                     IteratorFilters::LocallyOwnedCell()),
-                    worker,
-                    copier,
-                    Scratch(in, lifting),
-                    CellShare(),
-                    /*queue_length=*/2 * MultithreadInfo::n_threads(),
-                    /*chunk_size=*/32);
-
-    const MPI_Comm             comm = in.potential->get_communicator();
-    std::array<double, n_sums> total{};
-    Utilities::MPI::sum(ArrayView<const double>(sums.data(), n_sums),
-                        comm,
-                        ArrayView<double>(total.data(), n_sums));
-
-    ContactEstimate &e = estimate;
-    // (Below 1 % of the discretisation flux and residual estimator, the
-    // sharper bound of a dual norm changes eta by less than 1 %.)
-    const double negligible = 1e-2 * std::sqrt(total[flux_residual_disc]);
-    const double friedrichs_remainder =
-      in.friedrichs_constant *
-      std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
-    e.flux_disc   = std::sqrt(total[flux_disc_squared]);
-    e.residual    = std::sqrt(total[residual_squared]);
-    e.flux_alg    = std::sqrt(total[algebraic_squared]);
-    e.nonc_1      = std::sqrt(total[nonc_total]);
-    e.nonc_1_disc = std::sqrt(total[nonc_disc]);
-    e.nonc_1_lin  = std::sqrt(total[nonc_lin]);
-    // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w|||, or
-    // (m, w1 - w2) <= ||m||_{-1} c_mu |||w||| with the equilibrated bound.
-    const auto mean_term = [&](const double               mean_squared,
-                               const std::vector<double> &cell_means) {
-      if (undershoots && C * std::sqrt(mean_squared) > negligible)
-        return c_mu * in.dual_norm->bound(cell_means);
-      return C * std::sqrt(mean_squared);
-    };
-    e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
-               mean_term(total[multiplier_mean], means);
-    e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
-                    mean_term(total[multiplier_mean_disc], means_disc);
-    // lambda_h = lambda~ once Newton has converged.
-    e.nonc_2_lin                 = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
-    const double lambda_positive = std::sqrt(total[positive]);
-    e.nonc_3                     = 2. * C * lambda_positive * e.nonc_1;
-    e.contact_pos                = total[contact_total];
-    e.contact_cone               = total[contact_cone];
-    if (in.cell_multiplier)
-      {
-        e.contact_lin  = in.complementarity;
-        e.contact_disc = e.contact_cone - e.contact_lin;
       }
-    else if (in.mass_lumped)
+
+      // The flux, residual and algebraic terms of both membranes and the
+      // remainder; flux_total = eta_F of each.
+      void
+      add_flux_residual_terms(const unsigned int          index,
+                              const double                h_K,
+                              ContactScratch<dim>        &scratch,
+                              double                      flux_total[2],
+                              std::array<double, n_sums> &cell)
       {
-        e.contact_disc = e.contact_cone;
-        e.contact_lin  = 0;
+        const FEValues<dim> &potential_values = scratch.potential_values;
+        const auto &grad_u = scratch.grad_u, &sigma_disc = scratch.sigma_disc,
+                   &sigma_ahead = scratch.sigma_ahead;
+        const auto &r_ahead = scratch.r_ahead, &div_ahead = scratch.div_ahead,
+                   &dt_u = scratch.dt_u, &dt_u_ahead = scratch.dt_u_ahead;
+        const std::vector<double> &lambda       = scratch.lambda,
+                                  &lambda_ahead = scratch.lambda_ahead;
+        std::vector<double> &f                  = scratch.f;
+        double               flux_disc[2] = {}, residual[2] = {}, algebraic = 0;
+
+        for (unsigned int a = 0; a < 2; ++a)
+          {
+            // (-1)^alpha for alpha = a + 1: the multiplier pulls membrane 1
+            // up and membrane 2 down.
+            const double sign = (a == 0) ? -1. : 1.;
+            if (load_values[a])
+              std::copy_n(load_values[a]->begin() + index * n_q,
+                          n_q,
+                          f.begin());
+            else
+              forces[a]->value_list(potential_values.get_quadrature_points(),
+                                    f);
+            for (unsigned int q = 0; q < n_q; ++q)
+              {
+                const double dx      = potential_values.JxW(q);
+                const double sqrt_mu = std::sqrt(mu[a]);
+                flux_total[a] +=
+                  (sqrt_mu * grad_u[a][q] + sigma_ahead[a][q] / sqrt_mu)
+                    .norm_square() *
+                  dx;
+                flux_disc[a] +=
+                  (sqrt_mu * grad_u[a][q] + sigma_disc[a][q] / sqrt_mu)
+                    .norm_square() *
+                  dx;
+                algebraic +=
+                  (sigma_ahead[a][q] - sigma_disc[a][q]).norm_square() / mu[a] *
+                  dx;
+                residual[a] +=
+                  std::pow(f[q] - dt_u_ahead[a][q] - sign * lambda_ahead[q] -
+                             r_ahead[a][q] - div_ahead[a][q],
+                           2) *
+                  dx;
+                const double rho = r_ahead[a][q] +
+                                   sign * (lambda_ahead[q] - lambda[q]) +
+                                   dt_u_ahead[a][q] - dt_u[a][q];
+                cell[remainder_1 + a] += rho * rho * dx;
+                if (remainder)
+                  remainders[a][index * n_q + q] = rho;
+              }
+            flux_total[a] = std::sqrt(flux_total[a]);
+            flux_disc[a]  = std::sqrt(flux_disc[a]);
+            residual[a] =
+              h_K / numbers::PI / std::sqrt(mu[a]) * std::sqrt(residual[a]);
+            cell[flux_residual_total] +=
+              std::pow(flux_total[a] + residual[a], 2);
+            cell[flux_residual_disc] += std::pow(flux_disc[a] + residual[a], 2);
+            cell[flux_disc_squared] += std::pow(flux_disc[a], 2);
+            cell[residual_squared] += std::pow(residual[a], 2);
+          }
+        cell[algebraic_squared] = algebraic;
       }
-    else
+
+      // The non-conformity, contact and Dirichlet terms.
+      void
+      add_nonconformity_contact_terms(const ContactScratch<dim>  &scratch,
+                                      const MultiplierSplit      &split,
+                                      std::array<double, n_sums> &cell) const
       {
-        // 2 (lambda, u1 - u2) vanishes with the discrete complementarity of
-        // p >= 2; the rest is a discretisation term.
-        e.contact_lin  = total[contact_linearised];
-        e.contact_disc = e.contact_cone - e.contact_lin;
+        const FEValues<dim> &potential_values = scratch.potential_values;
+        const auto          &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
+                   &grad_G           = scratch.grad_G;
+        const auto                &u = scratch.u, &s = scratch.s;
+        const std::vector<double> &lambda = scratch.lambda;
+        // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
+        // is in the cone; s - u_h vanishes once Newton has converged.
+        for (unsigned int q = 0; q < n_q; ++q)
+          {
+            const double         dx     = potential_values.JxW(q);
+            const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
+                                            grad_s[1][q] - grad_s[0][q] :
+                                            Tensor<1, dim>();
+            const Tensor<1, dim> d1     = grad_s[0][q] - grad_u[0][q],
+                                 d2     = grad_s[1][q] - grad_u[1][q];
+            cell[nonc_total] +=
+              (mu[0] * (d1 + theta * grad_w).norm_square() +
+               mu[1] * (d2 - (1 - theta) * grad_w).norm_square()) *
+              dx;
+            cell[nonc_lin] +=
+              (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
+            cell[nonc_disc] +=
+              (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
+              grad_w.norm_square() * dx;
+
+            const double positive_part = std::max(lambda[q], 0.);
+            const double gap           = u[0][q] - u[1][q];
+            cell[positive] += positive_part * positive_part * dx;
+            cell[contact_total] += 2. * positive_part * gap * dx;
+            cell[contact_cone] += 2. * split.cone_factor * positive_part *
+                                  std::max(s[0][q] - s[1][q], 0.) * dx;
+            cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
+                                        mu[1] * grad_G[1][q].norm_square()) *
+                                       dx;
+            cell[contact_linearised] += 2. * lambda[q] * gap * dx;
+          }
       }
-    e.dirichlet  = std::sqrt(total[dirichlet_squared]);
-    e.eta_1_disc = std::sqrt(total[flux_residual_disc]);
+
+      const ContactEstimatorInput<dim>    &in;
+      ContactEstimate                     &estimate;
+      const Triangulation<dim>            &tria;
+      const double                         mu[2];
+      const double                         theta;
+      const unsigned int                   n_q, n_tau;
+      const TrilinosWrappers::MPI::Vector *u_vectors[2], *s_vectors[2],
+        *r_vectors[2], *disc_vectors[2], *ahead_vectors[2];
+      const Function<dim>                 *forces[2];
+      const std::vector<double>           *load_values[2];
+      const TrilinosWrappers::MPI::Vector *dt_vectors[2], *dt_ahead_vectors[2];
+      // The lifting G of g - I_h g on the cells at the boundary (see
+      // add_lifting()) needs the values of u_h, g and the mapping on
+      // the boundary faces, at the points that share the tangential
+      // coordinate of the (tensor-product Gauss) cell quadrature points
+      // (lifting_face_points()).
+      const bool           lifting;
+      const Function<dim> *g_functions[2];
+      // An iterate estimated with itself as look-ahead (sigma_alg = 0): its
+      // fluxes and multiplier are read once.
+      const bool   own_look_ahead;
+      const bool   with_fluxes;
+      const double c_mu;
+      const double C;
+      // The cell means m_K of the multiplier's undershoots (of lambda_h and of
+      // lambda~), for the dual norm bound.
+      const bool          undershoots;
+      std::vector<double> means, means_disc;
+      // The remainders rho_alpha at the quadrature points, for the same.
+      const bool          remainder;
+      std::vector<double> remainders[2];
+      const bool          contact_linearised_needed;
+    };
+
 
     // The bound and its split for a bound of the remainder, which enters
     // eta_1, the cross terms and eta_alg: all of them grow with it.
-    const auto bound_with_remainder = [&](const double remainder_bound) {
+    inline void
+    bound_with_remainder(const std::array<double, n_sums> &total,
+                         const bool                        with_fluxes,
+                         const double                      remainder_bound,
+                         ContactEstimate                  &e)
+    {
       e.remainder = remainder_bound;
       e.eta_1     = std::sqrt(total[flux_residual_total]) + remainder_bound;
       // |||e|||^2 <= a |||e||| + b, hence |||e||| <= a/2 + (a^2/4 + b)^(1/2).
@@ -676,196 +696,178 @@ namespace VI
                   (with_fluxes ? cross(e.nonc_1_lin) : 0.) +
                   std::sqrt(std::max(e.contact_lin, 0.) / 2.);
       e.eta_alg = e.flux_alg + e.remainder;
-    };
-    bound_with_remainder(friedrichs_remainder);
-    // The dual norm bounds cost a Poisson solve and a reconstruction each
-    // (the remainder's two fields share one):
-    // they are computed only where Friedrichs' bound is not negligible,
-    // above 1 % of the discretisation flux and residual estimator (either
-    // bound is guaranteed; below that, the sharper one changes eta by less
-    // than 1 %), and where the caller finds them worth it.
-    if (remainder && with_fluxes && friedrichs_remainder > negligible &&
-        (!in.sharpen_remainder || in.sharpen_remainder(e)))
-      {
-        // (rho_alpha, w_alpha) <= ||rho_alpha||_{-1} |grad w_alpha|
-        const std::vector<double> rho =
-          in.dual_norm->bounds_at_points({&remainders[0], &remainders[1]});
-        bound_with_remainder(
-          std::sqrt(rho[0] * rho[0] / in.mu1 + rho[1] * rho[1] / in.mu2));
-      }
-    if (!with_fluxes)
-      {
-        e.complete = false;
-        // (and the terms the cells without |||s_h - u_h||| skipped)
-        for (double *unknown : {&e.eta,
-                                &e.eta_disc,
-                                &e.eta_1,
-                                &e.eta_1_disc,
-                                &e.flux_disc,
-                                &e.residual,
-                                &e.flux_alg,
-                                &e.nonc_1,
-                                &e.nonc_1_disc,
-                                &e.nonc_3,
-                                &e.contact_pos,
-                                &e.contact_cone,
-                                &e.contact_disc,
-                                &e.dirichlet})
-          *unknown = std::numeric_limits<double>::quiet_NaN();
-        for (auto *cell_values : {&e.cell_flux,
-                                  &e.cell_residual,
-                                  &e.cell_algebraic,
-                                  &e.cell_nonconformity,
-                                  &e.cell_contact,
-                                  &e.cell_total})
-          std::fill(cell_values->begin(),
-                    cell_values->end(),
-                    std::numeric_limits<double>::quiet_NaN());
-      }
-    return estimate;
-  }
+    }
 
 
-  template <int dim>
-  Quadrature<dim>
-  lifting_face_points(const unsigned int n_q, const unsigned int face)
-  {
-    const unsigned int n_1d = std::lround(std::sqrt(double(n_q)));
-    AssertThrow(dim == 2 && n_1d * n_1d == n_q,
-                ExcMessage("The Dirichlet lifting needs a 2d "
-                           "tensor-product Gauss quadrature."));
-    const QGauss<1>         gauss_1d(n_1d);
-    std::vector<Point<dim>> points(n_1d);
-    for (unsigned int k = 0; k < n_1d; ++k)
-      {
-        points[k][face / 2]     = double(face % 2);
-        points[k][1 - face / 2] = gauss_1d.point(k)[0];
-      }
-    return Quadrature<dim>(points, std::vector<double>(n_1d, 1.));
-  }
+    // What an estimate without fluxes does not know.
+    inline void
+    mark_unknown_terms(ContactEstimate &e)
+    {
+      e.complete = false;
+      // (and the terms the cells without |||s_h - u_h||| skipped)
+      for (double *unknown : {&e.eta,
+                              &e.eta_disc,
+                              &e.eta_1,
+                              &e.eta_1_disc,
+                              &e.flux_disc,
+                              &e.residual,
+                              &e.flux_alg,
+                              &e.nonc_1,
+                              &e.nonc_1_disc,
+                              &e.nonc_3,
+                              &e.contact_pos,
+                              &e.contact_cone,
+                              &e.contact_disc,
+                              &e.dirichlet})
+        *unknown = std::numeric_limits<double>::quiet_NaN();
+      for (auto *cell_values : {&e.cell_flux,
+                                &e.cell_residual,
+                                &e.cell_algebraic,
+                                &e.cell_nonconformity,
+                                &e.cell_contact,
+                                &e.cell_total})
+        std::fill(cell_values->begin(),
+                  cell_values->end(),
+                  std::numeric_limits<double>::quiet_NaN());
+    }
 
 
-  template <int dim>
-  void
-  add_face_lifting(const FEValues<dim>                 &cell_values,
-                   const FEValues<dim>                 &face_values,
-                   const unsigned int                   face,
-                   const TrilinosWrappers::MPI::Vector &v,
-                   const Function<dim>                 &g,
-                   std::vector<double>                 &G,
-                   std::vector<Tensor<1, dim>>         &grad_G)
-  {
-    const unsigned int          n_1d = face_values.n_quadrature_points;
-    std::vector<double>         face_v(n_1d);
-    std::vector<Tensor<1, dim>> face_grad_v(n_1d);
-    face_values.get_function_values(v, face_v);
-    face_values.get_function_gradients(v, face_grad_v);
-    const unsigned int normal = face / 2, tangent = 1 - normal;
-    for (const unsigned int q : cell_values.quadrature_point_indices())
-      {
-        // cell point (x0, x1) = (p_(q % n), p_(q / n))
-        const unsigned int k  = tangent == 0 ? q % n_1d : q / n_1d;
-        const double       xn = cell_values.get_quadrature().point(q)[normal];
-        const double       weight = (face % 2) ? xn : 1. - xn;
-        const Point<dim>  &y      = face_values.quadrature_point(k);
-        Tensor<1, dim>     along;
-        for (unsigned int d = 0; d < dim; ++d)
-          along[d] = face_values.jacobian(k)[d][tangent];
-        const double   delta       = g.value(y) - face_v[k];
-        const double   delta_prime = (g.gradient(y) - face_grad_v[k]) * along;
-        Tensor<1, dim> reference_gradient;
-        reference_gradient[tangent] = delta_prime * weight;
-        reference_gradient[normal]  = (face % 2) ? delta : -delta;
-        G[q] += delta * weight;
-        const auto &inverse = cell_values.inverse_jacobian(q);
-        for (unsigned int d = 0; d < dim; ++d)
-          for (unsigned int e = 0; e < dim; ++e)
-            grad_G[q][d] += inverse[e][d] * reference_gradient[e];
-      }
-  }
-
-
-  MultiplierSplit
-  split_multiplier(const std::vector<double> &lambda,
-                   const std::vector<double> &JxW)
-  {
-    AssertDimension(lambda.size(), JxW.size());
-    double measure = 0, integral = 0, positive_integral = 0;
-    for (unsigned int q = 0; q < lambda.size(); ++q)
-      {
-        measure += JxW[q];
-        integral += lambda[q] * JxW[q];
-        positive_integral += std::max(lambda[q], 0.) * JxW[q];
-      }
-    MultiplierSplit split;
-    split.cone_factor  = integral > 0 ? integral / positive_integral : 0.;
-    const double mean  = std::min(integral, 0.) / measure;
-    split.mean         = mean;
-    split.mean_squared = mean * mean * measure;
-    for (unsigned int q = 0; q < lambda.size(); ++q)
-      {
-        const double delta =
-          lambda[q] - split.cone_factor * std::max(lambda[q], 0.);
-        split.oscillation_squared += std::pow(delta - mean, 2) * JxW[q];
-      }
-    return split;
-  }
-
-
-  void
-  average_at_violated_nodes(const double                         mu1,
-                            const double                         mu2,
-                            const TrilinosWrappers::MPI::Vector &u1,
-                            const TrilinosWrappers::MPI::Vector &u2,
-                            TrilinosWrappers::MPI::Vector       &s1,
-                            TrilinosWrappers::MPI::Vector       &s2)
-  {
-    const double *x1 = u1.begin(), *x2 = u2.begin();
-    double       *y1 = s1.begin(), *y2 = s2.begin();
-    for (std::size_t k = 0; k < u1.locally_owned_size(); ++k)
-      if (x1[k] < x2[k])
-        y1[k] = y2[k] = (mu1 * x1[k] + mu2 * x2[k]) / (mu1 + mu2);
+    // The combination of the cell terms: the estimators from the global sums
+    // and the final formula.
+    template <int dim>
+    void
+    combine_contact_terms(const ContactCellTerms<dim>      &terms,
+                          const std::array<double, n_sums> &total,
+                          ContactEstimate                  &e)
+    {
+      const ContactEstimatorInput<dim> &in          = terms.in;
+      const double                      c_mu        = terms.c_mu;
+      const double                      C           = terms.C;
+      const bool                        undershoots = terms.undershoots;
+      const bool                        with_fluxes = terms.with_fluxes;
+      const bool                        remainder   = terms.remainder;
+      const std::vector<double>        &means       = terms.means;
+      const std::vector<double>        &means_disc  = terms.means_disc;
+      const std::vector<double>        *remainders  = terms.remainders;
+      // (Below 1 % of the discretisation flux and residual estimator, the
+      // sharper bound of a dual norm changes eta by less than 1 %.)
+      const double negligible = 1e-2 * std::sqrt(total[flux_residual_disc]);
+      const double friedrichs_remainder =
+        in.friedrichs_constant *
+        std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
+      e.flux_disc   = std::sqrt(total[flux_disc_squared]);
+      e.residual    = std::sqrt(total[residual_squared]);
+      e.flux_alg    = std::sqrt(total[algebraic_squared]);
+      e.nonc_1      = std::sqrt(total[nonc_total]);
+      e.nonc_1_disc = std::sqrt(total[nonc_disc]);
+      e.nonc_1_lin  = std::sqrt(total[nonc_lin]);
+      // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w|||, or
+      // (m, w1 - w2) <= ||m||_{-1} c_mu |||w||| with the equilibrated bound.
+      const auto mean_term = [&](const double               mean_squared,
+                                 const std::vector<double> &cell_means) {
+        if (undershoots && C * std::sqrt(mean_squared) > negligible)
+          return c_mu * in.dual_norm->bound(cell_means);
+        return C * std::sqrt(mean_squared);
+      };
+      e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
+                 mean_term(total[multiplier_mean], means);
+      e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
+                      mean_term(total[multiplier_mean_disc], means_disc);
+      // lambda_h = lambda~ once Newton has converged.
+      e.nonc_2_lin                 = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
+      const double lambda_positive = std::sqrt(total[positive]);
+      e.nonc_3                     = 2. * C * lambda_positive * e.nonc_1;
+      e.contact_pos                = total[contact_total];
+      e.contact_cone               = total[contact_cone];
+      if (in.cell_multiplier)
+        {
+          e.contact_lin  = in.complementarity;
+          e.contact_disc = e.contact_cone - e.contact_lin;
+        }
+      else if (in.mass_lumped)
+        {
+          e.contact_disc = e.contact_cone;
+          e.contact_lin  = 0;
+        }
       else
         {
-          y1[k] = x1[k];
-          y2[k] = x2[k];
+          // 2 (lambda, u1 - u2) vanishes with the discrete complementarity of
+          // p >= 2; the rest is a discretisation term.
+          e.contact_lin  = total[contact_linearised];
+          e.contact_disc = e.contact_cone - e.contact_lin;
         }
-  }
+      e.dirichlet  = std::sqrt(total[dirichlet_squared]);
+      e.eta_1_disc = std::sqrt(total[flux_residual_disc]);
+
+      bound_with_remainder(total, with_fluxes, friedrichs_remainder, e);
+      // The dual norm bounds cost a Poisson solve and a reconstruction each
+      // (the remainder's two fields share one):
+      // they are computed only where Friedrichs' bound is not negligible,
+      // above 1 % of the discretisation flux and residual estimator (either
+      // bound is guaranteed; below that, the sharper one changes eta by less
+      // than 1 %), and where the caller finds them worth it.
+      if (remainder && with_fluxes && friedrichs_remainder > negligible &&
+          (!in.sharpen_remainder || in.sharpen_remainder(e)))
+        {
+          // (rho_alpha, w_alpha) <= ||rho_alpha||_{-1} |grad w_alpha|
+          const std::vector<double> rho =
+            in.dual_norm->bounds_at_points({&remainders[0], &remainders[1]});
+          bound_with_remainder(total,
+                               with_fluxes,
+                               std::sqrt(rho[0] * rho[0] / in.mu1 +
+                                         rho[1] * rho[1] / in.mu2),
+                               e);
+        }
+      if (!with_fluxes)
+        mark_unknown_terms(e);
+    }
+  } // namespace
 
 
-  std::vector<std::pair<std::string, dealii::Vector<float>>>
-  cell_indicators(const ContactEstimate &e)
+  template <int dim>
+  ContactEstimate
+  estimate_contact_error(const ContactEstimatorInput<dim> &in)
   {
-    std::vector<std::pair<std::string, dealii::Vector<float>>> fields;
-    for (const auto &[name, squares] :
-         {std::make_pair("eta", &e.cell_total),
-          std::make_pair("eta_flux", &e.cell_flux),
-          std::make_pair("eta_residual", &e.cell_residual),
-          std::make_pair("eta_algebraic", &e.cell_algebraic),
-          std::make_pair("eta_nonconformity", &e.cell_nonconformity)})
-      {
-        dealii::Vector<float> root(squares->size());
-        for (unsigned int c = 0; c < squares->size(); ++c)
-          root(c) = std::sqrt(std::abs((*squares)(c)));
-        fields.emplace_back(name, std::move(root));
-      }
-    fields.emplace_back("eta_contact",
-                        dealii::Vector<float>(e.cell_contact.begin(),
-                                              e.cell_contact.end()));
-    return fields;
+    ContactEstimate estimate;
+    for (auto *cell_values : {&estimate.cell_flux,
+                              &estimate.cell_residual,
+                              &estimate.cell_algebraic,
+                              &estimate.cell_nonconformity,
+                              &estimate.cell_contact,
+                              &estimate.cell_total})
+      cell_values->reinit(in.potential->get_triangulation().n_active_cells());
+    ContactCellTerms<dim> terms(in, estimate);
+
+    std::array<double, n_sums> sums{};
+    const auto                 worker =
+      [&](const typename DoFHandler<dim>::active_cell_iterator &potential_cell,
+          ContactScratch<dim>                                  &scratch,
+          CellShare                                            &share) {
+        terms.cell_terms(potential_cell, scratch, share);
+      };
+    const auto copier = [&](const CellShare &share) {
+      for (unsigned int k = 0; k < n_sums; ++k)
+        sums[k] += share.cell[k];
+    };
+    WorkStream::run(filter_iterators(in.potential->active_cell_iterators(),
+                                     IteratorFilters::LocallyOwnedCell()),
+                    worker,
+                    copier,
+                    ContactScratch<dim>(in, terms.lifting),
+                    CellShare(),
+                    /*queue_length=*/2 * MultithreadInfo::n_threads(),
+                    /*chunk_size=*/32);
+
+    const MPI_Comm             comm = in.potential->get_communicator();
+    std::array<double, n_sums> total{};
+    Utilities::MPI::sum(ArrayView<const double>(sums.data(), n_sums),
+                        comm,
+                        ArrayView<double>(total.data(), n_sums));
+    combine_contact_terms(terms, total, estimate);
+    return estimate;
   }
 
 
   template ContactEstimate
   estimate_contact_error(const ContactEstimatorInput<2> &);
-  template Quadrature<2>
-  lifting_face_points<2>(const unsigned int, const unsigned int);
-  template void
-  add_face_lifting<2>(const FEValues<2> &,
-                      const FEValues<2> &,
-                      const unsigned int,
-                      const TrilinosWrappers::MPI::Vector &,
-                      const Function<2> &,
-                      std::vector<double> &,
-                      std::vector<Tensor<1, 2>> &);
 } // namespace VI

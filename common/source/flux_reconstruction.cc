@@ -1,24 +1,25 @@
+// FluxReconstruction: the reference products, the patch layouts and
+// factorisations, and the reconstruction of the fluxes (reconstruct()); the
+// set-up of the patches of a mesh is in flux_reconstruction_setup.cc.
+
 #include <deal.II/base/geometry_info.h>
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/multithread_info.h>
 #include <deal.II/base/parallel.h>
 #include <deal.II/base/partitioner.h>
 #include <deal.II/base/work_stream.h>
-#include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
-#include <deal.II/grid/grid_tools.h>
-#include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/la_parallel_vector.h>
-#include <deal.II/lac/lapack_full_matrix.h>
 #include <deal.II/lac/vector.h>
 
 #include <vi/flux_reconstruction.h>
 #include <vi/piola_divergence.h>
 
+#include "flux_reconstruction_internal.h"
+
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <boost/serialization/utility.hpp>
 #include <boost/serialization/vector.hpp>
 #include <cmath>
@@ -26,297 +27,10 @@
 #include <cstring>
 #include <map>
 #include <mutex>
-#include <numeric>
 
 namespace VI
 {
   using namespace dealii;
-
-  // The mixed patch problem, A sigma + B^T gamma = b, B sigma = g, in its
-  // divergence-free form. B_{k,i} = (div tau_i, q_k) does not depend on the
-  // geometry beyond the signs of the Piola transform and the hanging-node
-  // weights, so a few distinct B serve a whole mesh: for each, an SVD gives
-  // an orthonormal basis Z of the fluxes of the patch with zero divergence
-  // (and zero normal trace where prescribed) and the pseudo-inverse B^+.
-  // Then sigma = B^+ g + Z y with (Z^T A Z) y = Z^T (b - A B^+ g): the
-  // minimiser of the energy among the fluxes with divergence g. For an
-  // interior patch B has the constants in its left kernel (the flux through
-  // the patch boundary is zero) and g is compatible, (g, 1) = 0, when the
-  // data satisfy the discrete equations, as in the mixed problem with its
-  // mean-value condition; gamma is not needed. Per patch this costs the
-  // Cholesky factor of Z^T A Z, of order dim ker B (9 for an interior Q1
-  // patch, against an LU factorisation of order 41 for the saddle-point
-  // matrix), and each solve a few small matrix-vector products: B^+ g,
-  // Z^T A B^+ g (see LocalSolver), Z^T b, the triangular solves and Z y.
-  template <int dim>
-  struct FluxReconstruction<dim>::DivergenceBasis
-  {
-    unsigned int        n_sigma = 0, n_q = 0, n_free = 0;
-    std::vector<double> kernel;         ///< Z, n_sigma x n_free, by columns
-    std::vector<double> pseudo_inverse; ///< B^+, n_sigma x n_q, by columns
-
-    /// From B, row-major (n_q rows of n_sigma).
-    DivergenceBasis(const unsigned int         n_sigma,
-                    const unsigned int         n_q,
-                    const std::vector<double> &B)
-        : n_sigma(n_sigma)
-        , n_q(n_q)
-    {
-      LAPACKFullMatrix<double> matrix(n_q, n_sigma);
-      for (unsigned int k = 0; k < n_q; ++k)
-        for (unsigned int i = 0; i < n_sigma; ++i)
-          matrix(k, i) = B[k * n_sigma + i];
-      matrix.compute_svd();
-      const LAPACKFullMatrix<double> &U  = matrix.get_svd_u(),
-                                     &VT = matrix.get_svd_vt();
-      // The rank: B has entries of order one, its zero singular values are
-      // round-off.
-      const unsigned int n_singular = std::min(n_q, n_sigma);
-      unsigned int       rank       = 0;
-      while (rank < n_singular &&
-             matrix.singular_value(rank) > 1e-10 * matrix.singular_value(0))
-        ++rank;
-      // Onto Q_p of the patch, or onto its mean-zero part for an interior
-      // patch (the constants are the left kernel); anything smaller means
-      // a degenerate patch.
-      AssertThrow(rank + 1 >= n_q,
-                  ExcMessage("Flux reconstruction: the divergence of the "
-                             "Raviart-Thomas fluxes of a patch has rank " +
-                             std::to_string(rank) + " on " +
-                             std::to_string(n_q) +
-                             " moments; at least all but one are needed."));
-      n_free = n_sigma - rank;
-      kernel.resize(n_sigma * n_free);
-      for (unsigned int j = 0; j < n_free; ++j)
-        for (unsigned int i = 0; i < n_sigma; ++i)
-          kernel[j * n_sigma + i] = VT(rank + j, i);
-      pseudo_inverse.assign(n_sigma * n_q, 0.);
-      for (unsigned int r = 0; r < rank; ++r)
-        {
-          const double inverse = 1. / matrix.singular_value(r);
-          for (unsigned int k = 0; k < n_q; ++k)
-            for (unsigned int i = 0; i < n_sigma; ++i)
-              pseudo_inverse[k * n_sigma + i] += VT(r, i) * inverse * U(k, r);
-        }
-    }
-  };
-
-
-  // How the cells of a patch connect to its unknowns: local RT dof k of the
-  // patch's cell c contributes to the (sigma^a index, weight) pairs
-  // sigma_entries[sigma_start[c (n_tau + 1) + k]] ...
-  // sigma_entries[sigma_start[c (n_tau + 1) + k + 1] - 1] (one pair of
-  // weight 1 for a free dof, the constraint's entries for a dof on a
-  // hanging face, none for a dof fixed to zero), and its moments are the
-  // Q_p indices c n_q ... (c + 1) n_q - 1. These maps and the cells'
-  // Piola signs determine the divergence block B, whose basis the layout
-  // holds. A layout depends on the connectivity, the hanging faces and the
-  // signs only: a few serve a whole mesh, curved or not.
-  //
-  // With the cells' metrics G_c = J_c^T J_c / det J_c (J_c the mean
-  // Jacobian of the patch's cell c), the patch energy is A = sum_c E_c^T
-  // S_c (sum_m G_c,m M^_m) S_c E_c, E_c the expansion into the cell's
-  // dofs, S_c its signs (`signs`, n_tau per cell), M^_m the reference
-  // products. So Z^T A Z and Z^T A B^+ are the sums of G_c,m P_c,m and
-  // G_c,m Q_c,m with P_c,m = (S_c E_c Z)^T M^_m (S_c E_c Z) (packed lower
-  // triangle) and Q_c,m = (S_c E_c Z)^T M^_m (S_c E_c B^+) (n_free x n_q by
-  // rows), which the layout keeps in `energy`, block (c n_metric + m).
-  template <int dim>
-  struct FluxReconstruction<dim>::PatchLayout
-  {
-    unsigned int                                 n_cells = 0, n_sigma = 0;
-    std::vector<unsigned int>                    sigma_start;
-    std::vector<std::pair<unsigned int, double>> sigma_entries;
-    std::vector<std::int8_t>                     signs;
-    std::shared_ptr<const DivergenceBasis>       basis;
-    std::vector<double>                          energy;
-
-    unsigned int
-    n_packed() const
-    {
-      return basis->n_free * (basis->n_free + 1) / 2;
-    }
-
-    unsigned int
-    n_products() const
-    {
-      return basis->n_free * basis->n_q;
-    }
-
-    unsigned int
-    energy_block() const
-    {
-      return n_packed() + n_products();
-    }
-
-    /// sum_c,m G_c,m (P_c,m or Q_c,m) for the cells' metrics G: the n
-    /// numbers of each energy block from `offset` on (0 and n_packed()
-    /// for P, n_packed() and n_products() for Q).
-    void
-    combine(const double      *metrics,
-            const unsigned int offset,
-            const unsigned int n,
-            double            *sum) const
-    {
-      std::fill_n(sum, n, 0.);
-      for (unsigned int c = 0; c < n_cells; ++c)
-        for (unsigned int m = 0; m < n_metric; ++m)
-          {
-            const double  G = metrics[c * n_metric + m];
-            const double *block =
-              &energy[(std::size_t(c) * n_metric + m) * energy_block() +
-                      offset];
-            for (unsigned int i = 0; i < n; ++i)
-              sum[i] += G * block[i];
-          }
-    }
-  };
-
-
-  // A patch's energy, once per mesh and patch metrics: its cells' metrics
-  // (n_metric numbers per cell) and the Cholesky factor L of Z^T A Z (its
-  // rows, packed), one after the other in solver_storage. The reduced
-  // problem's right-hand side needs Z^T A B^+ g: the first reconstruction
-  // on a mesh computes it cell by cell, A B^+ g from the metrics, and
-  // from the second on (a mesh whose fluxes are reconstructed often, at
-  // the checks of an adaptive solve) C = Z^T A B^+ is kept
-  // (keep_products()). C is n_free n_q numbers per patch, 144 for an
-  // interior Q1 patch against 45 for L: kept on a mesh reconstructed once,
-  // it would be the largest array of the reconstruction, and its memory
-  // costs more to touch than its products save.
-  template <int dim>
-  struct FluxReconstruction<dim>::LocalSolver
-  {
-    std::shared_ptr<const PatchLayout> layout;
-    double                            *metrics = nullptr; ///< in solver_storage
-    /// C by rows (n_free x n_q), in product_storage, or none
-    double *products = nullptr;
-
-    /// L, right after the metrics
-    double *
-    cholesky() const
-    {
-      return metrics + std::size_t(layout->n_cells) * n_metric;
-    }
-
-    /// How many numbers of solver_storage a solver of `layout` holds.
-    static std::size_t
-    storage_size(const PatchLayout &layout)
-    {
-      return std::size_t(layout.n_cells) * n_metric + layout.n_packed();
-    }
-
-    /// Length of a right-hand side column: b (n_sigma), then g (n_q).
-    unsigned int
-    n() const
-    {
-      return layout->basis->n_sigma + layout->basis->n_q;
-    }
-
-    /// Overwrite the head of each of the n_columns columns (b, g) with
-    /// sigma = B^+ g + Z y, (Z^T A Z) y = Z^T b - C g, C g = Z^T A B^+ g
-    /// from the products or else from the cells' metrics and the nonzero
-    /// entries of the reference products M^_m (`reference`); n_tau
-    /// Raviart-Thomas dofs per cell.
-    void
-    solve(double                         *columns,
-          const unsigned int              n_columns,
-          const std::vector<MetricEntry> &reference,
-          const unsigned int              n_tau,
-          std::vector<double>            &work) const
-    {
-      const DivergenceBasis &basis   = *layout->basis;
-      const unsigned int     n_sigma = basis.n_sigma, n_q = basis.n_q,
-                         d  = basis.n_free;
-      const double *const L = cholesky();
-      work.resize(n_sigma + d + 2 * n_tau);
-      double *const particular = work.data();
-      double *const y          = particular + n_sigma;
-      double *const v          = y + d; // a cell's part of B^+ g
-      double *const Av         = v + n_tau;
-      for (unsigned int c = 0; c < n_columns; ++c)
-        {
-          double *const       x = columns + std::size_t(c) * n();
-          const double *const g = x + n_sigma;
-          std::fill(particular, particular + n_sigma, 0.);
-          for (unsigned int k = 0; k < n_q; ++k)
-            {
-              const double *column = &basis.pseudo_inverse[k * n_sigma];
-              for (unsigned int i = 0; i < n_sigma; ++i)
-                particular[i] += column[i] * g[k];
-            }
-          if (!products) // b - A B^+ g, then Z^T of it
-            subtract_energy(x, particular, reference, n_tau, v, Av);
-          for (unsigned int j = 0; j < d; ++j)
-            {
-              const double *z = &basis.kernel[j * n_sigma];
-              double        t = 0;
-              for (unsigned int i = 0; i < n_sigma; ++i)
-                t += z[i] * x[i];
-              if (products)
-                for (unsigned int k = 0; k < n_q; ++k)
-                  t -= products[j * n_q + k] * g[k];
-              y[j] = t;
-            }
-          // L (row j from j (j + 1) / 2 on) and L^T
-          for (unsigned int j = 0; j < d; ++j)
-            {
-              const double *row = L + j * (j + 1) / 2;
-              for (unsigned int m = 0; m < j; ++m)
-                y[j] -= row[m] * y[m];
-              y[j] /= row[j];
-            }
-          for (unsigned int j = d; j-- > 0;)
-            {
-              for (unsigned int m = j + 1; m < d; ++m)
-                y[j] -= L[m * (m + 1) / 2 + j] * y[m];
-              y[j] /= L[j * (j + 1) / 2 + j];
-            }
-          for (unsigned int j = 0; j < d; ++j)
-            {
-              const double *z = &basis.kernel[j * n_sigma];
-              for (unsigned int i = 0; i < n_sigma; ++i)
-                particular[i] += z[i] * y[j];
-            }
-          std::copy_n(particular, n_sigma, x);
-        }
-    }
-
-    /// x -= A p, cell by cell: A = sum_K E_K^T S_K (sum_m G_K,m M^_m) S_K
-    /// E_K; v and Av have room for a cell's dofs.
-    void
-    subtract_energy(double                         *x,
-                    const double                   *p,
-                    const std::vector<MetricEntry> &reference,
-                    const unsigned int              n_tau,
-                    double *const                   v,
-                    double *const                   Av) const
-    {
-      const auto *entries = layout->sigma_entries.data();
-      for (unsigned int K = 0; K < layout->n_cells; ++K)
-        {
-          const unsigned int *start = &layout->sigma_start[K * (n_tau + 1)];
-          const std::int8_t  *s     = &layout->signs[K * n_tau];
-          const double       *G     = &metrics[K * n_metric];
-          for (unsigned int i = 0; i < n_tau; ++i)
-            {
-              double value = 0;
-              for (unsigned int e = start[i]; e < start[i + 1]; ++e)
-                value += entries[e].second * p[entries[e].first];
-              v[i]  = s[i] * value;
-              Av[i] = 0;
-            }
-          for (const MetricEntry &entry : reference)
-            Av[entry.i] += G[entry.m] * entry.value * v[entry.j];
-          for (unsigned int i = 0; i < n_tau; ++i)
-            {
-              const double value = s[i] * Av[i];
-              for (unsigned int e = start[i]; e < start[i + 1]; ++e)
-                x[entries[e].first] -= entries[e].second * value;
-            }
-        }
-    }
-  };
 
 
   template <int dim>
@@ -402,764 +116,6 @@ namespace VI
   FluxReconstruction<dim>::~FluxReconstruction()
   {
     dof_handler.clear();
-  }
-
-
-  // What a patch needs to know of one of its cells, computed by the cell's
-  // owner: its center (which orders the cells of a patch), how its
-  // Raviart-Thomas dofs expand across hanging faces (the constraint's
-  // entries, or the dof itself), the Piola signs of those dofs, its metric
-  // J^T J / det J and the integrals (phi_v, q_k)_K of the Q1 shape functions
-  // phi_v against Q_p. The rank that solves a patch needs nothing else of a
-  // cell, so it need not see it.
-  template <int dim>
-  struct FluxReconstruction<dim>::CellData
-  {
-    double                    center[dim] = {};
-    std::vector<unsigned int> expansion_start; ///< per local dof, and the end
-    std::vector<std::pair<types::global_dof_index, double>> expansion;
-    std::vector<std::int8_t>                                signs;
-    std::vector<double>                                     metric;
-    std::vector<double> vertex_mass; ///< [v n_q + k]
-    CellIterator        cell;        ///< on the owner only
-
-    template <class Archive>
-    void
-    serialize(Archive &ar, const unsigned int)
-    {
-      ar &center &expansion_start &expansion &signs &metric &vertex_mass;
-    }
-  };
-
-
-  // (patch, cell) pairs: share i says that psi_a of the patch numbered by
-  // the degree of freedom patch[i] does not vanish on cells[cell[i]], with
-  // the values hat[i n_v ... (i + 1) n_v - 1] at its vertices. What one
-  // rank sends another.
-  template <int dim>
-  struct FluxReconstruction<dim>::Shares
-  {
-    static constexpr unsigned int n_v = GeometryInfo<dim>::vertices_per_cell;
-
-    std::vector<CellData>                cells;
-    std::vector<types::global_dof_index> patch;
-    std::vector<unsigned int>            cell;
-    std::vector<double>                  hat;
-
-    void
-    add(const types::global_dof_index j,
-        const unsigned int            c,
-        const double                 *values)
-    {
-      patch.push_back(j);
-      cell.push_back(c);
-      hat.insert(hat.end(), values, values + n_v);
-    }
-
-    template <class Archive>
-    void
-    serialize(Archive &ar, const unsigned int)
-    {
-      ar &cells &patch &cell &hat;
-    }
-  };
-
-
-  template <int dim>
-  void
-  FluxReconstruction<dim>::reinit(const DoFHandler<dim> &potential)
-  {
-    const Triangulation<dim> &tria   = potential.get_triangulation();
-    const MPI_Comm            comm   = potential.get_communicator();
-    const unsigned int        rank   = Utilities::MPI::this_mpi_process(comm);
-    const unsigned int        n_rank = Utilities::MPI::n_mpi_processes(comm);
-
-    dof_handler.reinit(tria);
-    dof_handler.distribute_dofs(fe_flux);
-    owned_dofs = dof_handler.locally_owned_dofs();
-    DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_dofs);
-    ghosted_fluxes.reinit(owned_dofs, relevant_dofs, comm);
-    AffineConstraints<double> hanging_constraints(relevant_dofs);
-    DoFTools::make_hanging_node_constraints(dof_handler, hanging_constraints);
-    hanging_constraints.close();
-
-    patches.clear();
-    hat_masses.clear();
-    memberships.assign(tria.n_active_cells(), {});
-    n_sent.clear();
-    received.clear();
-    local_solvers.clear();
-    product_storage.reset();
-    n_reconstructions = 0;
-
-    // The conforming hat functions: Q1 with its hanging node constraints,
-    // one patch per unconstrained (regular) vertex, numbered by its degree
-    // of freedom and solved by the owner of that degree of freedom (who
-    // owns a cell at the vertex).
-    DoFHandler<dim> hats(tria);
-    hats.distribute_dofs(fe_hat);
-    IndexSet relevant_hats;
-    DoFTools::extract_locally_relevant_dofs(hats, relevant_hats);
-    AffineConstraints<double> hat_constraints(relevant_hats);
-    DoFTools::make_hanging_node_constraints(hats, hat_constraints);
-    hat_constraints.close();
-
-    constexpr unsigned int n_v   = GeometryInfo<dim>::vertices_per_cell;
-    const unsigned int     n_tau = fe_flux.n_dofs_per_cell();
-    const unsigned int     n_q   = fe_divergence.n_dofs_per_cell();
-    // The Piola signs, for the patch layouts, the right-hand sides of
-    // reconstruct() and the estimators, from the mesh (no Raviart-Thomas
-    // FEValues, see PiolaDivergence::topological_signs).
-    piola_signs.assign(std::size_t(tria.n_active_cells()) * n_tau, 0);
-    cell_metric.assign(std::size_t(tria.n_active_cells()) * n_metric, 0.);
-
-    // The data and shares of the owned cells, psi_j on a cell being the Q1
-    // function with value 1 at the vertex of j and the constraint weights
-    // at the hanging vertices that depend on j.
-    Shares                                               mine;
-    std::vector<typename DoFHandler<dim>::cell_iterator> owned_cells;
-    for (const auto &hat_cell : hats.active_cell_iterators())
-      if (hat_cell->is_locally_owned())
-        owned_cells.push_back(hat_cell);
-    mine.cells.resize(owned_cells.size());
-
-    // The cells' data, on all threads (each cell writes its own entries).
-    parallel::apply_to_subranges(
-      std::size_t(0),
-      owned_cells.size(),
-      [&](const std::size_t begin, const std::size_t end) {
-        // (The Jacobians from the Q1 element: in deal.II 9.4 an FEValues of
-        // a Raviart-Thomas element that asks for mapping data only trips
-        // over the face sign changes of unstructured meshes, deal.II PR
-        // 15963.)
-        FEValues<dim>                        hat_values(mapping,
-                                 fe_hat,
-                                 quadrature,
-                                 update_values | update_jacobians |
-                                   update_JxW_values);
-        std::vector<types::global_dof_index> rt_dofs(n_tau);
-        for (std::size_t c = begin; c < end; ++c)
-          {
-            const CellIterator cell(owned_cells[c]);
-            CellData          &data = mine.cells[c];
-            data.cell               = cell;
-            for (unsigned int d = 0; d < dim; ++d)
-              data.center[d] = cell->center()[d];
-            typename DoFHandler<dim>::active_cell_iterator dof_cell(
-              &tria, cell->level(), cell->index(), &dof_handler);
-            dof_cell->get_dof_indices(rt_dofs);
-            std::int8_t *const cell_signs =
-              &piola_signs[cell->active_cell_index() * n_tau];
-            PiolaDivergence<dim>::topological_signs(
-              cell, fe_flux, ArrayView<std::int8_t>(cell_signs, n_tau));
-            data.signs.assign(cell_signs, cell_signs + n_tau);
-            for (unsigned int k = 0; k < n_tau; ++k)
-              {
-                data.expansion_start.push_back(data.expansion.size());
-                if (hanging_constraints.is_constrained(rt_dofs[k]))
-                  for (const auto &entry :
-                       *hanging_constraints.get_constraint_entries(rt_dofs[k]))
-                    data.expansion.push_back(entry);
-                else
-                  data.expansion.emplace_back(rt_dofs[k], 1.);
-              }
-            data.expansion_start.push_back(data.expansion.size());
-            hat_values.reinit(cell);
-            data.vertex_mass.assign(n_v * n_q, 0.);
-            Tensor<2, dim> mean_jacobian;
-            for (const unsigned int q : hat_values.quadrature_point_indices())
-              {
-                for (unsigned int v = 0; v < n_v; ++v)
-                  for (unsigned int k = 0; k < n_q; ++k)
-                    data.vertex_mass[v * n_q + k] +=
-                      hat_values.shape_value(v, q) * q_reference[q * n_q + k] *
-                      hat_values.JxW(q);
-                mean_jacobian +=
-                  quadrature.weight(q) * Tensor<2, dim>(hat_values.jacobian(q));
-              }
-            // G = J^T J / det J of the mean Jacobian (the jacobian of a
-            // bilinear cell at its center)
-            const Tensor<2, dim> G = transpose(mean_jacobian) * mean_jacobian /
-                                     determinant(mean_jacobian);
-            double *const metric =
-              &cell_metric[cell->active_cell_index() * n_metric];
-            for (unsigned int a = 0, m = 0; a < dim; ++a)
-              for (unsigned int b = a; b < dim; ++b, ++m)
-                metric[m] = G[a][b];
-            data.metric.assign(metric, metric + n_metric);
-          }
-      },
-      /*grainsize=*/1024);
-
-    // The shares, in the order of the cells.
-    // the vertex of each unconstrained hat, by its position in relevant_hats
-    std::vector<unsigned int> vertex_of(relevant_hats.n_elements(),
-                                        numbers::invalid_unsigned_int);
-    std::vector<std::pair<types::global_dof_index, std::array<double, n_v>>>
-      psi;
-    for (std::size_t c = 0; c < owned_cells.size(); ++c)
-      {
-        const auto &hat_cell = owned_cells[c];
-        psi.clear();
-        for (const unsigned int v : hat_cell->vertex_indices())
-          {
-            const auto i   = hat_cell->vertex_dof_index(v, 0);
-            const auto add = [&](const types::global_dof_index j,
-                                 const double                  w) {
-              auto entry =
-                std::find_if(psi.begin(), psi.end(), [j](const auto &e) {
-                  return e.first == j;
-                });
-              if (entry == psi.end())
-                entry = psi.insert(psi.end(), {j, std::array<double, n_v>{}});
-              entry->second[v] = w;
-            };
-            if (hat_constraints.is_constrained(i))
-              for (const auto &[j, w] :
-                   *hat_constraints.get_constraint_entries(i))
-                add(j, w);
-            else
-              {
-                add(i, 1.);
-                vertex_of[relevant_hats.index_within_set(i)] =
-                  hat_cell->vertex_index(v);
-              }
-          }
-        for (const auto &[j, values] : psi)
-          mine.add(j, c, values.data());
-      }
-
-    // The shares of patches solved elsewhere go to their ranks, with the
-    // data of their cells; the others stay. The hats of the shares are all
-    // in relevant_hats, whose order lists them sorted once marked (a sort
-    // of one entry per share would cost more; IndexSet::add_index inserts
-    // into a sorted list: sorted ranges go in at once).
-    IndexSet patch_hats(hats.n_dofs());
-    {
-      std::vector<bool> marked(relevant_hats.n_elements(), false);
-      for (const types::global_dof_index j : mine.patch)
-        {
-          const auto position = relevant_hats.index_within_set(j);
-          AssertIndexRange(position, marked.size());
-          marked[position] = true;
-        }
-      std::vector<types::global_dof_index> in_order;
-      auto                                 hat = relevant_hats.begin();
-      for (std::size_t k = 0; k < marked.size(); ++k, ++hat)
-        if (marked[k])
-          in_order.push_back(*hat);
-      patch_hats.add_indices(in_order.begin(), in_order.end());
-    }
-    const std::vector<unsigned int> owners =
-      Utilities::MPI::compute_index_owner(hats.locally_owned_dofs(),
-                                          patch_hats,
-                                          comm);
-    std::map<unsigned int, Shares>                                outgoing;
-    std::map<std::pair<unsigned int, unsigned int>, unsigned int> sent_cell;
-    std::vector<unsigned int>                                     solved_here;
-    for (unsigned int i = 0; i < mine.patch.size(); ++i)
-      {
-        const unsigned int owner =
-          owners[patch_hats.index_within_set(mine.patch[i])];
-        const double *hat = &mine.hat[i * n_v];
-        if (owner == rank)
-          {
-            solved_here.push_back(i);
-            continue;
-          }
-        Shares    &to   = outgoing[owner];
-        CellData  &data = mine.cells[mine.cell[i]];
-        const auto sent = sent_cell.emplace(std::make_pair(owner, mine.cell[i]),
-                                            to.cells.size());
-        if (sent.second)
-          to.cells.push_back(data);
-        to.add(mine.patch[i], sent.first->second, hat);
-        Membership membership{owner, n_sent[owner]++, 0, {}};
-        std::copy_n(hat, n_v, membership.hat.begin());
-        memberships[data.cell->active_cell_index()].push_back(membership);
-      }
-    std::map<unsigned int, Shares> incoming;
-    if (n_rank > 1)
-      incoming = Utilities::MPI::some_to_some(comm, outgoing);
-    outgoing.clear();
-
-    // The shares solved here, grouped by patch in the order of the patch
-    // dofs and, within a patch, by rank and index in that rank's Shares: a
-    // counting sort on the positions of the patch dofs in relevant_hats
-    // (where they all are: on cells here, or owned here).
-    struct ShareHere
-    {
-      unsigned int from, index;
-    };
-    const auto for_each_share_here = [&](const auto &visit) {
-      const auto visit_mine = [&]() {
-        for (const unsigned int i : solved_here)
-          visit(relevant_hats.index_within_set(mine.patch[i]), rank, i);
-      };
-      bool mine_visited = false;
-      for (const auto &[from, shares] : incoming)
-        {
-          if (!mine_visited && from > rank)
-            {
-              visit_mine();
-              mine_visited = true;
-            }
-          for (unsigned int i = 0; i < shares.patch.size(); ++i)
-            visit(relevant_hats.index_within_set(shares.patch[i]), from, i);
-        }
-      if (!mine_visited)
-        visit_mine();
-    };
-    std::vector<std::size_t> group_start(relevant_hats.n_elements() + 1, 0);
-    for_each_share_here(
-      [&](const std::size_t position, const unsigned int, const unsigned int) {
-        ++group_start[position + 1];
-      });
-    std::partial_sum(group_start.begin(),
-                     group_start.end(),
-                     group_start.begin());
-    std::vector<ShareHere> shares_here(group_start.back());
-    {
-      std::vector<std::size_t> next(group_start.begin(), group_start.end() - 1);
-      for_each_share_here([&](const std::size_t  position,
-                              const unsigned int from,
-                              const unsigned int index) {
-        shares_here[next[position]++] = {from, index};
-      });
-    }
-    // the patches solved here, by the positions of their dofs
-    std::vector<unsigned int> patches_here;
-    for (unsigned int i = 0; i < relevant_hats.n_elements(); ++i)
-      if (group_start[i + 1] > group_start[i])
-        patches_here.push_back(i);
-    for (const auto &[from, shares] : incoming)
-      received[from].resize(shares.patch.size());
-
-    // A cell's data are released after the last of its patches solved here
-    // (or after sending, if it has none): what is held is the front of the
-    // patch loop, not the mesh.
-    std::vector<std::atomic<unsigned int>> pending(mine.cells.size());
-    for (const unsigned int i : solved_here)
-      pending[mine.cell[i]].fetch_add(1, std::memory_order_relaxed);
-    const auto release = [&](CellData &data) {
-      const CellIterator cell = data.cell;
-      data                    = CellData();
-      data.cell               = cell;
-    };
-    for (unsigned int c = 0; c < mine.cells.size(); ++c)
-      if (pending[c].load(std::memory_order_relaxed) == 0)
-        release(mine.cells[c]);
-
-    // The patches, in chunks on all threads: per patch, its cells (data,
-    // psi_a, where the share came from) in a canonical order, its unknowns,
-    // their numbering and its layout. What a chunk finds is gathered after,
-    // in the order of the patches, so that nothing depends on the threads.
-    struct PatchChunk
-    {
-      std::vector<Patch> patches; ///< starts relative to the chunk
-      std::vector<std::shared_ptr<const PatchLayout>> layouts;
-      /// the global dofs of the patch unknowns as they are numbered, and
-      /// those of them that are not relevant here
-      std::vector<types::global_dof_index> dofs, beyond;
-      /// per cell of each patch, in order: (psi_a, q_k)_K, the metric, and
-      /// where its share came from
-      std::vector<double>    hat_masses, metrics;
-      std::vector<ShareHere> cells;
-    };
-    constexpr unsigned int  chunk_size = 1024;
-    std::vector<PatchChunk> chunks((patches_here.size() + chunk_size - 1) /
-                                   chunk_size);
-    Layouts                 layouts; // shared by the patches of all chunks
-    std::mutex              layouts_mutex;
-
-    struct Member
-    {
-      std::pair<double, double> polar;
-      const CellData           *data;
-      const double             *hat;
-      ShareHere                 share;
-      bool
-      operator<(const Member &other) const
-      {
-        return polar < other.polar;
-      }
-    };
-    const auto process_chunks = [&](const std::size_t first_chunk,
-                                    const std::size_t end_chunk) {
-      std::vector<Member> members;
-      // The free dofs of the current patch and their numbers (unnumbered
-      // until first met): a patch has a few dozen.
-      constexpr unsigned int not_free   = numbers::invalid_unsigned_int;
-      constexpr unsigned int unnumbered = not_free - 1;
-      std::vector<std::pair<types::global_dof_index, unsigned int>> free_dofs;
-      const auto find_free = [&](const types::global_dof_index g) {
-        return std::find_if(free_dofs.begin(),
-                            free_dofs.end(),
-                            [g](const auto &entry) {
-                              return entry.first == g;
-                            });
-      };
-      std::vector<bool>                is_free(n_tau);
-      std::vector<std::int64_t>        layout_key;
-      std::vector<const std::int8_t *> signs_of_cells;
-      PatchLayout                      layout; // of the current patch
-      Layouts                          cache;
-
-      for (std::size_t ch = first_chunk; ch < end_chunk; ++ch)
-        {
-          PatchChunk       &chunk = chunks[ch];
-          const std::size_t end_patch =
-            std::min<std::size_t>((ch + 1) * chunk_size, patches_here.size());
-          // (the positions without patches have no shares)
-          const std::size_t n_patches = end_patch - ch * chunk_size,
-                            n_cells =
-                              group_start[patches_here[end_patch - 1] + 1] -
-                              group_start[patches_here[ch * chunk_size]];
-          chunk.patches.reserve(n_patches);
-          chunk.layouts.reserve(n_patches);
-          chunk.hat_masses.reserve(n_cells * n_q);
-          chunk.metrics.reserve(n_cells * n_metric);
-          chunk.cells.reserve(n_cells);
-          for (std::size_t p = ch * chunk_size; p < end_patch; ++p)
-            {
-              const unsigned int position = patches_here[p];
-              const unsigned int a        = vertex_of[position];
-              Patch              patch;
-              patch.vertex          = a;
-              patch.dofs_start      = chunk.dofs.size();
-              patch.hat_mass        = nullptr; // (set once the chunk is done)
-              const Point<dim> &x_a = tria.get_vertices()[a];
-
-              // Cells in a canonical order (by angle around a, then
-              // distance), so that patches of the same shape get the same
-              // local numbering.
-              members.clear();
-              for (std::size_t s = group_start[position];
-                   s < group_start[position + 1];
-                   ++s)
-                {
-                  const ShareHere share = shares_here[s];
-                  const Shares   &shares =
-                    share.from == rank ? mine : incoming.at(share.from);
-                  Member member;
-                  member.data  = &shares.cells[shares.cell[share.index]];
-                  member.hat   = &shares.hat[share.index * n_v];
-                  member.share = share;
-                  Tensor<1, dim> d;
-                  for (unsigned int k = 0; k < dim; ++k)
-                    d[k] = member.data->center[k] - x_a[k];
-                  member.polar = {std::atan2(d[1], d[0]), d.norm()};
-                  members.push_back(member);
-                }
-              std::sort(members.begin(), members.end());
-
-              // The free fluxes: the dofs on faces where psi_a does not
-              // vanish (the others carry sigma^a . n = 0), or their parents
-              // on the coarse side of a hanging face; and the dofs inside
-              // the cells. They are marked, then numbered as first met in
-              // the cells' order.
-              free_dofs.clear();
-              for (const Member &member : members)
-                {
-                  std::fill(is_free.begin(), is_free.end(), true);
-                  for (const unsigned int f : GeometryInfo<dim>::face_indices())
-                    {
-                      bool nonzero = false;
-                      for (unsigned int w = 0;
-                           w < GeometryInfo<dim>::vertices_per_face;
-                           ++w)
-                        nonzero |=
-                          member.hat[GeometryInfo<dim>::face_to_cell_vertices(
-                            f, w)] != 0.;
-                      for (unsigned int i = 0; i < fe_flux.n_dofs_per_face(f);
-                           ++i)
-                        is_free[fe_flux.face_to_cell_index(i, f)] = nonzero;
-                    }
-                  for (unsigned int k = 0; k < n_tau; ++k)
-                    if (is_free[k])
-                      for (unsigned int e = member.data->expansion_start[k];
-                           e < member.data->expansion_start[k + 1];
-                           ++e)
-                        {
-                          const types::global_dof_index g =
-                            member.data->expansion[e].first;
-                          if (find_free(g) == free_dofs.end())
-                            free_dofs.emplace_back(g, unnumbered);
-                        }
-                }
-              // sigma^a's unknowns are the free dofs, numbered as first met.
-              const auto local_number = [&](const types::global_dof_index g) {
-                const auto entry = find_free(g);
-                if (entry == free_dofs.end())
-                  return not_free;
-                if (entry->second == unnumbered)
-                  {
-                    entry->second = chunk.dofs.size() - patch.dofs_start;
-                    chunk.dofs.push_back(g);
-                    if (!relevant_dofs.is_element(g))
-                      chunk.beyond.push_back(g);
-                  }
-                return entry->second;
-              };
-              layout.n_cells = members.size();
-              layout.sigma_start.clear();
-              layout.sigma_entries.clear();
-              signs_of_cells.clear();
-              for (const Member &member : members)
-                {
-                  for (unsigned int k = 0; k < n_tau; ++k)
-                    {
-                      layout.sigma_start.push_back(layout.sigma_entries.size());
-                      for (unsigned int e = member.data->expansion_start[k];
-                           e < member.data->expansion_start[k + 1];
-                           ++e)
-                        {
-                          const auto &[g, w]   = member.data->expansion[e];
-                          const unsigned int I = local_number(g);
-                          if (I != not_free)
-                            layout.sigma_entries.emplace_back(I, w);
-                        }
-                    }
-                  layout.sigma_start.push_back(layout.sigma_entries.size());
-                  const std::size_t start = chunk.hat_masses.size();
-                  chunk.hat_masses.resize(start + n_q, 0.);
-                  for (unsigned int v = 0; v < n_v; ++v)
-                    for (unsigned int k = 0; k < n_q; ++k)
-                      chunk.hat_masses[start + k] +=
-                        member.hat[v] * member.data->vertex_mass[v * n_q + k];
-                  chunk.metrics.insert(chunk.metrics.end(),
-                                       member.data->metric.begin(),
-                                       member.data->metric.end());
-                  chunk.cells.push_back(member.share);
-                  signs_of_cells.push_back(member.data->signs.data());
-                }
-              layout.n_sigma = chunk.dofs.size() - patch.dofs_start;
-              chunk.layouts.push_back(shared_layout(layout,
-                                                    signs_of_cells,
-                                                    cache,
-                                                    layouts,
-                                                    layouts_mutex,
-                                                    layout_key));
-              chunk.patches.push_back(std::move(patch));
-
-              for (const Member &member : members)
-                if (member.share.from == rank)
-                  {
-                    const unsigned int c = mine.cell[member.share.index];
-                    if (pending[c].fetch_sub(1, std::memory_order_acq_rel) == 1)
-                      release(mine.cells[c]);
-                  }
-            }
-        }
-    };
-    parallel::apply_to_subranges(std::size_t(0),
-                                 chunks.size(),
-                                 process_chunks,
-                                 /*grainsize=*/1);
-
-    // In the order of the patches: their solvers, shared between patches
-    // of the same layout and metrics, and their cells' parts. On curved or
-    // perturbed meshes no two patches have the same metrics: once the
-    // first patches show that, solvers are no longer looked up (the
-    // metrics are invariant under scaling, so on uniformly refined meshes
-    // a few solvers serve every level).
-    std::unordered_map<std::vector<std::int64_t>,
-                       std::shared_ptr<const LocalSolver>,
-                       KeyHash>
-                                         solvers;
-    bool                                 share_solvers = true;
-    constexpr unsigned int               sharing_trial = 1000;
-    std::vector<std::int64_t>            key;
-    std::map<unsigned int, unsigned int> n_received;
-    // The new solvers, made (when not shared) and factorised after the
-    // loop on all cores: the patch, its layout and its cells' metrics.
-    struct NewSolver
-    {
-      std::size_t                               patch;
-      LocalSolver                              *shared; ///< or to be made
-      const std::shared_ptr<const PatchLayout> *layout;
-      const double                             *metrics;
-      std::size_t                               storage_start = 0;
-    };
-    std::vector<NewSolver>   new_solvers;
-    std::vector<std::size_t> dofs_offset(chunks.size() + 1, 0);
-    patches.reserve(patches_here.size());
-    for (std::size_t ch = 0; ch < chunks.size(); ++ch)
-      {
-        const PatchChunk &chunk = chunks[ch];
-        dofs_offset[ch + 1]     = dofs_offset[ch] + chunk.dofs.size();
-        std::size_t first_cell  = 0;
-        for (std::size_t i = 0; i < chunk.patches.size(); ++i)
-          {
-            Patch patch = chunk.patches[i];
-            patch.dofs_start += dofs_offset[ch];
-            patch.hat_mass = &chunk.hat_masses[first_cell * n_q];
-            const std::shared_ptr<const PatchLayout> &layout = chunk.layouts[i];
-            const double *metrics = &chunk.metrics[first_cell * n_metric];
-
-            if (share_solvers && patches.size() == sharing_trial &&
-                new_solvers.size() > patches.size() / 2)
-              {
-                share_solvers = false;
-                solvers.clear();
-              }
-            if (share_solvers)
-              {
-                key.assign({reinterpret_cast<std::intptr_t>(layout.get())});
-                for (unsigned int m = 0; m < layout->n_cells * n_metric; ++m)
-                  key.push_back(std::llround(metrics[m] * 1e9));
-                std::shared_ptr<const LocalSolver> &solver = solvers[key];
-                if (!solver)
-                  {
-                    // made here, to be shared; factorised below
-                    auto created    = std::make_shared<LocalSolver>();
-                    created->layout = layout;
-                    new_solvers.push_back(
-                      {patches.size(), created.get(), &layout, metrics});
-                    solver = std::move(created);
-                  }
-                patch.solver = solver;
-              }
-            else
-              {
-                new_solvers.push_back(
-                  {patches.size(), nullptr, &layout, metrics});
-              }
-
-            // Where the right-hand sides of the cells come from.
-            const unsigned int patch_number = patches.size();
-            for (unsigned int c = 0; c < layout->n_cells; ++c)
-              {
-                const auto [from, index] = chunk.cells[first_cell + c];
-                if (from == rank)
-                  {
-                    Membership membership{rank, patch_number, c, {}};
-                    std::copy_n(&mine.hat[index * n_v],
-                                n_v,
-                                membership.hat.begin());
-                    memberships[mine.cells[mine.cell[index]]
-                                  .cell->active_cell_index()]
-                      .push_back(membership);
-                  }
-                else
-                  {
-                    // a rank computes the right-hand sides of the shares it
-                    // sent in the order it sent them
-                    received[from][index] = {patch_number, c};
-                    ++n_received[from];
-                  }
-              }
-            first_cell += layout->n_cells;
-            patches.push_back(std::move(patch));
-          }
-      }
-    // The metrics and factors of all new solvers in one array (0.35 GB on
-    // 7.9e5 Q1 patches), first touched on the threads that factorise: one
-    // large allocation, which glibc maps in huge pages when asked to
-    // (README.md), instead of a vector per patch from the threads' heaps.
-    std::size_t storage_size = 0;
-    for (NewSolver &job : new_solvers)
-      {
-        job.storage_start = storage_size;
-        storage_size += LocalSolver::storage_size(**job.layout);
-      }
-    solver_storage.reset(new double[storage_size]);
-    local_solvers.resize(new_solvers.size());
-    parallel::apply_to_subranges(
-      std::size_t(0),
-      new_solvers.size(),
-      [&](const std::size_t begin, const std::size_t end) {
-        for (std::size_t i = begin; i < end; ++i)
-          {
-            const NewSolver             &job    = new_solvers[i];
-            LocalSolver                 *solver = job.shared;
-            std::shared_ptr<LocalSolver> created;
-            if (!solver)
-              {
-                created         = std::make_shared<LocalSolver>();
-                created->layout = *job.layout;
-                solver          = created.get();
-              }
-            solver->metrics = &solver_storage[job.storage_start];
-            std::copy_n(job.metrics,
-                        solver->layout->n_cells * n_metric,
-                        solver->metrics);
-            factorise(*solver);
-            local_solvers[i] = solver;
-            if (created)
-              patches[job.patch].solver = std::move(created);
-          }
-      },
-      /*grainsize=*/256);
-    for (PatchChunk &chunk : chunks)
-      {
-        chunk.metrics = std::vector<double>();
-        chunk.cells   = std::vector<ShareHere>();
-        chunk.layouts = std::vector<std::shared_ptr<const PatchLayout>>();
-      }
-    for (const auto &[from, shares] : incoming)
-      AssertThrow(n_received[from] == shares.patch.size(),
-                  ExcMessage("Flux reconstruction: a cell share sent to this "
-                             "process belongs to no patch solved here."));
-    // Where the fluxes are summed: the owned dofs, and as ghosts the
-    // relevant ones (the patches' and the constraints' dofs) and, with
-    // hanging nodes in parallel, a few beyond that patches solved here
-    // write; the patch unknowns as local indices there, and their cells'
-    // (psi_a, q_k)_K, gathered from the chunks.
-    std::vector<types::global_dof_index> beyond;
-    for (const PatchChunk &chunk : chunks)
-      beyond.insert(beyond.end(), chunk.beyond.begin(), chunk.beyond.end());
-    std::sort(beyond.begin(), beyond.end());
-    beyond.erase(std::unique(beyond.begin(), beyond.end()), beyond.end());
-    IndexSet writable_dofs = relevant_dofs;
-    writable_dofs.add_indices(beyond.begin(), beyond.end());
-    writable_dofs.compress();
-    const auto partitioner =
-      std::make_shared<Utilities::MPI::Partitioner>(owned_dofs,
-                                                    writable_dofs,
-                                                    comm);
-    flux_partitioner = partitioner;
-    patch_positions.resize(dofs_offset.back());
-    hat_masses.resize(chunks.size());
-    parallel::apply_to_subranges(
-      std::size_t(0),
-      chunks.size(),
-      [&](const std::size_t first_chunk, const std::size_t end_chunk) {
-        for (std::size_t ch = first_chunk; ch < end_chunk; ++ch)
-          {
-            PatchChunk &chunk = chunks[ch];
-            for (std::size_t i = 0; i < chunk.dofs.size(); ++i)
-              patch_positions[dofs_offset[ch] + i] =
-                partitioner->global_to_local(chunk.dofs[i]);
-            // (moved: the patches point into them)
-            hat_masses[ch] = std::move(chunk.hat_masses);
-            chunk          = PatchChunk();
-          }
-      },
-      /*grainsize=*/1);
-    // The constraints of the owned dofs (the others are the owners'); their
-    // entries, on the coarse side of the face, are relevant.
-    constrained_dofs.clear();
-    constraint_start.assign(1, 0);
-    constraint_entries.clear();
-    for (const auto &line : hanging_constraints.get_lines())
-      if (owned_dofs.is_element(line.index))
-        {
-          constrained_dofs.push_back(partitioner->global_to_local(line.index));
-          for (const auto &[g, w] : line.entries)
-            {
-              Assert(writable_dofs.is_element(g), ExcInternalError());
-              constraint_entries.emplace_back(partitioner->global_to_local(g),
-                                              w);
-            }
-          constraint_start.push_back(constraint_entries.size());
-        }
-    cells_with_shares.clear();
-    for (const auto &cell : tria.active_cell_iterators())
-      if (cell->is_locally_owned() &&
-          !memberships[cell->active_cell_index()].empty())
-        cells_with_shares.push_back(cell);
-    hats.clear();
   }
 
 
@@ -1540,17 +496,13 @@ namespace VI
     const Sources                                      &sources,
     const std::vector<TrilinosWrappers::MPI::Vector *> &sigma) const
   {
-    const MPI_Comm     comm     = dof_handler.get_communicator();
-    const unsigned int rank     = Utilities::MPI::this_mpi_process(comm);
     const unsigned int n_fields = sources.n_fields;
-    const unsigned int n_tau    = fe_flux.n_dofs_per_cell(),
-                       n_q      = fe_divergence.n_dofs_per_cell();
-    const unsigned int record   = (n_tau + n_q) * n_fields;
+    const unsigned int n_tau    = fe_flux.n_dofs_per_cell();
     AssertDimension(sigma.size(), n_fields);
 
     // Right-hand sides of all patches solved here, one column per field
     // (patch p from rhs_start[p] on), and those of owned cells in patches
-    // solved elsewhere.
+    // solved elsewhere (see assemble_right_hand_sides()).
     std::vector<std::size_t> rhs_start(patches.size() + 1, 0);
     for (unsigned int p = 0; p < patches.size(); ++p)
       rhs_start[p + 1] =
@@ -1566,6 +518,43 @@ namespace VI
         std::fill(rhs + begin, rhs + end, 0.);
       },
       /*grainsize=*/std::size_t(1) << 16);
+    assemble_right_hand_sides(sources, rhs_start, rhs);
+
+    // The patch problems, independent of each other (concurrently): the
+    // patch solution overwrites its right-hand sides, sigma^a is the head
+    // of each column. A mesh reconstructed more than once keeps the
+    // products C of its solvers (see LocalSolver).
+    if (++n_reconstructions == 2)
+      keep_products();
+    parallel::apply_to_subranges(
+      0u,
+      static_cast<unsigned int>(patches.size()),
+      [&](const unsigned int begin, const unsigned int end) {
+        std::vector<double> work;
+        for (unsigned int p = begin; p < end; ++p)
+          patches[p].solver->solve(
+            rhs + rhs_start[p], n_fields, metric_entries, n_tau, work);
+      },
+      /*grainsize=*/256);
+    sum_patch_fluxes(rhs_start, rhs, sigma);
+  }
+
+
+  // The right-hand sides of the patch problems: the cells' parts, computed
+  // by their owners, and the vertices' constants.
+  template <int dim>
+  void
+  FluxReconstruction<dim>::assemble_right_hand_sides(
+    const Sources                  &sources,
+    const std::vector<std::size_t> &rhs_start,
+    double *const                   rhs) const
+  {
+    const MPI_Comm     comm     = dof_handler.get_communicator();
+    const unsigned int rank     = Utilities::MPI::this_mpi_process(comm);
+    const unsigned int n_fields = sources.n_fields;
+    const unsigned int n_tau    = fe_flux.n_dofs_per_cell(),
+                       n_q      = fe_divergence.n_dofs_per_cell();
+    const unsigned int record   = (n_tau + n_q) * n_fields;
     std::map<unsigned int, std::vector<double>> outgoing;
     for (const auto &[to, n] : n_sent)
       outgoing[to].assign(n * record, 0.);
@@ -1636,23 +625,18 @@ namespace VI
                 column[k] += c_a * hat_mass[k];
             }
         }
+  }
 
-    // The patch problems, independent of each other (concurrently): the
-    // patch solution overwrites its right-hand sides, sigma^a is the head
-    // of each column. A mesh reconstructed more than once keeps the
-    // products C of its solvers (see LocalSolver).
-    if (++n_reconstructions == 2)
-      keep_products();
-    parallel::apply_to_subranges(
-      0u,
-      static_cast<unsigned int>(patches.size()),
-      [&](const unsigned int begin, const unsigned int end) {
-        std::vector<double> work;
-        for (unsigned int p = begin; p < end; ++p)
-          patches[p].solver->solve(
-            rhs + rhs_start[p], n_fields, metric_entries, n_tau, work);
-      },
-      /*grainsize=*/256);
+
+  template <int dim>
+  void
+  FluxReconstruction<dim>::sum_patch_fluxes(
+    const std::vector<std::size_t>                     &rhs_start,
+    const double                                       *rhs,
+    const std::vector<TrilinosWrappers::MPI::Vector *> &sigma) const
+  {
+    const MPI_Comm     comm     = dof_handler.get_communicator();
+    const unsigned int n_fields = sigma.size();
     // The fluxes of the patches summed in patch order, the fields
     // concurrently; then the sums of dofs other processes own added
     // there (in serial, nothing to send).

@@ -218,6 +218,9 @@ namespace VI
     struct Shares;
     struct CellScratch;
     struct CellShare;
+    /// The phases of reinit() and what they hand on to each other (see
+    /// flux_reconstruction_setup.cc).
+    struct Setup;
 
     /// The right-hand sides of a locally owned cell's parts in its patches
     /// (thread-safe: writes only to the scratch and the share).
@@ -272,6 +275,23 @@ namespace VI
     /// Compute and keep the products C = Z^T A B^+ of all patch solvers.
     void
     keep_products() const;
+
+    /// The right-hand sides of the patches solved here, one column per
+    /// field from rhs + rhs_start[p] on for patch p (zeroed): the cells'
+    /// parts, computed here or received, and the vertices' constants c_a.
+    void
+    assemble_right_hand_sides(const Sources                  &sources,
+                              const std::vector<std::size_t> &rhs_start,
+                              double *const                   rhs) const;
+
+    /// sigma[f] = the sum of the patch fluxes (the heads of the columns
+    /// from rhs + rhs_start[p] on), with the fluxes of the constrained dofs
+    /// and ghost entries.
+    void
+    sum_patch_fluxes(
+      const std::vector<std::size_t>                             &rhs_start,
+      const double                                               *rhs,
+      const std::vector<dealii::TrilinosWrappers::MPI::Vector *> &sigma) const;
 
     /// Add one cell's right-hand sides (all fields; layout of reconstruct())
     /// to those of patch p, column-major from rhs on.
