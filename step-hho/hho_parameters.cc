@@ -90,7 +90,8 @@ namespace StepHHO
     linear_solver.parse(prm);
     output.parse(prm);
 
-    if (linear_solver.solver == "cg" && !static_condensation)
+    if (linear_solver.solver == VI::LinearSolverType::cg &&
+        !static_condensation)
       throw VI::InputError(
         "Linear solver/Solver = cg needs Discretization/Static condensation "
         "= true: without condensation the Newton system is a nonsymmetric "

@@ -51,8 +51,7 @@ namespace StepHHO
       , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
-      , C(VI::ComplementarityFunction::from_name(
-          parameters.nonlinear_solver.c_function))
+      , C(parameters.nonlinear_solver.c_function)
       , triangulation(comm)
       , mapping(
           VI::make_mapping<dim>(geometry, parameters.discretization.degree))
@@ -591,9 +590,10 @@ namespace StepHHO
                                                             " without")
          << " nested iteration, "
          << (parameters.static_condensation ?
-               "static condensation, " + linear.solver +
-                 (linear.solver == "cg" ? " + " + linear.preconditioner :
-                                          std::string()) +
+               "static condensation, " + VI::to_string(linear.solver) +
+                 (linear.solver == VI::LinearSolverType::cg ?
+                    " + " + VI::to_string(linear.preconditioner) :
+                    std::string()) +
                  " on the faces" :
                "no static condensation, direct solver");
     return line.str();

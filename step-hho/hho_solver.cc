@@ -25,9 +25,9 @@ namespace StepHHO
   void
   JacobianSolver::initialize(const TrilinosWrappers::SparseMatrix &A)
   {
-    if (parameters.solver == "direct")
+    if (parameters.solver == VI::LinearSolverType::direct)
       direct.initialize(A);
-    else if (parameters.preconditioner == "amg")
+    else if (parameters.preconditioner == VI::PreconditionerType::amg)
       {
         TrilinosWrappers::PreconditionAMG::AdditionalData settings;
         settings.elliptic              = true;
@@ -54,7 +54,7 @@ namespace StepHHO
                         const TrilinosWrappers::MPI::Vector  &b,
                         const double                          tolerance)
   {
-    if (parameters.solver == "direct")
+    if (parameters.solver == VI::LinearSolverType::direct)
       return direct.solve(b, x);
 
     SolverControl                           control(parameters.max_iterations,

@@ -537,24 +537,12 @@ namespace StepMembranes
       errors.push_back("error_lambda");
     if (parameters.estimators.enabled)
       errors.push_back("eta");
-    ConvergenceTable with_rates = table;
-    for (const std::string &key : errors)
-      with_rates.evaluate_convergence_rates(
-        key, "dofs", ConvergenceTable::reduction_rate_log2, dim);
-    pcout << std::endl;
-    if (Utilities::MPI::this_mpi_process(comm) == 0)
-      {
-        with_rates.write_text(std::cout, TableHandler::org_mode_table);
-        std::ofstream file(parameters.output.directory + "/convergence.txt");
-        std::vector<std::string> columns = {
-          "cycle", "cells", "dofs", "newton", "linear", "contact"};
-        columns.insert(columns.end(), errors.begin(), errors.end());
-        if (parameters.estimators.enabled && data.has_exact_solution())
-          columns.push_back("effectivity");
-        ConvergenceTable file_table = with_rates;
-        file_table.set_column_order(columns);
-        file_table.write_text(file, TableHandler::org_mode_table);
-      }
+    std::vector<std::string> columns = {
+      "cycle", "cells", "dofs", "newton", "linear", "contact"};
+    columns.insert(columns.end(), errors.begin(), errors.end());
+    if (parameters.estimators.enabled && data.has_exact_solution())
+      columns.push_back("effectivity");
+    run_record.write_tables(table, errors, columns, dim);
   }
 
 

@@ -84,12 +84,11 @@ namespace StepMembranes
       , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
-      , C(VI::ComplementarityFunction::from_name(
-          parameters.nonlinear_solver.c_function))
-      , penalty(
-          VI::InteriorPenalty::from_name(parameters.discretization.method,
-                                         dg_parameters.penalty,
-                                         parameters.discretization.degree))
+      , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
+      , penalty(VI::InteriorPenalty::from_name(
+          VI::to_string(parameters.discretization.method),
+          dg_parameters.penalty,
+          parameters.discretization.degree))
       , triangulation(comm)
       , geometry_mapping(
           VI::make_mapping<dim>(geometry, parameters.discretization.degree))
@@ -127,22 +126,24 @@ namespace StepMembranes
     if (parameters.reference_poisson_solve)
       throw VI::InputError("Benchmark/Reference Poisson solve" + method +
                            "; set it to false with Method = " + penalty.name());
-    if (parameters.nonlinear_method != "semismooth-newton")
+    if (parameters.nonlinear_method !=
+        Parameters::NonlinearMethod::semismooth_newton)
       throw VI::InputError(
-        "Nonlinear solver/Solver = " + parameters.nonlinear_method + method +
+        "Nonlinear solver/Solver = petsc-vi" + method +
         "; use semismooth-newton with Method = " + penalty.name());
     if (parameters.compare_with_petsc_vi)
       throw VI::InputError("Benchmark/Compare with PETSc VI" + method +
                            "; set it to false with Method = " + penalty.name());
-    if (parameters.nonlinear_solver.strategy == "adaptive")
+    if (parameters.nonlinear_solver.strategy == VI::Strategy::adaptive)
       throw VI::InputError(
         "Nonlinear solver/Strategy = adaptive" + method +
         "; use exact or inexact with Method = " + penalty.name());
-    if (parameters.linear_solver.solver == "gmres" &&
-        parameters.linear_solver.preconditioner != "ilu")
-      throw VI::InputError("Linear solver/Preconditioner = " +
-                           parameters.linear_solver.preconditioner + method +
-                           "; use ilu with Method = " + penalty.name());
+    if (parameters.linear_solver.solver == VI::LinearSolverType::gmres &&
+        parameters.linear_solver.preconditioner != VI::PreconditionerType::ilu)
+      throw VI::InputError(
+        "Linear solver/Preconditioner = " +
+        VI::to_string(parameters.linear_solver.preconditioner) + method +
+        "; use ilu with Method = " + penalty.name());
   }
 
 
@@ -485,12 +486,12 @@ namespace StepMembranes
     line << "Test case " << data.name << " on the " << parameters.mesh.geometry
          << ", " << penalty.label() << " Q" << fe.degree << " (penalty "
          << penalty.penalty_constant() << " p (p + 1) / h_F), Newton-"
-         << C.name() << " (" << nonlinear.strategy << ")"
+         << C.name() << " (" << VI::to_string(nonlinear.strategy) << ")"
          << (nonlinear.nested_iteration ? " with" : " without")
          << " nested iteration, "
-         << (linear.solver == "direct" ?
+         << (linear.solver == VI::LinearSolverType::direct ?
                "direct solver " + linear.direct_package :
-               "GMRES + " + linear.preconditioner)
+               "GMRES + " + VI::to_string(linear.preconditioner))
          << (parameters.estimators.enabled ? ", estimators on" : "");
     return line.str();
   }
@@ -503,7 +504,7 @@ namespace StepMembranes
     VI::CycleLine line;
     line.solver            = "Newton-" + C.name();
     line.newton_iterations = newton_report.iterations;
-    if (parameters.linear_solver.solver == "gmres")
+    if (parameters.linear_solver.solver == VI::LinearSolverType::gmres)
       {
         line.linear_iterations = newton_report.linear_iterations;
         line.linear_solver     = "GMRES";

@@ -24,7 +24,7 @@ main(int argc, char **argv)
     parameters.parse(prm);
     StepMembranes::DGParameters dg_parameters;
     dg_parameters.parse(prm);
-    if (parameters.discretization.method == "fem")
+    if (parameters.discretization.method == VI::Method::fem)
       {
         StepMembranes::MembraneProblem<2> problem(parameters, prm, comm);
         problem.run();

@@ -400,8 +400,8 @@ namespace StepMembranes
         mu_r * stiffness_matrix.diag_element(owned_nodes.nth_index_in_set(k));
     contact_system.set_stiffness_weights(std::move(stiffness_weight));
 
-    if (parameters.linear_solver.solver == "gmres" &&
-        parameters.linear_solver.preconditioner == "amg")
+    if (parameters.linear_solver.solver == VI::LinearSolverType::gmres &&
+        parameters.linear_solver.preconditioner == VI::PreconditionerType::amg)
       contact_system.use_contact_preconditioner(stiffness_matrix,
                                                 data.mu1,
                                                 data.mu2,

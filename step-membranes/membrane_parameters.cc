@@ -74,13 +74,15 @@ namespace StepMembranes
     compare_with_petsc_vi   = prm.get_bool("Compare with PETSc VI");
     prm.leave_subsection();
     prm.enter_subsection("Nonlinear solver");
-    nonlinear_method = prm.get("Solver");
+    nonlinear_method = prm.get("Solver") == "petsc-vi" ?
+                         NonlinearMethod::petsc_vi :
+                         NonlinearMethod::semismooth_newton;
     petsc_vi_type    = prm.get("PETSc VI type");
     prm.leave_subsection();
 
-    if (nonlinear_method == "petsc-vi")
+    if (nonlinear_method == NonlinearMethod::petsc_vi)
       {
-        if (nonlinear_solver.strategy == "adaptive")
+        if (nonlinear_solver.strategy == VI::Strategy::adaptive)
           throw VI::InputError(
             "Nonlinear solver/Strategy = adaptive stops our semismooth "
             "Newton by the estimators, which PETSc's SNES VI cannot do: use "
@@ -91,23 +93,26 @@ namespace StepMembranes
             "with PETSc's: set Nonlinear solver/Solver = semismooth-newton");
       }
 
-    const std::string &strategy = nonlinear_solver.strategy;
-    if (strategy != "exact" && linear_solver.solver != "gmres")
-      throw VI::InputError("Nonlinear solver/Strategy = " + strategy +
-                           " needs an iterative linear solver: set Linear "
-                           "solver/Solver = gmres");
+    const VI::Strategy strategy = nonlinear_solver.strategy;
+    if (strategy != VI::Strategy::exact &&
+        linear_solver.solver != VI::LinearSolverType::gmres)
+      throw VI::InputError(
+        "Nonlinear solver/Strategy = " + VI::to_string(strategy) +
+        " needs an iterative linear solver: set Linear "
+        "solver/Solver = gmres");
     if (mesh.refinement == "adaptive" && !estimators.enabled)
       throw VI::InputError("Mesh/Refinement = adaptive marks the cells with "
                            "the estimators: set Estimators/Enabled = true");
-    if (strategy == "adaptive" && !estimators.enabled)
+    if (strategy == VI::Strategy::adaptive && !estimators.enabled)
       throw VI::InputError("Nonlinear solver/Strategy = adaptive stops the "
                            "solvers with the estimators: set "
                            "Estimators/Enabled = true");
-    if (estimators.equilibrated_dual_norms() && discretization.method != "fem")
+    if (estimators.equilibrated_dual_norms() &&
+        discretization.method != VI::Method::fem)
       throw VI::InputError("Estimators/Equilibrated dual norms is "
                            "implemented for Discretization/Method = fem: "
                            "leave it empty for the dG methods");
-    if (estimators.sharpen_final && discretization.method != "fem")
+    if (estimators.sharpen_final && discretization.method != VI::Method::fem)
       throw VI::InputError("Estimators/Sharpen final estimate is implemented "
                            "for Discretization/Method = fem: set it to false "
                            "for the dG methods");

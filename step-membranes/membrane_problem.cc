@@ -35,8 +35,7 @@ namespace StepMembranes
       , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
-      , C(VI::ComplementarityFunction::from_name(
-          parameters.nonlinear_solver.c_function))
+      , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
       , triangulation(comm)
       , geometry_mapping(
           VI::make_mapping<dim>(geometry, parameters.discretization.degree))
@@ -103,12 +102,12 @@ namespace StepMembranes
     std::ostringstream line;
     line << "Test case " << data.name << " on the " << parameters.mesh.geometry
          << ", Q" << fe.degree << " elements, " << solver_name() << " ("
-         << nonlinear.strategy << ")"
+         << VI::to_string(nonlinear.strategy) << ")"
          << (nonlinear.nested_iteration ? " with" : " without")
          << " nested iteration, "
-         << (linear.solver == "direct" ?
+         << (linear.solver == VI::LinearSolverType::direct ?
                "direct solver " + linear.direct_package :
-               "GMRES + " + linear.preconditioner)
+               "GMRES + " + VI::to_string(linear.preconditioner))
          << (parameters.estimators.enabled ? ", estimators on" : "");
     return line.str();
   }
@@ -118,7 +117,8 @@ namespace StepMembranes
   std::string
   MembraneProblem<dim>::solver_name() const
   {
-    return parameters.nonlinear_method == "petsc-vi" ?
+    return parameters.nonlinear_method ==
+               Parameters::NonlinearMethod::petsc_vi ?
              "PETSc SNES VI (vinewton" + parameters.petsc_vi_type + ")" :
              "Newton-" + C.name();
   }
@@ -141,7 +141,7 @@ namespace StepMembranes
     VI::CycleLine line;
     line.solver            = solver_name();
     line.newton_iterations = newton_report.iterations;
-    if (parameters.linear_solver.solver == "gmres")
+    if (parameters.linear_solver.solver == VI::LinearSolverType::gmres)
       {
         line.linear_iterations = newton_report.linear_iterations;
         line.linear_solver     = "GMRES";

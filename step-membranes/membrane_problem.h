@@ -58,7 +58,12 @@ namespace StepMembranes
     /// membrane on every mesh, the cost unit of bench/membranes_cost.py.
     bool reference_poisson_solve = false;
     /// Nonlinear solver/Solver: our semismooth Newton or PETSc's SNES VI.
-    std::string nonlinear_method = "semismooth-newton";
+    enum class NonlinearMethod
+    {
+      semismooth_newton,
+      petsc_vi
+    };
+    NonlinearMethod nonlinear_method = NonlinearMethod::semismooth_newton;
     /// Nonlinear solver/PETSc VI type: rsls or ssls.
     std::string petsc_vi_type = "rsls";
     /// Benchmark/Compare with PETSc VI: solve every mesh a second time with

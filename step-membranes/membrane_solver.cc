@@ -24,7 +24,7 @@ namespace StepMembranes
     stopping.start_solve();
     final_estimate.reset();
     final_estimate_sharpened = false;
-    if (parameters.nonlinear_method == "petsc-vi")
+    if (parameters.nonlinear_method == Parameters::NonlinearMethod::petsc_vi)
       {
         std::string reason;
         newton_report = solve_with_petsc_vi(solution, reason);

@@ -171,9 +171,10 @@ namespace StepParabolic
   {
     TimerOutput::Scope t(timer, "assembly");
 
-    const double dt       = time_step;
-    const bool   with_amg = parameters.linear_solver.solver == "gmres" &&
-                          parameters.linear_solver.preconditioner == "amg";
+    const double dt = time_step;
+    const bool   with_amg =
+      parameters.linear_solver.solver == VI::LinearSolverType::gmres &&
+      parameters.linear_solver.preconditioner == VI::PreconditionerType::amg;
     contact_system.matrix = 0;
     contact_system.rhs    = 0;
     if (with_amg)

@@ -34,23 +34,11 @@ namespace StepParabolic
     prm.leave_subsection();
     prm.leave_subsection();
 
-    prm.enter_subsection("Mesh");
-    {
-      prm.declare_entry("Geometry",
-                        "disk",
-                        Selection("square|disk|L-shape|square-circle"),
-                        "square: (0,1)^2; disk: unit disk centred at the "
-                        "origin (curved boundary); L-shape: (-1,1)^2 without "
-                        "(0,1)^2; square-circle: (0,1)^2 with the circle of "
-                        "radius 1/3 about (0.5, 0.5) as a line of the mesh "
-                        "(curved cells).");
-      prm.declare_entry("Initial refinements",
-                        "5",
-                        Integer(0, 20),
-                        "Global refinements of the coarse mesh; the mesh is "
-                        "the same at all time steps.");
-    }
-    prm.leave_subsection();
+    VI::DomainParameters::declare(prm,
+                                  "disk",
+                                  "5",
+                                  "Global refinements of the coarse mesh; "
+                                  "the mesh is the same at all time steps.");
 
     VI::DiscretizationParameters::declare(prm, "fem");
     // (Its entries "Nested iteration" and "Initial guess" do not apply here:
@@ -178,10 +166,7 @@ namespace StepParabolic
     prm.leave_subsection();
     prm.leave_subsection();
 
-    prm.enter_subsection("Mesh");
-    mesh.geometry            = prm.get("Geometry");
-    mesh.initial_refinements = prm.get_integer("Initial refinements");
-    prm.leave_subsection();
+    mesh.parse(prm);
 
     discretization.parse(prm);
     nonlinear_solver.parse(prm);
@@ -246,12 +231,13 @@ namespace StepParabolic
                 "estimators: set Estimators/Enabled = true");
       }
 
-    const std::string &strategy = nonlinear_solver.strategy;
-    require(strategy == "exact" || linear_solver.solver == "gmres",
-            "Nonlinear solver/Strategy = " + strategy +
+    const VI::Strategy strategy = nonlinear_solver.strategy;
+    require(strategy == VI::Strategy::exact ||
+              linear_solver.solver == VI::LinearSolverType::gmres,
+            "Nonlinear solver/Strategy = " + VI::to_string(strategy) +
               " needs an iterative linear solver: set Linear solver/Solver "
               "= gmres");
-    require(strategy != "adaptive" || estimators.enabled,
+    require(strategy != VI::Strategy::adaptive || estimators.enabled,
             "Nonlinear solver/Strategy = adaptive stops the solvers with the "
             "estimators: set Estimators/Enabled = true");
     require(!estimators.equilibrated_dual_norms(),
@@ -260,8 +246,8 @@ namespace StepParabolic
     require(!estimators.sharpen_final,
             "Estimators/Sharpen final estimate is implemented for "
             "step-membranes (fem): set it to false for step-parabolic");
-    require(linear_solver.solver != "gmres" ||
-              linear_solver.preconditioner != "amg" ||
+    require(linear_solver.solver != VI::LinearSolverType::gmres ||
+              linear_solver.preconditioner != VI::PreconditionerType::amg ||
               problem.mu1 == problem.mu2,
             "Linear solver/Preconditioner = amg needs mu1 = mu2 in "
             "step-parabolic (the mass term couples the mean and the gap "

@@ -15,14 +15,6 @@ namespace StepParabolic
   };
 
 
-  /// Mesh: the domain and its uniform refinement (one mesh for all steps).
-  struct MeshParameters
-  {
-    std::string  geometry            = "disk";
-    unsigned int initial_refinements = 5;
-  };
-
-
   struct TimeSteppingParameters
   {
     double       final_time          = 0.3;
@@ -48,7 +40,7 @@ namespace StepParabolic
   struct Parameters
   {
     ProblemParameters             problem;
-    MeshParameters                mesh;
+    VI::DomainParameters          mesh;
     VI::DiscretizationParameters  discretization;
     VI::NonlinearSolverParameters nonlinear_solver;
     VI::LinearSolverParameters    linear_solver;

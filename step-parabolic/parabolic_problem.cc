@@ -84,8 +84,7 @@ namespace StepParabolic
       , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , center(VI::geometry_center<dim>(geometry))
       , data(make_parabolic_data<dim>(parameters.problem, center))
-      , C(VI::ComplementarityFunction::from_name(
-          parameters.nonlinear_solver.c_function))
+      , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
       , friedrichs_constant(VI::friedrichs_constant(geometry))
       , triangulation(comm)
       , geometry_mapping(
@@ -297,10 +296,10 @@ namespace StepParabolic
           << ", Q" << fe.degree << " elements, backward Euler with "
           << (ts.adaptive ? "adaptive dt from " : "dt = ") << ts.time_step
           << " to T = " << ts.final_time << ", Newton-" << C.name() << " ("
-          << nonlinear.strategy << "), "
-          << (linear.solver == "direct" ?
+          << VI::to_string(nonlinear.strategy) << "), "
+          << (linear.solver == VI::LinearSolverType::direct ?
                 "direct solver " + linear.direct_package :
-                "GMRES + " + linear.preconditioner)
+                "GMRES + " + VI::to_string(linear.preconditioner))
           << (parameters.estimators.enabled ? ", estimators on" : "")
           << std::endl;
 
@@ -432,7 +431,7 @@ namespace StepParabolic
           << std::left << time << std::right << " dt = " << std::setw(9)
           << std::left << time_step << std::right << ": Newton " << std::setw(2)
           << r.newton;
-    if (parameters.linear_solver.solver == "gmres")
+    if (parameters.linear_solver.solver == VI::LinearSolverType::gmres)
       pcout << " (" << std::setw(4) << r.linear << " GMRES)";
     pcout << ", contact " << std::setw(5) << r.contact;
     if (final_estimate)

@@ -132,7 +132,8 @@ namespace StepTwoPhase
   void
   TwoPhaseProblem::write_tables() const
   {
-    const bool   adaptive = parameters.nonlinear_solver.strategy == "adaptive";
+    const bool adaptive =
+      parameters.nonlinear_solver.strategy == VI::Strategy::adaptive;
     TableHandler table;
     for (const StepRecord &r : records)
       {
@@ -237,7 +238,7 @@ namespace StepTwoPhase
             i["residual_equations"]       = it.residual.equations;
             i["residual_complementarity"] = it.residual.complementarity;
             i["step_length"]              = it.step_length;
-            if (parameters.nonlinear_solver.strategy == "adaptive")
+            if (parameters.nonlinear_solver.strategy == VI::Strategy::adaptive)
               {
                 i["eta_disc"] = it.eta.disc;
                 i["eta_lin"]  = it.eta.lin;

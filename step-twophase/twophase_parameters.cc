@@ -514,12 +514,13 @@ namespace StepTwoPhase
       prm.leave_subsection();
       if (package == "kinsol")
         {
-          if (nonlinear_solver.c_function != "fischer-burmeister")
+          if (nonlinear_solver.c_function !=
+              VI::ComplementarityFunction::Type::fischer_burmeister)
             throw VI::InputError(
               "Nonlinear solver/Solver = kinsol needs C-function = "
               "fischer-burmeister (KINSOL's line search needs a smooth merit "
               "function)");
-          if (nonlinear_solver.strategy == "adaptive")
+          if (nonlinear_solver.strategy == VI::Strategy::adaptive)
             throw VI::InputError(
               "Nonlinear solver/Solver = kinsol supports the strategies exact "
               "and inexact; the adaptive strategy needs Solver = "
@@ -539,20 +540,21 @@ namespace StepTwoPhase
       prm.enter_subsection("Linear solver");
       ordering = prm.get("Ordering");
       prm.leave_subsection();
-      if (linear_solver.preconditioner != "ilu")
+      if (linear_solver.preconditioner != VI::PreconditionerType::ilu)
         throw VI::InputError(
-          "Linear solver/Preconditioner = " + linear_solver.preconditioner +
+          "Linear solver/Preconditioner = " +
+          VI::to_string(linear_solver.preconditioner) +
           ": step-twophase preconditions GMRES with ilu only");
       if (linear_solver.ilu_fill != 0)
         throw VI::InputError(
           "Linear solver/ILU fill = " + std::to_string(linear_solver.ilu_fill) +
           ": step-twophase implements ILU(0) only");
-      if (linear_solver.solver == "direct" &&
-          nonlinear_solver.strategy != "exact")
-        throw VI::InputError(
-          "Nonlinear solver/Strategy = " + nonlinear_solver.strategy +
-          " needs Linear solver/Solver = gmres (a direct "
-          "solver has no algebraic error to control)");
+      if (linear_solver.solver == VI::LinearSolverType::direct &&
+          nonlinear_solver.strategy != VI::Strategy::exact)
+        throw VI::InputError("Nonlinear solver/Strategy = " +
+                             VI::to_string(nonlinear_solver.strategy) +
+                             " needs Linear solver/Solver = gmres (a direct "
+                             "solver has no algebraic error to control)");
     }
 
 

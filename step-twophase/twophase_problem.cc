@@ -47,8 +47,7 @@ namespace StepTwoPhase
       // runs when a failure unwinds the stack.
       , timer(std::cout, TimerOutput::never, TimerOutput::wall_times)
       , model(parameters.physics)
-      , C(VI::ComplementarityFunction::from_name(
-          parameters.nonlinear_solver.c_function))
+      , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
       , reconstruction_fe(2)
       , reconstruction_dof_handler(triangulation)
   {
@@ -257,7 +256,7 @@ namespace StepTwoPhase
   TwoPhaseProblem::solve_with_semismooth_newton(StepRecord &record)
   {
     const auto  &p        = parameters.nonlinear_solver;
-    const bool   adaptive = (p.strategy == "adaptive");
+    const bool   adaptive = (p.strategy == VI::Strategy::adaptive);
     const double relative_tolerance =
       VI::linear_tolerance(p, parameters.linear_solver);
 
@@ -363,7 +362,7 @@ namespace StepTwoPhase
       try
         {
           const double relative =
-            p.strategy == "inexact" && rhs.l2_norm() > 0 ?
+            p.strategy == VI::Strategy::inexact && rhs.l2_norm() > 0 ?
               std::max(tolerance / rhs.l2_norm(),
                        parameters.linear_solver.tolerance) :
               parameters.linear_solver.tolerance;
@@ -431,7 +430,7 @@ namespace StepTwoPhase
       linearization_point = X;
     }
     TimerOutput::Scope t(timer, "preconditioner");
-    if (parameters.linear_solver.solver == "direct")
+    if (parameters.linear_solver.solver == VI::LinearSolverType::direct)
       try
         {
           direct_solver.factorize(jacobian);
@@ -466,7 +465,7 @@ namespace StepTwoPhase
                                        const bool            adaptive)
   {
     TimerOutput::Scope t(timer, "linear solver");
-    if (parameters.linear_solver.solver == "direct")
+    if (parameters.linear_solver.solver == VI::LinearSolverType::direct)
       {
         direct_solver.vmult(dX, rhs);
         return 0;
@@ -638,9 +637,10 @@ namespace StepTwoPhase
               << (parameters.nonlinear_solver_package == "kinsol" ?
                     "KINSOL (Newton with line search, FB)" :
                     "semismooth Newton-" + C.name())
-              << ", " << nl.strategy << " strategy, "
-              << parameters.linear_solver.solver
-              << (parameters.linear_solver.solver == "gmres" ?
+              << ", " << VI::to_string(nl.strategy) << " strategy, "
+              << VI::to_string(parameters.linear_solver.solver)
+              << (parameters.linear_solver.solver ==
+                      VI::LinearSolverType::gmres ?
                     " + ILU(0), " + parameters.ordering + " ordering" :
                     " (UMFPACK)")
               << std::endl;

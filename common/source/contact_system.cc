@@ -176,7 +176,7 @@ namespace VI
   void
   ContactSystem::start_newton()
   {
-    if (linear.solver == "direct")
+    if (linear.solver == LinearSolverType::direct)
       direct_solver = std::make_unique<LinearSolver>(linear);
   }
 

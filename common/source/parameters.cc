@@ -16,6 +16,109 @@ namespace VI
 
   namespace
   {
+    // The .prm spelling of each choice.
+    template <typename Enum>
+    const std::vector<std::pair<Enum, std::string>> &
+    spellings();
+
+    template <>
+    const std::vector<std::pair<Method, std::string>> &
+    spellings<Method>()
+    {
+      static const std::vector<std::pair<Method, std::string>> table = {
+        {Method::fem, "fem"},
+        {Method::sipg, "sipg"},
+        {Method::nipg, "nipg"},
+        {Method::iipg, "iipg"},
+        {Method::hho, "hho"}};
+      return table;
+    }
+
+    template <>
+    const std::vector<std::pair<Strategy, std::string>> &
+    spellings<Strategy>()
+    {
+      static const std::vector<std::pair<Strategy, std::string>> table = {
+        {Strategy::exact, "exact"},
+        {Strategy::inexact, "inexact"},
+        {Strategy::adaptive, "adaptive"}};
+      return table;
+    }
+
+    template <>
+    const std::vector<std::pair<LinearSolverType, std::string>> &
+    spellings<LinearSolverType>()
+    {
+      static const std::vector<std::pair<LinearSolverType, std::string>> table =
+        {{LinearSolverType::direct, "direct"},
+         {LinearSolverType::gmres, "gmres"},
+         {LinearSolverType::cg, "cg"}};
+      return table;
+    }
+
+    template <>
+    const std::vector<std::pair<PreconditionerType, std::string>> &
+    spellings<PreconditionerType>()
+    {
+      static const std::vector<std::pair<PreconditionerType, std::string>>
+        table = {{PreconditionerType::ilu, "ilu"},
+                 {PreconditionerType::amg, "amg"}};
+      return table;
+    }
+
+    // A value that has passed its Selection pattern.
+    template <typename Enum>
+    Enum
+    parse_choice(const std::string &name)
+    {
+      for (const auto &[value, spelling] : spellings<Enum>())
+        if (spelling == name)
+          return value;
+      throw InputError("unknown choice '" + name + "'");
+    }
+
+    template <typename Enum>
+    std::string
+    spelling_of(const Enum value)
+    {
+      for (const auto &[v, spelling] : spellings<Enum>())
+        if (v == value)
+          return spelling;
+      return "?";
+    }
+  } // namespace
+
+
+  std::string
+  to_string(const Method method)
+  {
+    return spelling_of(method);
+  }
+
+
+  std::string
+  to_string(const Strategy strategy)
+  {
+    return spelling_of(strategy);
+  }
+
+
+  std::string
+  to_string(const LinearSolverType solver)
+  {
+    return spelling_of(solver);
+  }
+
+
+  std::string
+  to_string(const PreconditionerType preconditioner)
+  {
+    return spelling_of(preconditioner);
+  }
+
+
+  namespace
+  {
     void
     require_positive(const double value, const std::string &name)
     {
@@ -125,12 +228,15 @@ namespace VI
 
 
   void
-  MeshParameters::declare(ParameterHandler &prm, const std::string &refinements)
+  DomainParameters::declare(ParameterHandler  &prm,
+                            const std::string &default_geometry,
+                            const std::string &default_refinements,
+                            const std::string &refinements_doc)
   {
     prm.enter_subsection("Mesh");
     {
       prm.declare_entry("Geometry",
-                        "square",
+                        default_geometry,
                         Selection("square|disk|L-shape|square-circle"),
                         "square: (0,1)^2; disk: unit disk centred at the "
                         "origin (curved boundary); L-shape: (-1,1)^2 without "
@@ -139,10 +245,36 @@ namespace VI
                         "contact set ends, as a line of the mesh (curved "
                         "cells).");
       prm.declare_entry("Initial refinements",
-                        "3",
+                        default_refinements,
                         Integer(0, 20),
-                        "Global refinements of the coarse mesh before the "
-                        "first cycle.");
+                        refinements_doc);
+    }
+    prm.leave_subsection();
+  }
+
+
+  void
+  DomainParameters::parse(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Mesh");
+    {
+      geometry            = prm.get("Geometry");
+      initial_refinements = prm.get_integer("Initial refinements");
+    }
+    prm.leave_subsection();
+  }
+
+
+  void
+  MeshParameters::declare(ParameterHandler &prm, const std::string &refinements)
+  {
+    DomainParameters::declare(prm,
+                              "square",
+                              "3",
+                              "Global refinements of the coarse mesh before "
+                              "the first cycle.");
+    prm.enter_subsection("Mesh");
+    {
       prm.declare_entry("Refinement",
                         "global",
                         Selection(refinements),
@@ -175,10 +307,9 @@ namespace VI
   void
   MeshParameters::parse(ParameterHandler &prm)
   {
+    DomainParameters::parse(prm);
     prm.enter_subsection("Mesh");
     {
-      geometry            = prm.get("Geometry");
-      initial_refinements = prm.get_integer("Initial refinements");
       refinement          = prm.get("Refinement");
       marking             = prm.get("Marking");
       refinement_fraction = prm.get_double("Refinement fraction");
@@ -215,7 +346,7 @@ namespace VI
   {
     prm.enter_subsection("Discretization");
     {
-      method = prm.get("Method");
+      method = parse_choice<Method>(prm.get("Method"));
       degree = prm.get_integer("Polynomial degree");
     }
     prm.leave_subsection();
@@ -309,8 +440,9 @@ namespace VI
   {
     prm.enter_subsection("Nonlinear solver");
     {
-      c_function       = prm.get("C-function");
-      strategy         = prm.get("Strategy");
+      c_function =
+        ComplementarityFunction::from_name(prm.get("C-function")).type();
+      strategy         = parse_choice<Strategy>(prm.get("Strategy"));
       gamma_lin        = prm.get_double("gamma_lin");
       gamma_alg        = prm.get_double("gamma_alg");
       forcing_term     = prm.get_double("Forcing term");
@@ -350,8 +482,8 @@ namespace VI
   linear_tolerance(const NonlinearSolverParameters &nonlinear,
                    const LinearSolverParameters    &linear)
   {
-    return nonlinear.strategy == "inexact" ? nonlinear.forcing_term :
-                                             linear.tolerance;
+    return nonlinear.strategy == Strategy::inexact ? nonlinear.forcing_term :
+                                                     linear.tolerance;
   }
 
 
@@ -412,9 +544,10 @@ namespace VI
   {
     prm.enter_subsection("Linear solver");
     {
-      solver           = prm.get("Solver");
-      direct_package   = prm.get("Direct solver package");
-      preconditioner   = prm.get("Preconditioner");
+      solver         = parse_choice<LinearSolverType>(prm.get("Solver"));
+      direct_package = prm.get("Direct solver package");
+      preconditioner =
+        parse_choice<PreconditionerType>(prm.get("Preconditioner"));
       tolerance        = prm.get_double("Tolerance");
       max_iterations   = prm.get_integer("Maximum iterations");
       krylov_dimension = prm.get_integer("Krylov dimension");

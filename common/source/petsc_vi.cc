@@ -87,12 +87,13 @@ namespace VI
   PetscVI::description() const
   {
     std::string linear;
-    if (settings.linear_solver == "direct")
+    if (settings.linear_solver == LinearSolverType::direct)
       linear = "MUMPS LU";
     else
-      linear = "GMRES + " + std::string(settings.preconditioner == "amg" ?
-                                          "BoomerAMG" :
-                                          "block ILU");
+      linear = "GMRES + " +
+               std::string(settings.preconditioner == PreconditionerType::amg ?
+                             "BoomerAMG" :
+                             "block ILU");
     return "PETSc SNES vinewton" + settings.type + ", " + linear;
   }
 
@@ -159,7 +160,7 @@ namespace VI
     PC  pc;
     check(SNESGetKSP(snes, &ksp), "SNESGetKSP");
     check(KSPGetPC(ksp, &pc), "KSPGetPC");
-    if (settings.linear_solver == "direct")
+    if (settings.linear_solver == LinearSolverType::direct)
       {
         check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
         check(PCSetType(pc, PCLU), "PCSetType");
@@ -177,7 +178,7 @@ namespace VI
                                PETSC_DEFAULT,
                                settings.max_linear_iterations),
               "KSPSetTolerances");
-        if (settings.preconditioner == "amg")
+        if (settings.preconditioner == PreconditionerType::amg)
           {
             check(PCSetType(pc, PCHYPRE), "PCSetType");
             check(PCHYPRESetType(pc, "boomeramg"), "PCHYPRESetType");

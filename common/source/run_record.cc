@@ -1,10 +1,12 @@
 #include <deal.II/base/conditional_ostream.h>
+#include <deal.II/base/convergence_table.h>
 #include <deal.II/base/parameter_handler.h>
 
 #include <vi/errors.h>
 #include <vi/program.h>
 #include <vi/run_record.h>
 
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -103,6 +105,27 @@ namespace VI
   RunRecord::add(const Json &record)
   {
     summary[list].push_back(record);
+  }
+
+
+  void
+  RunRecord::write_tables(const ConvergenceTable         &table,
+                          const std::vector<std::string> &rate_keys,
+                          const std::vector<std::string> &file_columns,
+                          const unsigned int              dim) const
+  {
+    ConvergenceTable with_rates = table;
+    for (const std::string &key : rate_keys)
+      with_rates.evaluate_convergence_rates(
+        key, "dofs", ConvergenceTable::reduction_rate_log2, dim);
+    if (Utilities::MPI::this_mpi_process(comm) != 0)
+      return;
+    std::cout << std::endl;
+    with_rates.write_text(std::cout, TableHandler::org_mode_table);
+    std::ofstream    file(directory + "/convergence.txt");
+    ConvergenceTable file_table = with_rates;
+    file_table.set_column_order(file_columns);
+    file_table.write_text(file, TableHandler::org_mode_table);
   }
 
 

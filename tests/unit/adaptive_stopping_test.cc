@@ -32,7 +32,7 @@ namespace
   {
     AdaptiveStoppingTest()
     {
-      parameters.strategy  = "adaptive";
+      parameters.strategy  = VI::Strategy::adaptive;
       parameters.gamma_alg = 0.3;
       parameters.gamma_lin = 0.3;
       point.reinit(dealii::complete_index_set(1), MPI_COMM_WORLD);
@@ -115,7 +115,7 @@ TEST_F(AdaptiveStoppingTest, AcceptsThePreviousIterateWithItsLookAhead)
 // shortened step (line search) is estimated afresh.
 TEST_F(AdaptiveStoppingTest, OtherStrategiesOnlyRecord)
 {
-  parameters.strategy = "inexact";
+  parameters.strategy = VI::Strategy::inexact;
   VI::AdaptiveStopping<Iterate, Estimate> stopping(parameters, hooks);
   stopping.start_solve();
   stopping.start_step(point);

@@ -128,18 +128,20 @@ TEST(PetscVI, SemismoothFischerBurmeisterFindsTheSolution)
 TEST(PetscVI, IterativeLinearSolvers)
 {
   const Problem problem;
-  for (const char *preconditioner : {"ilu", "amg"})
+  for (const VI::PreconditionerType preconditioner :
+       {VI::PreconditionerType::ilu, VI::PreconditionerType::amg})
     {
       VI::PetscVI::AdditionalData settings;
-      settings.linear_solver    = "gmres";
+      settings.linear_solver    = VI::LinearSolverType::gmres;
       settings.preconditioner   = preconditioner;
       settings.linear_tolerance = 1e-12;
       PETScWrappers::MPI::Vector y;
       const VI::PetscVIReport    report = solve(problem, settings, y);
-      EXPECT_LT(problem.max_error(y), 1e-8) << preconditioner;
+      EXPECT_LT(problem.max_error(y), 1e-8) << VI::to_string(preconditioner);
       // At least one Krylov iteration per step (ILU(0) of a tridiagonal
       // matrix is exact: then exactly one).
-      EXPECT_GE(report.linear_iterations, report.iterations) << preconditioner;
+      EXPECT_GE(report.linear_iterations, report.iterations)
+        << VI::to_string(preconditioner);
     }
 }
 

@@ -126,7 +126,7 @@ namespace VI
     bool
     adaptive() const
     {
-      return parameters.strategy == "adaptive";
+      return parameters.strategy == Strategy::adaptive;
     }
 
     /// The adaptive Newton test on a (complete) estimate.

@@ -2,11 +2,59 @@
 
 #include <deal.II/base/parameter_handler.h>
 
+#include <vi/complementarity.h>
+
 #include <string>
 #include <vector>
 
 namespace VI
 {
+  /**
+   * The choices of the .prm files, parsed once into these enums (the .prm
+   * spelling is what to_string() gives back, for output and messages).
+   */
+  /// Discretization/Method.
+  enum class Method
+  {
+    fem,
+    sipg,
+    nipg,
+    iipg,
+    hho
+  };
+
+  /// Nonlinear solver/Strategy: how exactly each Newton step is solved.
+  enum class Strategy
+  {
+    exact,    ///< to Linear solver/Tolerance
+    inexact,  ///< to the forcing term
+    adaptive, ///< until the estimators say the algebraic error is small
+  };
+
+  /// Linear solver/Solver.
+  enum class LinearSolverType
+  {
+    direct,
+    gmres,
+    cg
+  };
+
+  /// Linear solver/Preconditioner.
+  enum class PreconditionerType
+  {
+    ilu,
+    amg
+  };
+
+  std::string
+  to_string(const Method method);
+  std::string
+  to_string(const Strategy strategy);
+  std::string
+  to_string(const LinearSolverType solver);
+  std::string
+  to_string(const PreconditionerType preconditioner);
+
   /**
    * The parameter sections shared by the programs (names fixed by
    * DESIGN.md). Each section declares its entries with documentation and a
@@ -43,10 +91,27 @@ namespace VI
   };
 
 
-  struct MeshParameters
+  /// Mesh/Geometry and Mesh/Initial refinements: the domain and its coarse
+  /// mesh, the part of the Mesh section every program has.
+  struct DomainParameters
   {
     std::string  geometry            = "square";
     unsigned int initial_refinements = 3;
+
+    /// `refinements_doc`: what the initial refinements are to the program.
+    static void
+    declare(dealii::ParameterHandler &prm,
+            const std::string        &default_geometry,
+            const std::string        &default_refinements,
+            const std::string        &refinements_doc);
+    void
+    parse(dealii::ParameterHandler &prm);
+  };
+
+
+  /// The Mesh section of the programs that solve on a sequence of meshes.
+  struct MeshParameters : DomainParameters
+  {
     std::string  refinement          = "global";
     std::string  marking             = "dorfler";
     double       refinement_fraction = 0.5;
@@ -61,7 +126,7 @@ namespace VI
 
   struct DiscretizationParameters
   {
-    std::string  method = "fem";
+    Method       method = Method::fem;
     unsigned int degree = 1;
 
     static void
@@ -73,8 +138,9 @@ namespace VI
 
   struct NonlinearSolverParameters
   {
-    std::string  c_function       = "min";
-    std::string  strategy         = "exact";
+    ComplementarityFunction::Type c_function =
+      ComplementarityFunction::Type::min;
+    Strategy     strategy         = Strategy::exact;
     double       gamma_lin        = 0.3;
     double       gamma_alg        = 0.3;
     double       forcing_term     = 1e-2;
@@ -107,14 +173,14 @@ namespace VI
 
   struct LinearSolverParameters
   {
-    std::string  solver           = "direct";
-    std::string  preconditioner   = "ilu";
-    std::string  direct_package   = "Amesos_Mumps";
-    double       tolerance        = 1e-12;
-    unsigned int max_iterations   = 2000;
-    unsigned int krylov_dimension = 200;
-    unsigned int check_interval   = 10;
-    unsigned int ilu_fill         = 0;
+    LinearSolverType   solver           = LinearSolverType::direct;
+    PreconditionerType preconditioner   = PreconditionerType::ilu;
+    std::string        direct_package   = "Amesos_Mumps";
+    double             tolerance        = 1e-12;
+    unsigned int       max_iterations   = 2000;
+    unsigned int       krylov_dimension = 200;
+    unsigned int       check_interval   = 10;
+    unsigned int       ilu_fill         = 0;
 
     /// `solvers`: the accepted values of "Solver" ("direct", "direct|gmres").
     static void

@@ -4,6 +4,8 @@
 #include <deal.II/lac/petsc_sparse_matrix.h>
 #include <deal.II/lac/petsc_vector.h>
 
+#include <vi/parameters.h>
+
 #include <functional>
 #include <string>
 
@@ -42,9 +44,10 @@ namespace VI
     {
       std::string type = "rsls"; ///< rsls | ssls
       /// direct (MUMPS LU of each reduced system) or gmres.
-      std::string  linear_solver  = "direct";
-      std::string  preconditioner = "amg"; ///< amg (BoomerAMG) | ilu
-      unsigned int ilu_fill       = 0;
+      LinearSolverType   linear_solver = LinearSolverType::direct;
+      PreconditionerType preconditioner =
+        PreconditionerType::amg; ///< BoomerAMG | ILU
+      unsigned int ilu_fill = 0;
       /// Relative KSP tolerance; and the restart length of GMRES.
       double       linear_tolerance      = 1e-12;
       unsigned int max_linear_iterations = 2000;

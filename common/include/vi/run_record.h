@@ -9,11 +9,13 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace dealii
 {
+  class ConvergenceTable;
   class ParameterHandler;
-}
+} // namespace dealii
 
 namespace VI
 {
@@ -71,6 +73,20 @@ namespace VI
     /// Append a cycle's record to the summary's list.
     void
     add(const Json &record);
+
+    /**
+     * The convergence table with the rates of the columns `rate_keys` in h
+     * (from the column "dofs", in `dim` dimensions): on the screen with
+     * every column (wall times too), and in convergence.txt with
+     * `file_columns` only, so that the file is reproducible and diffable
+     * (the tests compare it). An error key names the supercolumn of the
+     * error and its rate.
+     */
+    void
+    write_tables(const dealii::ConvergenceTable &table,
+                 const std::vector<std::string> &rate_keys,
+                 const std::vector<std::string> &file_columns,
+                 const unsigned int              dim = 2) const;
 
     /// `files`: what the output directory holds, for the closing line.
     void
