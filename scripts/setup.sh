@@ -36,13 +36,23 @@ fi
 echo "== Configuring and building (Release) in build/ (log in build.log)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release > build.log 2>&1 ||
   { cat build.log; exit 1; }
-# A line per compiled file and linked target, so that a build of several
-# minutes shows where it is; everything goes to build.log as well.
-if ! cmake --build build -j "$(nproc)" 2>&1 | tee -a build.log |
-  awk '/Building CXX object|Linking CXX/ {
-         match($0, /^\[ *[0-9]+%\]/); progress = substr($0, RSTART, RLENGTH)
-         n = split($NF, part, "/"); name = part[n]; sub(/\.o$/, "", name)
-         print "   " progress " " name; fflush() }'; then
+# A line per compiled file and linked program, so that a build of several
+# minutes shows where it is ("   [ 12%] cell_multiplier.cc"); everything
+# goes to build.log as well.
+show_progress() {
+  local line name
+  while IFS= read -r line; do
+    case "$line" in
+      *"Building CXX object"* | *"Linking CXX"*)
+        name=${line##* }
+        name=${name##*/}
+        echo "   ${line%%]*}] ${name%.o}"
+        ;;
+    esac
+  done
+}
+if ! cmake --build build -j "$(nproc)" 2>&1 | tee -a build.log | show_progress
+then
   tail -50 build.log
   exit 1
 fi
