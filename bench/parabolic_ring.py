@@ -29,7 +29,7 @@ PROGRAM = program("parabolic")
 OUT = os.path.join(ROOT, "output", "bench-parabolic-ring")
 QUICK = "--quick" in sys.argv
 
-# [DMV20p] as quoted in REFERENCE.md section 3 (exact, adaptive); None where
+# [DMV20p] as quoted in doc/reference.md (exact, adaptive); None where
 # the paper gives no number.
 PUBLISHED = {
     (1, "min"): {"newton": (None, None), "gmres": (19000, 7000),

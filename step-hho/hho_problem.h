@@ -41,8 +41,8 @@ namespace StepHHO
   class JacobianSolver;
 
   /**
-   * The .prm interface of step-hho: the sections of step-membranes
-   * (DESIGN.md), with Method = hho, the switch "Discretization/Static
+   * The .prm interface of step-hho: the sections of step-membranes,
+   * with Method = hho, the switch "Discretization/Static
    * condensation", and conjugate gradients for the condensed system in
    * "Linear solver".
    */

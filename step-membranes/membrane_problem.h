@@ -44,7 +44,8 @@ namespace StepMembranes
 {
   using namespace dealii;
 
-  /// The .prm interface of step-membranes (sections of DESIGN.md).
+  /// The .prm interface of step-membranes: the shared sections of
+  /// parameters.h and the program's own entries.
   struct Parameters
   {
     VI::ProblemParameters         problem;

@@ -33,7 +33,7 @@ namespace StepParabolic
 
 
   /**
-   * The .prm interface of step-parabolic: the sections of DESIGN.md that
+   * The .prm interface of step-parabolic: the shared sections that
    * apply (Problem, Mesh, Discretization, Nonlinear solver, Linear solver,
    * Estimators, Output) and "Time stepping".
    */

@@ -56,12 +56,13 @@ namespace VI
   to_string(const PreconditionerType preconditioner);
 
   /**
-   * The parameter sections shared by the programs (names fixed by
-   * DESIGN.md). Each section declares its entries with documentation and a
-   * pattern, and parses them with the checks a pattern cannot express
-   * (positivity, consistency); a violation throws InputError naming the
-   * parameter. A program declares the sections it needs and may restrict the
-   * accepted values (e.g. the discretisation methods it implements).
+   * The parameter sections shared by the programs (their names are the
+   * interface of every scene in parameters/). Each section declares its entries
+   * with documentation and a pattern, and parses them with the checks a pattern
+   * cannot express (positivity, consistency); a violation throws InputError
+   * naming the parameter. A program declares the sections it needs and may
+   * restrict the accepted values (e.g. the discretisation methods it
+   * implements).
    */
 
   struct ExpressionParameters
