@@ -23,7 +23,7 @@ import os
 import subprocess
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv, write_md
 
 PROGRAM = program("membranes")
 QUICK = "--quick" in sys.argv
@@ -139,8 +139,7 @@ def main():
         sections.append("\n".join(lines))
 
     write_csv("dg-convergence", rows)
-    with open(os.path.join(DATA, "dg-convergence.md"), "w") as f:
-        f.write("\n\n".join(sections) + "\n")
+    write_md("dg-convergence", sections, separator="\n\n")
 
     # gnuplot: dG energy error against DoFs per field.
     dat = os.path.join(DATA, "dg-convergence.dat")
@@ -205,8 +204,7 @@ plot {', '.join(plots)}
         print(f"GMRES p={degree}: done", flush=True)
     solver_sections = ["\n".join(lines)]
 
-    with open(os.path.join(DATA, "dg-solvers.md"), "w") as f:
-        f.write("\n\n".join(solver_sections) + "\n")
+    write_md("dg-solvers", solver_sections, separator="\n\n")
     print(f"wrote {DATA}/dg-convergence.{{csv,md,png}} and dg-solvers.md")
 
 
@@ -245,8 +243,7 @@ def penalty_sweep():
                 else:
                     cells += [str(c["newton_iterations"]), str(c["linear_iterations"])]
         lines.append(f"| {C} | " + " | ".join(cells) + " |")
-    with open(os.path.join(DATA, "dg-penalty.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_md("dg-penalty", lines)
     print(f"wrote {DATA}/dg-penalty.md")
 
 

@@ -24,7 +24,7 @@ on; step-hho has none): a scene computes only what it needs.
 import os
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
+from vi_bench import DATA, ROOT, plot_png, program, run as run_program, write_csv, write_dat
 
 OUT = os.path.join(ROOT, "output", "bench-time")
 QUICK = "--quick" in sys.argv
@@ -59,13 +59,9 @@ def study(name, runs, title, with_estimate=False):
     write_csv(name, rows)
 
     dat = os.path.join(OUT, name + ".dat")
-    with open(dat, "w") as f:
-        for label, args in runs:
-            f.write(f"# {label}\n")
-            for r in rows:
-                if r["run"] == args[2]:
-                    f.write(f"{r['seconds']} {r['error_energy']} {r['eta'] or 'NaN'}\n")
-            f.write("\n\n")
+    write_dat(dat, [(label, [(r["seconds"], r["error_energy"], r["eta"] or "NaN")
+                             for r in rows if r["run"] == args[2]])
+                    for label, args in runs])
     plots = []
     for i, (label, _) in enumerate(runs):
         plots.append(f"'{dat}' index {i} using 1:2 with linespoints lw 2 pt 7 "
@@ -73,18 +69,12 @@ def study(name, runs, title, with_estimate=False):
         if with_estimate:
             plots.append(f"'{dat}' index {i} using 1:3 with lines lw 1 dt 2 "
                          f"lc {i + 1} notitle")
-    script = f"""
-set terminal pngcairo size 900,600 font ',11'
-set output '{os.path.join(DATA, name + '.png')}'
-set logscale xy
-set grid
-set key outside right
-set xlabel 'cumulative wall time (s), one process'
-set ylabel 'energy error{" (points), estimate (dashed)" if with_estimate else ""}'
-set title '{title}'
-plot {", ".join(plots)}
-"""
-    gnuplot(script)
+    estimate = " (points), estimate (dashed)" if with_estimate else ""
+    plot_png(os.path.join(DATA, name + ".png"),
+             ["set logscale xy", "set grid", "set key outside right",
+              "set xlabel 'cumulative wall time (s), one process'",
+              f"set ylabel 'energy error{estimate}'", f"set title '{title}'"],
+             plots, font=11)
 
 
 def main():

@@ -333,29 +333,24 @@ def floor():
 
 def main():
     os.makedirs(DATA, exist_ok=True)
-    known = ("comparison", "gamma", "effectivity", "dual-norms", "floor")
+    # The parts of the study, in the order they run: what each prints, and
+    # what it does.
+    known = {"comparison": ("comparison of the strategies",
+                            lambda: iteration_figures(comparison())),
+             "gamma": ("(gamma_alg, gamma_lin) table", gamma_table),
+             "effectivity": ("effectivity on nested meshes", effectivity_on_nested_meshes),
+             "dual-norms": ("dual norms by equilibration", dual_norms),
+             "floor": ("seed-jump Q2: the bound with perfect fluxes", floor)}
     parts = [a for a in sys.argv[1:] if not a.startswith("--")] or \
         ["comparison", "gamma", "effectivity"]
     for part in parts:
         if part not in known:
             sys.exit(f"estimators_comparison.py: unknown part '{part}' "
                      "(comparison, gamma, effectivity, dual-norms or floor)")
-    if "comparison" in parts:
-        print("comparison of the strategies", flush=True)
-        summaries = comparison()
-        iteration_figures(summaries)
-    if "gamma" in parts:
-        print("(gamma_alg, gamma_lin) table", flush=True)
-        gamma_table()
-    if "effectivity" in parts:
-        print("effectivity on nested meshes", flush=True)
-        effectivity_on_nested_meshes()
-    if "dual-norms" in parts:
-        print("dual norms by equilibration", flush=True)
-        dual_norms()
-    if "floor" in parts:
-        print("seed-jump Q2: the bound with perfect fluxes", flush=True)
-        floor()
+    for part, (message, study) in known.items():
+        if part in parts:
+            print(message, flush=True)
+            study()
     print(f"wrote {DATA}/estimators-*")
 
 

@@ -22,7 +22,8 @@ import math
 import os
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
+from vi_bench import (DATA, ROOT, convergence_rows, gnuplot, program, run as run_program,
+                      write_csv, write_dat, write_md)
 
 QUICK = "--quick" in sys.argv
 DEGREES = [1, 2, 3, 4]
@@ -71,17 +72,13 @@ def main():
             results[(test, degree)] = runs
             print(f"{test} p={degree}: done", flush=True)
             for (method, nested), records in runs.items():
-                for n, c in enumerate(records):
-                    rows.append({
-                        "program": method, "test": test, "p": degree,
-                        "nested": nested, "cycle": c["cycle"], "cells": c["cells"],
-                        "dofs": c["dofs"], "dofs_condensed": c.get("dofs_condensed", ""),
-                        "newton": c["newton_iterations"],
-                        "linear": c["linear_iterations"],
-                        "error_energy": c["error_energy"],
-                        "rate": rate(records[n - 1], c) if n else "",
-                        "error_lambda_l2": c.get("error_lambda_l2", ""),
-                        "wall_seconds": c["wall_seconds"]})
+                rows += convergence_rows(
+                    records, rate,
+                    {"program": method, "test": test, "p": degree, "nested": nested},
+                    lambda c: {"dofs": c["dofs"],
+                               "dofs_condensed": c.get("dofs_condensed", ""),
+                               "newton": c["newton_iterations"],
+                               "linear": c["linear_iterations"]})
 
     # The DoF table, checked against the formulas.
     lines = ["| cells | " + " | ".join(f"P{p} no SC | P{p} SC" for p in DEGREES) + " |",
@@ -166,18 +163,14 @@ def main():
             tables.append("\n".join(lines))
 
     write_csv("hho-convergence", rows)
-    with open(os.path.join(DATA, "hho-convergence.md"), "w") as f:
-        f.write("\n\n".join(tables) + "\n")
+    write_md("hho-convergence", tables, separator="\n\n")
 
     # gnuplot: energy error against 1/h, both tests, HHO nested.
     dat = os.path.join(DATA, "hho-convergence.dat")
-    with open(dat, "w") as f:
-        for test in TESTS:
-            for degree in DEGREES:
-                f.write(f"# {test} p={degree}\n")
-                for c in results[(test, degree)][("hho", "true")]:
-                    f.write(f"{math.sqrt(c['cells'])} {c['error_energy']}\n")
-                f.write("\n\n")
+    write_dat(dat, [(f"{test} p={degree}",
+                     [(math.sqrt(c["cells"]), c["error_energy"])
+                      for c in results[(test, degree)][("hho", "true")]])
+                    for test in TESTS for degree in DEGREES])
     # Reference slopes through the first point of each curve: h^p for the
     # smooth test; h and h^1.5 (u1 in H^(5/2 - eps)) for the jump.
     panels = []

@@ -16,7 +16,8 @@ be rebuilt while the study runs).
 import os
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, read_table, run as run_program, write_csv
+from vi_bench import (DATA, ROOT, plot_png, program, read_table, run as run_program,
+                      write_csv, write_dat, write_md)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-adaptivity")
@@ -105,21 +106,15 @@ def main():
         lines.append(f"| {case} | {p} | {refinement} | {len(r)} | {b['dofs_per_field']} | "
                      f"{b['error_energy']:.3e} | {order:.2f} | {fit} | {p / 2:.2f} | {newton} | "
                      f"{min(eff):.2f} - {max(eff):.2f} |")
-    with open(os.path.join(DATA, "adaptivity.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_md("adaptivity", lines)
 
     for case in CASES:
         dat = os.path.join(DATA, f"adaptivity-{case}.dat")
-        series = []
-        with open(dat, "w") as f:
-            for p in (1, 2):
-                for refinement in ("global", "adaptive"):
-                    f.write(f"# {case} p={p} {refinement}\n")
-                    for x in rows:
-                        if (x["case"], x["p"], x["refinement"]) == (case, p, refinement):
-                            f.write(f"{x['dofs_per_field']} {x['error_energy']} {x['eta']}\n")
-                    f.write("\n\n")
-                    series.append((p, refinement))
+        series = [(p, refinement) for p in (1, 2) for refinement in ("global", "adaptive")]
+        write_dat(dat, [(f"{case} p={p} {refinement}",
+                         [(x["dofs_per_field"], x["error_energy"], x["eta"]) for x in rows
+                          if (x["case"], x["p"], x["refinement"]) == (case, p, refinement)])
+                        for p, refinement in series])
         colours = {1: "#0072b2", 2: "#d55e00"}
         plots = []
         for n, (p, refinement) in enumerate(series):
@@ -130,18 +125,14 @@ def main():
                          f"lc rgb '{colours[p]}' notitle")
         plots.append("2*x**(-0.5) with lines dt 3 lc rgb 'gray' title 'DoFs^{-1/2}'")
         plots.append("2*x**(-1.0) with lines dt 4 lc rgb 'gray' title 'DoFs^{-1}'")
-        script = f"""set terminal pngcairo size 900,600 font ',12'
-set output '{DATA}/adaptivity-{case}.png'
-set logscale xy
-set format y '10^{{%L}}'
-set xlabel 'unknowns per field'
-set ylabel 'energy error (points), estimate (thin lines)'
-set title '{case}: uniform (dashed) and Dorfler-adaptive (solid) refinement'
-set key bottom left
-set grid
-plot {', '.join(plots)}
-"""
-        gnuplot(script)
+        plot_png(f"{DATA}/adaptivity-{case}.png",
+                 ["set logscale xy", "set format y '10^{%L}'",
+                  "set xlabel 'unknowns per field'",
+                  "set ylabel 'energy error (points), estimate (thin lines)'",
+                  f"set title '{case}: uniform (dashed) and Dorfler-adaptive (solid) "
+                  "refinement'",
+                  "set key bottom left", "set grid"],
+                 plots)
         os.remove(dat)
     print(f"wrote {DATA}/adaptivity.*")
 

@@ -15,7 +15,8 @@ import math
 import os
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
+from vi_bench import (DATA, ROOT, convergence_rows, plot_png, program, run as run_program,
+                      write_csv, write_dat, write_md)
 
 PROGRAM = program("membranes")
 QUICK = "--quick" in sys.argv
@@ -51,15 +52,10 @@ def main():
         results = {nested: run(test, degree, cycles, nested) for nested in nested_values}
         print(f"{test} p={degree}: done", flush=True)
         for nested, records in results.items():
-            for n, c in enumerate(records):
-                rows.append({"test": test, "p": degree, "nested": nested,
-                             "cycle": c["cycle"], "cells": c["cells"],
-                             "dofs_per_field": c["dofs_per_field"],
-                             "newton": c["newton_iterations"],
-                             "error_energy": c["error_energy"],
-                             "rate": rate(records[n - 1], c) if n else "",
-                             "error_lambda_l2": c.get("error_lambda_l2", ""),
-                             "wall_seconds": c["wall_seconds"]})
+            rows += convergence_rows(records, rate,
+                                     {"test": test, "p": degree, "nested": nested},
+                                     lambda c: {"dofs_per_field": c["dofs_per_field"],
+                                                "newton": c["newton_iterations"]})
         nested = results["true"]
         lines = [f"#### {test}, Q{degree}", "",
                  "| cells | DoFs per field | energy error | rate | Newton-min (nested) |"
@@ -76,18 +72,14 @@ def main():
         tables.append("\n".join(lines))
 
     write_csv("membranes-convergence", rows)
-    with open(os.path.join(DATA, "membranes-convergence.md"), "w") as f:
-        f.write("\n\n".join(tables) + "\n")
+    write_md("membranes-convergence", tables, separator="\n\n")
 
     # gnuplot: energy error against DoFs per field, nested runs.
     dat = os.path.join(DATA, "membranes-convergence.dat")
-    with open(dat, "w") as f:
-        for test, degree, _ in RUNS:
-            f.write(f"# {test} p={degree}\n")
-            for r in rows:
-                if r["test"] == test and r["p"] == degree and r["nested"] == "true":
-                    f.write(f"{r['dofs_per_field']} {r['error_energy']}\n")
-            f.write("\n\n")
+    write_dat(dat, [(f"{test} p={degree}",
+                     [(r["dofs_per_field"], r["error_energy"]) for r in rows
+                      if r["test"] == test and r["p"] == degree and r["nested"] == "true"])
+                    for test, degree, _ in RUNS])
     plots = []
     for index, (test, degree, _) in enumerate(RUNS):
         plots.append(f"'{dat}' index {index} with linespoints lw 2 pt {index + 4} "
@@ -95,18 +87,13 @@ def main():
     for p in (1, 2, 3, 4):
         plots.append(f"{2.0 ** (p / 2) * 0.05}*x**(-{p}/2.) dt 2 lc rgb 'gray' "
                      f"notitle")
-    script = f"""set terminal pngcairo size 900,650 font ',12'
-set output '{os.path.join(DATA, "membranes-convergence.png")}'
-set logscale xy
-set format y '10^{{%L}}'
-set xlabel 'DoFs per field'
-set ylabel 'energy error |||u - u_h|||'
-set title 'step-membranes: seed tests, uniform refinement (dashed: DoFs^{{-p/2}})'
-set key bottom left
-set grid
-plot {', '.join(plots)}
-"""
-    gnuplot(script)
+    plot_png(os.path.join(DATA, "membranes-convergence.png"),
+             ["set logscale xy", "set format y '10^{%L}'", "set xlabel 'DoFs per field'",
+              "set ylabel 'energy error |||u - u_h|||'",
+              "set title 'step-membranes: seed tests, uniform refinement "
+              "(dashed: DoFs^{-p/2})'",
+              "set key bottom left", "set grid"],
+             plots, size="900,650")
     os.remove(dat)
     print(f"wrote {DATA}/membranes-convergence.{{csv,md,png}}")
 

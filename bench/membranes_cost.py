@@ -68,10 +68,10 @@ import itertools
 import os
 import sys
 
-from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, gnuplot,
-                      growth_exponent, huge_pages_environment, poisson_seconds, program,
-                      read_table, run as run_program, write_csv, write_markdown,
-                      write_table)
+from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, growth_exponent,
+                      huge_pages_environment, plot_png, poisson_seconds, program,
+                      read_table, run as run_program, write_csv, write_dat,
+                      write_markdown, write_table)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
@@ -270,17 +270,16 @@ def main():
     os.makedirs(OUT, exist_ok=True)
     dat = os.path.join(OUT, f"{STEM}.dat")
     groups = []  # (np, threads, index in the .dat file)
-    with open(dat, "w") as f:
-        for k in sorted({r["configuration"] for r in rows}):
-            group = [r for r in rows if r["configuration"] == k]
-            np, n_threads = group[0]["np"], group[0]["threads"]
-            groups.append((np, n_threads, k))
-            f.write(f"# np = {np} x {n_threads} thread(s): DoFs per field, "
-                    "contact solve, estimators, 2 Poisson\n")
-            for row in group:
-                f.write(f"{row['dofs_per_field']} {row['solve_seconds']} "
-                        f"{row['estimator_seconds']} {row['poisson_seconds']}\n")
-            f.write("\n\n")
+    blocks = []
+    for k in sorted({r["configuration"] for r in rows}):
+        group = [r for r in rows if r["configuration"] == k]
+        np, n_threads = group[0]["np"], group[0]["threads"]
+        groups.append((np, n_threads, k))
+        blocks.append((f"np = {np} x {n_threads} thread(s): DoFs per field, "
+                       "contact solve, estimators, 2 Poisson",
+                       [(row["dofs_per_field"], row["solve_seconds"],
+                         row["estimator_seconds"], row["poisson_seconds"]) for row in group]))
+    write_dat(dat, blocks)
     # the line of linear growth through the first mesh of 1e4 unknowns per
     # field or more (with --coarse-start the study's smaller meshes come
     # first, and a line through them would lie far above the curves)
@@ -304,17 +303,12 @@ def main():
                           f"lc {colour + 1} title '2 Poisson solves, np = {np}'")
     curves.append(f"{anchor['solve_seconds']}*x/{anchor['dofs_per_field']} with lines "
                   "lc rgb 'gray' dt 3 title 'linear growth'")
-    script = f"""
-set terminal pngcairo size 900,650 font ',11'
-set output '{os.path.join(DATA, STEM + '.png')}'
-set logscale xy
-set grid
-set key left top font ',9'
-set xlabel 'unknowns per field'
-set ylabel 'wall time (s)'
-set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, GMRES + AMG{FLUXES}{START})\\nagainst two Poisson solves (CG + AMG)"
-plot """ + ", \\\n     ".join(curves) + "\n"
-    gnuplot(script)
+    plot_png(os.path.join(DATA, STEM + ".png"),
+             ["set logscale xy", "set grid", "set key left top font ',9'",
+              "set xlabel 'unknowns per field'", "set ylabel 'wall time (s)'",
+              f'set title "Contact solve (adaptive inexact Newton-{C_FUNCTION}, '
+              f'GMRES + AMG{FLUXES}{START})\\nagainst two Poisson solves (CG + AMG)"'],
+             curves, size="900,650", font=11)
     print(f"wrote {os.path.join(DATA, STEM)}.{{csv,md,png}}")
 
 

@@ -27,8 +27,8 @@ STEP_MEMBRANES names another binary (see vi_bench.program).
 import os
 import sys
 
-from vi_bench import (DATA, ROOT, cost_study_settings, gnuplot, poisson_seconds, program,
-                      read_table, run, write_csv, write_markdown)
+from vi_bench import (DATA, ROOT, cost_study_settings, plot_png, poisson_seconds, program,
+                      read_table, run, write_csv, write_dat, write_markdown)
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-nested-tolerance")
@@ -109,37 +109,31 @@ def main():
 
     os.makedirs(OUT, exist_ok=True)
     dat = os.path.join(OUT, f"{STEM}.dat")
-    with open(dat, "w") as f:
-        for c_function in C_FUNCTIONS:
-            f.write(f"# {c_function}: gamma_lin, contact solves / Poisson pairs, "
-                    "largest effectivity, Newton steps (meshes from 1e4)\n")
-            for r in table:
-                if r["c_function"] == c_function:
-                    f.write(f"{r['gamma_lin']} {r['ratio']} {r['effectivity_max']} "
-                            f"{r['steps_large']}\n")
-            f.write("\n\n")
+    write_dat(dat, [(f"{c_function}: gamma_lin, contact solves / Poisson pairs, "
+                     "largest effectivity, Newton steps (meshes from 1e4)",
+                     [(r["gamma_lin"], r["ratio"], r["effectivity_max"], r["steps_large"])
+                      for r in table if r["c_function"] == c_function])
+                    for c_function in C_FUNCTIONS])
     curves = []
     for index, (c_function, colour) in enumerate(zip(C_FUNCTIONS, (1, 6))):
         curves.append(f"'{dat}' index {index} using 1:2 axes x1y1 with linespoints lw 2 pt 7 "
                       f"lc {colour} title 'Newton-{c_function}: contact solves / Poisson pairs'")
         curves.append(f"'{dat}' index {index} using 1:3 axes x1y2 with linespoints lw 2 pt 6 "
                       f"dt 2 lc {colour} title 'Newton-{c_function}: largest effectivity'")
-    script = f"""
-set terminal pngcairo size 900,650 font ',11'
-set output '{os.path.join(DATA, STEM + '.png')}'
-set logscale x
-set xrange [0.015:0.7]
-set xtics ({', '.join(str(g) for g in GAMMAS)})
-set grid
-set key below font ',9'
-set xlabel 'gamma_lin (Newton stops when eta_lin <= gamma_lin eta_disc)' noenhanced
-set ylabel 'contact solves / two Poisson solves (meshes from 1e4)'
-set y2label 'largest effectivity on these meshes'
-set ytics nomirror
-set y2tics
-set title "Nested disk meshes from 768 cells to {'5e4' if QUICK else '7.9e5'} unknowns per field\\n(Q1, adaptive inexact Newton, GMRES + AMG, RT_0 fluxes, one thread, one run each)"
-plot """ + ", \\\n     ".join(curves) + "\n"
-    gnuplot(script)
+    largest = "5e4" if QUICK else "7.9e5"
+    plot_png(os.path.join(DATA, STEM + ".png"),
+             ["set logscale x", "set xrange [0.015:0.7]",
+              f"set xtics ({', '.join(str(g) for g in GAMMAS)})", "set grid",
+              "set key below font ',9'",
+              "set xlabel 'gamma_lin (Newton stops when eta_lin <= gamma_lin eta_disc)' "
+              "noenhanced",
+              "set ylabel 'contact solves / two Poisson solves (meshes from 1e4)'",
+              "set y2label 'largest effectivity on these meshes'",
+              "set ytics nomirror", "set y2tics",
+              f'set title "Nested disk meshes from 768 cells to {largest} unknowns per '
+              'field\\n(Q1, adaptive inexact Newton, GMRES + AMG, RT_0 fluxes, one thread, '
+              'one run each)"'],
+             curves, size="900,650", font=11)
     print(f"wrote {os.path.join(DATA, STEM)}.{{csv,md,png}}")
 
 

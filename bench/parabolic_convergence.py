@@ -26,7 +26,7 @@ import math
 import os
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv, write_md
 
 PROGRAM = program("parabolic")
 OUT = os.path.join(ROOT, "output", "bench-parabolic-convergence")
@@ -137,8 +137,7 @@ def main():
         ratio = "-" if r["study"] == "fixed" else f"{r['adaptive']}"
         lines.append(f"| {label} | {ratio} | {r['steps']} ({r['rejected']}) | "
                      f"{r['error']:.4e} | {r['eta']:.4e} | {r['effectivity']:.3f} |")
-    with open(os.path.join(DATA, "parabolic-adaptive-dt.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_md("parabolic-adaptive-dt", lines)
 
     # Plots.
     table = os.path.join(OUT, "convergence-plot.dat")
@@ -212,8 +211,7 @@ def ring_adaptive_dt():
                      f"{t['newton_iterations']} | {t['linear_iterations']} | "
                      f"{t['eta']:.4e} | " +
                      ", ".join("-" if x is None else f"{x:.4f}" for x in onset[:3]) + " |")
-    with open(os.path.join(DATA, "parabolic-ring-adaptive-dt.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_md("parabolic-ring-adaptive-dt", lines)
     plots = []
     for label, s, _, directory in runs:
         series = os.path.join(directory, "dt.dat")

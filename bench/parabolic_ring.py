@@ -23,7 +23,7 @@ the build tree can be rebuilt while the study runs).
 import os
 import sys
 
-from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv, write_md
 
 PROGRAM = program("parabolic")
 OUT = os.path.join(ROOT, "output", "bench-parabolic-ring")
@@ -143,8 +143,7 @@ def main():
             f"{r['difference_energy']:.2e} | "
             f"{r['eta_exact']:.4e} / {r['eta_adaptive']:.4e} | "
             f"{r['wall_exact']:.0f} / {r['wall_adaptive']:.0f} |")
-    with open(os.path.join(DATA, "parabolic-ring.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_md("parabolic-ring", lines)
 
     lines = ["| p | C-function | strategy | " +
              " | ".join(f"ring {k + 1}" for k in range(5)) + " |",
@@ -153,8 +152,7 @@ def main():
         lines.append(f"| {o['p']} | {o['c_function']} | {o['strategy']} | " +
                      " | ".join("-" if t is None else f"{t:.3f}" for t in o["onset"])
                      + " |")
-    with open(os.path.join(DATA, "parabolic-ring-onset.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_md("parabolic-ring-onset", lines)
 
     # Plots from the per-step CSV.
     steps_csv = os.path.join(DATA, "parabolic-ring-steps.csv")

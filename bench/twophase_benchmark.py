@@ -26,7 +26,7 @@ import os
 import subprocess
 import time
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv, write_md
 
 PROGRAM = program("twophase")
 SCENE = os.path.join(ROOT, "parameters", "twophase-benchmark.prm")
@@ -151,9 +151,7 @@ def main():
         f"| process start-up and parameter parsing, `--help` (s) | "
         f"{startup():.2f} |",
     ]
-    with open(os.path.join(DATA, "twophase-benchmark.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_md("twophase-benchmark", lines, echo=True)
 
     # The suite's default tolerances (Newton 1e-10, GMRES 1e-12) are below
     # what rounding lets this problem reach: count the failed steps to
@@ -175,9 +173,7 @@ def main():
         first = (cut_log[0]["reason"].split(" (")[0] if cut_log else "-")
         lines.append(f"| Newton {newton_tol}, GMRES {gmres_tol} | "
                      f"{len(cut_log)} | {first} |")
-    with open(os.path.join(DATA, "twophase-tolerances.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_md("twophase-tolerances", lines, echo=True)
 
     # The regularisation width of the van Genuchten-Mualem laws.
     lines = ["| Physics/Regularization | max S_g(0) | P_g(0) at 42500 yr (Pa) | "
@@ -195,9 +191,7 @@ def main():
                      f"{at(eps_x0, 42500, 'P_g'):.6e} | "
                      f"{at(eps_x0, 42500, 'gas_front_m'):.1f} | "
                      f"{v0:.0f} - {v1:.0f} | {newton} |")
-    with open(os.path.join(DATA, "twophase-regularization.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_md("twophase-regularization", lines, echo=True)
 
     plot(os.path.join(DATA, "twophase-benchmark-x0.csv"), profiles)
     print(f"wrote {DATA}/twophase-benchmark*.{{csv,md}}, twophase-*.png")

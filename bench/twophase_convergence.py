@@ -18,7 +18,7 @@ import csv
 import math
 import os
 
-from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, run as run_program, write_csv, write_md
 
 PROGRAM = program("twophase")
 SCENE = "twophase-benchmark.prm"
@@ -113,9 +113,7 @@ def main():
             f"{r['appearance_from']:.0f} - {r['appearance_to']:.0f} | "
             f"{r['disappearance_from']:.0f} - {r['disappearance_to']:.0f} | "
             f"{r['newton']} |")
-    with open(os.path.join(DATA, "twophase-convergence.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_md("twophase-convergence", lines, echo=True)
 
     dat = os.path.join(DATA, "twophase-convergence.dat")
     labels = []

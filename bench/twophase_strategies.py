@@ -20,54 +20,45 @@ import json
 import os
 import subprocess
 
-from vi_bench import DATA, ROOT, gnuplot, program, write_csv
+from vi_bench import DATA, ROOT, gnuplot, program, write_csv, write_md
 
 PROGRAM = program("twophase")
 SCENE = os.path.join(ROOT, "parameters", "twophase-benchmark.prm")
 
+SOLVER = "Nonlinear solver/"
+
+
+def strategy(name, gamma_alg=None, gamma_lin=None, c_function=None, solver=None,
+             watchdog_steps=None):
+    """The settings of one run: Nonlinear solver/Strategy = name, the
+    stopping parameters of the adaptive strategy, and the C-function, the
+    solver and the watchdog where they are not the scene's."""
+    settings = {SOLVER + "Solver": solver, SOLVER + "C-function": c_function,
+                SOLVER + "Strategy": name, SOLVER + "gamma_alg": gamma_alg,
+                SOLVER + "gamma_lin": gamma_lin, SOLVER + "Watchdog steps": watchdog_steps}
+    return {key: value for key, value in settings.items() if value is not None}
+
+
+FB = "fischer-burmeister"
+
 # name, settings, published (Newton, GMRES) to 5e5 years [BDMV20]
 RUNS = [
-    ("min exact", {"Nonlinear solver/Strategy": "exact"}, (550, 6000)),
-    ("min inexact", {"Nonlinear solver/Strategy": "inexact"}, (1000, 3000)),
-    ("min adaptive (1e-1, 1e-1)", {"Nonlinear solver/Strategy": "adaptive",
-                                   "Nonlinear solver/gamma_alg": "1e-1",
-                                   "Nonlinear solver/gamma_lin": "1e-1"},
-     (100, 366)),
-    ("min adaptive (1e-3, 1e-3)", {"Nonlinear solver/Strategy": "adaptive",
-                                   "Nonlinear solver/gamma_alg": "1e-3",
-                                   "Nonlinear solver/gamma_lin": "1e-3"},
-     (113, 427)),
-    ("min adaptive (1e-6, 1e-3)", {"Nonlinear solver/Strategy": "adaptive",
-                                   "Nonlinear solver/gamma_alg": "1e-6",
-                                   "Nonlinear solver/gamma_lin": "1e-3"},
-     (108, 967)),
-    ("min adaptive (1e-3, 1e-6)", {"Nonlinear solver/Strategy": "adaptive",
-                                   "Nonlinear solver/gamma_alg": "1e-3",
-                                   "Nonlinear solver/gamma_lin": "1e-6"},
-     (351, 1682)),
-    ("FB exact", {"Nonlinear solver/C-function": "fischer-burmeister",
-                  "Nonlinear solver/Strategy": "exact"}, (757, 10089)),
-    ("FB adaptive (1e-1, 1e-1)", {"Nonlinear solver/C-function": "fischer-burmeister",
-                                  "Nonlinear solver/Strategy": "adaptive",
-                                  "Nonlinear solver/gamma_alg": "1e-1",
-                                  "Nonlinear solver/gamma_lin": "1e-1"},
+    ("min exact", strategy("exact"), (550, 6000)),
+    ("min inexact", strategy("inexact"), (1000, 3000)),
+    ("min adaptive (1e-1, 1e-1)", strategy("adaptive", "1e-1", "1e-1"), (100, 366)),
+    ("min adaptive (1e-3, 1e-3)", strategy("adaptive", "1e-3", "1e-3"), (113, 427)),
+    ("min adaptive (1e-6, 1e-3)", strategy("adaptive", "1e-6", "1e-3"), (108, 967)),
+    ("min adaptive (1e-3, 1e-6)", strategy("adaptive", "1e-3", "1e-6"), (351, 1682)),
+    ("FB exact", strategy("exact", c_function=FB), (757, 10089)),
+    ("FB adaptive (1e-1, 1e-1)", strategy("adaptive", "1e-1", "1e-1", c_function=FB),
      (100, 428)),
     # the Armijo test on every step, as before the watchdog (4998727)
-    ("FB exact, no watchdog", {"Nonlinear solver/C-function": "fischer-burmeister",
-                               "Nonlinear solver/Strategy": "exact",
-                               "Nonlinear solver/Watchdog steps": "0"}, (757, 10089)),
+    ("FB exact, no watchdog", strategy("exact", c_function=FB, watchdog_steps="0"),
+     (757, 10089)),
     ("FB adaptive (1e-1, 1e-1), no watchdog",
-     {"Nonlinear solver/C-function": "fischer-burmeister",
-      "Nonlinear solver/Strategy": "adaptive",
-      "Nonlinear solver/gamma_alg": "1e-1",
-      "Nonlinear solver/gamma_lin": "1e-1",
-      "Nonlinear solver/Watchdog steps": "0"}, (100, 428)),
-    ("KINSOL FB exact", {"Nonlinear solver/Solver": "kinsol",
-                         "Nonlinear solver/C-function": "fischer-burmeister",
-                         "Nonlinear solver/Strategy": "exact"}, None),
-    ("KINSOL FB inexact", {"Nonlinear solver/Solver": "kinsol",
-                           "Nonlinear solver/C-function": "fischer-burmeister",
-                           "Nonlinear solver/Strategy": "inexact"}, None),
+     strategy("adaptive", "1e-1", "1e-1", c_function=FB, watchdog_steps="0"), (100, 428)),
+    ("KINSOL FB exact", strategy("exact", c_function=FB, solver="kinsol"), None),
+    ("KINSOL FB inexact", strategy("inexact", c_function=FB, solver="kinsol"), None),
 ]
 
 
@@ -188,9 +179,7 @@ def main():
                  + ", ".join(f"{it['residual_equations']:.1e}"
                              for it in step["iterations"])
                  + " after the Newton iterations.")
-    with open(os.path.join(DATA, "twophase-strategies.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_md("twophase-strategies", lines, echo=True)
 
     # Cumulative iterations in time (the slides' "overall performance").
     dat = os.path.join(DATA, "twophase-strategies.dat")

@@ -1,7 +1,7 @@
 """What the studies in bench/ share: where the programs and the data are,
 running a program with --set overrides, writing a table as CSV and
 Markdown (doc/data/<stem>.{csv,md}) and reading the CSV back, and running
-gnuplot."""
+gnuplot (data blocks, a plot to a PNG)."""
 import csv
 import json
 import math
@@ -93,6 +93,20 @@ def estimator_seconds(timing):
                if section.startswith("estimators"))
 
 
+def convergence_rows(records, rate, run, counts):
+    """The CSV rows of a convergence study, one a cycle of records (the
+    "cycles" of summary.json): run (a dict saying which run), the cycle and
+    its cells, counts(cycle) (a dict: DoFs, iterations), the energy error and
+    its rate(previous, current) against the cycle before, the error of the
+    multiplier and the wall time."""
+    return [{**run, "cycle": c["cycle"], "cells": c["cells"], **counts(c),
+             "error_energy": c["error_energy"],
+             "rate": rate(records[n - 1], c) if n else "",
+             "error_lambda_l2": c.get("error_lambda_l2", ""),
+             "wall_seconds": c["wall_seconds"]}
+            for n, c in enumerate(records)]
+
+
 def write_csv(stem, rows):
     """rows (dicts) to doc/data/<stem>.csv, the keys of the first row as the
     columns (read_table reads it)."""
@@ -117,8 +131,18 @@ def write_markdown(stem, rows, header, formats):
     for row in rows:
         lines.append("| " + " | ".join(fmt.format(row.get(key, float("nan"))).replace("nan", "-")
                                        for key, fmt in formats) + " |")
+    write_md(stem, lines)
+
+
+def write_md(stem, parts, separator="\n", echo=False):
+    """parts (lines of markdown, or whole tables with separator "\n\n") to
+    doc/data/<stem>.md; with echo, to the terminal as well."""
+    text = separator.join(parts)
+    os.makedirs(DATA, exist_ok=True)
     with open(os.path.join(DATA, stem + ".md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+        f.write(text + "\n")
+    if echo:
+        print(text)
 
 
 def gnuplot(script):
@@ -126,13 +150,31 @@ def gnuplot(script):
     subprocess.run(["gnuplot"], input=script.encode(), check=True)
 
 
+def write_dat(path, blocks):
+    """Data for gnuplot to path: blocks is a list of (comment, rows), each
+    block the `index` of its place, each row a sequence of values written
+    space-separated; a comment of None writes no comment line."""
+    with open(path, "w") as f:
+        for comment, rows in blocks:
+            if comment is not None:
+                f.write(f"# {comment}\n")
+            for row in rows:
+                f.write(" ".join(str(value) for value in row) + "\n")
+            f.write("\n\n")
+
+
+def plot_png(png, settings, plots, size="900,600", font=12):
+    """One gnuplot plot to png (pngcairo of size, font size font): the set
+    commands in settings (a list of lines), then plots, the plot items."""
+    gnuplot(f"set terminal pngcairo size {size} font ',{font}'\n"
+            f"set output '{png}'\n" + "".join(line + "\n" for line in settings)
+            + "plot " + ", \\\n     ".join(plots) + "\n")
+
+
 def write_report(stem, lines):
     """lines (a report in markdown) to doc/data/<stem>.md, and to the
     terminal."""
-    os.makedirs(DATA, exist_ok=True)
-    with open(os.path.join(DATA, stem + ".md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_md(stem, lines, echo=True)
     print(f"wrote {os.path.join(DATA, stem)}.md")
 
 

@@ -12,17 +12,9 @@ set(command ${PROGRAM} ${prm_name})
 if(NP GREATER 1)
   set(command ${MPIEXEC} ${MPIEXEC_FLAGS} -np ${NP} ${command})
 endif()
-execute_process(COMMAND ${command}
-  WORKING_DIRECTORY ${WORKDIR}
-  RESULT_VARIABLE status
-  OUTPUT_FILE ${WORKDIR}/screen-output
-  ERROR_FILE ${WORKDIR}/error-output)
-file(READ ${WORKDIR}/error-output errors)
 
 if(KIND STREQUAL "run")
-  if(NOT status EQUAL 0)
-    message(FATAL_ERROR "exit status ${status}:\n${errors}")
-  endif()
+  run_program(0 ${command})
   # A run that succeeds has said so in its summary, with finite numbers
   # only (the writer turns NaN and infinities into null).
   file(READ ${WORKDIR}/output/summary.json summary)
@@ -32,9 +24,7 @@ if(KIND STREQUAL "run")
   compare_table(${REFERENCE} ${WORKDIR}/output/convergence.txt
     "output/convergence.txt")
 elseif(KIND STREQUAL "input")
-  if(NOT status EQUAL 1)
-    message(FATAL_ERROR "expected exit status 1, got ${status}:\n${errors}")
-  endif()
+  run_program(1 ${command})
   expect_error_line(${REFERENCE} "${errors}")
   file(GLOB_RECURSE written ${WORKDIR}/output/*)
   if(written)

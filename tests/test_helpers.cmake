@@ -14,6 +14,23 @@ macro(prepare_work_directory)
   set(ENV{TMPDIR} ${WORKDIR})
 endmacro()
 
+# Run the command ARGN in WORKDIR (stdout to screen-output, stderr to
+# error-output) and fail unless it ends with exit status `expected_status`;
+# sets `errors`, the program's stderr, for the caller.
+function(run_program expected_status)
+  execute_process(COMMAND ${ARGN}
+    WORKING_DIRECTORY ${WORKDIR}
+    RESULT_VARIABLE status
+    OUTPUT_FILE ${WORKDIR}/screen-output
+    ERROR_FILE ${WORKDIR}/error-output)
+  file(READ ${WORKDIR}/error-output errors)
+  if(NOT status EQUAL ${expected_status})
+    message(FATAL_ERROR
+      "expected exit status ${expected_status}, got ${status}:\n${errors}")
+  endif()
+  set(errors "${errors}" PARENT_SCOPE)
+endfunction()
+
 # Fail unless the table `produced` equals `reference` to numdiff's relative
 # 1e-6 and absolute 1e-12 (printing the differences); `what` names the run.
 function(compare_table reference produced what)
@@ -37,4 +54,23 @@ function(expect_error_line reference errors)
   if(NOT errors STREQUAL expected)
     message(FATAL_ERROR "expected on stderr:\n${expected}\ngot:\n${errors}")
   endif()
+endfunction()
+
+# The second half of a resume test: the first run (ARGN is its command) has
+# left a checkpoint; run it again with "Time stepping/Resume = true". Its
+# screen must match `resumed` (it went on from the checkpoint, not from the
+# start), and output/convergence.txt must be REFERENCE, the table of the
+# uninterrupted run.
+function(resume_and_compare resumed)
+  if(NOT EXISTS ${WORKDIR}/output/checkpoint.txt)
+    message(FATAL_ERROR "the first run left no checkpoint")
+  endif()
+  run_program(0 ${ARGN} --set "Time stepping/Resume=true")
+  file(READ ${WORKDIR}/screen-output screen)
+  if(NOT screen MATCHES "${resumed}")
+    message(FATAL_ERROR
+      "the second run did not resume as \"${resumed}\":\n${screen}")
+  endif()
+  compare_table(${REFERENCE} ${WORKDIR}/output/convergence.txt
+    "the resumed run")
 endfunction()

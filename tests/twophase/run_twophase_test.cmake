@@ -13,36 +13,14 @@ prepare_work_directory()
 # No report of mpirun's own on a non-zero exit status.
 set(ENV{OMPI_MCA_orte_execute_quiet} 1)
 
-function(run_program expected_status)
-  execute_process(COMMAND ${ARGN}
-    WORKING_DIRECTORY ${WORKDIR}
-    RESULT_VARIABLE status
-    OUTPUT_FILE ${WORKDIR}/screen-output
-    ERROR_FILE ${WORKDIR}/error-output)
-  file(READ ${WORKDIR}/error-output errors)
-  if(NOT status EQUAL ${expected_status})
-    message(FATAL_ERROR
-      "expected exit status ${expected_status}, got ${status}:\n${errors}")
-  endif()
-  set(errors "${errors}" PARENT_SCOPE)
-endfunction()
-
 if(MODE STREQUAL "resume")
   run_program(2 ${PROGRAM} ${prm_name}
     --set "Nonlinear solver/Maximum iterations=2"
     --set "Time stepping/Minimal time step=2500"
     --set "Time stepping/Checkpoint interval=4")
-  if(NOT EXISTS ${WORKDIR}/output/checkpoint.txt)
-    message(FATAL_ERROR "the failed run left no checkpoint")
-  endif()
-  run_program(0 ${PROGRAM} ${prm_name} --set "Time stepping/Resume=true")
-  # It must have continued from the checkpoint of step 4, not started anew.
-  file(READ ${WORKDIR}/screen-output screen)
-  if(NOT screen MATCHES "Resuming at t = 10000 yr \\(step 4\\)")
-    message(FATAL_ERROR "the second run did not resume at step 4:\n${screen}")
-  endif()
-  compare_table(${REFERENCE} ${WORKDIR}/output/convergence.txt
-    "the resumed run")
+  # It must go on from the checkpoint of step 4, not start anew.
+  resume_and_compare("Resuming at t = 10000 yr \\(step 4\\)"
+    ${PROGRAM} ${prm_name})
 elseif(MODE STREQUAL "serial-only")
   run_program(1 ${MPIEXEC} --allow-run-as-root --oversubscribe -np 2
     ${PROGRAM} ${prm_name})

@@ -27,7 +27,10 @@
 
 #include <gtest/gtest.h>
 
+#include "equilibration_defect.h"
+
 #include <cmath>
+#include <memory>
 
 using namespace dealii;
 
@@ -77,6 +80,69 @@ namespace
   }
 
 
+  /// Q_p on the mesh of make_mesh(), refined `refinements` times more,
+  /// with its DoFs, and the mapping the tests use.
+  struct ConformingSpace
+  {
+    ConformingSpace(const unsigned int degree,
+                    const bool         distorted,
+                    const bool         hanging,
+                    const unsigned int refinements = 0)
+        : mapping(1)
+        , fe(degree)
+    {
+      make_mesh(tria, distorted, hanging);
+      tria.refine_global(refinements);
+      dofs.reinit(tria);
+      dofs.distribute_dofs(fe);
+    }
+
+    Triangulation<2> tria;
+    MappingQ<2>      mapping;
+    FE_Q<2>          fe;
+    DoFHandler<2>    dofs;
+  };
+
+
+  /// The data of a reconstruction from u_h on `dofs`: the flux grad u_h and
+  /// the source f - r_h, with r_h the function *r on `dofs` (f alone
+  /// without r), at the points of `quadrature`. Each thread makes its own
+  /// FEValues (the cells are evaluated concurrently).
+  VI::FluxReconstruction<2>::Sources
+  gradient_sources(const Mapping<2>     &mapping,
+                   const DoFHandler<2>  &dofs,
+                   const Quadrature<2>  &quadrature,
+                   const Vector<double> &u,
+                   const Function<2>    &f,
+                   const Vector<double> *r = nullptr)
+  {
+    VI::FluxReconstruction<2>::Sources sources;
+    sources.make_cell_values = [&mapping, &dofs, &quadrature, &u, &f, r]() {
+      const auto values =
+        std::make_shared<FEValues<2>>(mapping,
+                                      dofs.get_fe(),
+                                      quadrature,
+                                      update_values | update_gradients |
+                                        update_quadrature_points);
+      const auto r_values =
+        std::make_shared<std::vector<double>>(quadrature.size());
+      return [&dofs, &u, &f, r, values, r_values](const auto &cell,
+                                                  auto       &flux,
+                                                  auto       &source) {
+        values->reinit(typename DoFHandler<2>::active_cell_iterator(
+          &dofs.get_triangulation(), cell->level(), cell->index(), &dofs));
+        values->get_function_gradients(u, flux[0]);
+        if (r != nullptr)
+          values->get_function_values(*r, *r_values);
+        for (unsigned int q = 0; q < source[0].size(); ++q)
+          source[0][q] = f.value(values->quadrature_point(q)) -
+                         (r != nullptr ? (*r_values)[q] : 0.);
+      };
+    };
+    return sources;
+  }
+
+
   /**
    * For degree p: build u_h, the residual vector R_i = (f, psi_i) -
    * (grad u_h, grad psi_i) on interior nodes, its representation r_h
@@ -90,12 +156,9 @@ namespace
                        const bool         distorted,
                        const bool         hanging)
   {
-    Triangulation<2> tria;
-    make_mesh(tria, distorted, hanging);
-    MappingQ<2>   mapping(1);
-    FE_Q<2>       fe(degree);
-    DoFHandler<2> dofs(tria);
-    dofs.distribute_dofs(fe);
+    const ConformingSpace     space(degree, distorted, hanging);
+    const Mapping<2>         &mapping = space.mapping;
+    const DoFHandler<2>      &dofs    = space.dofs;
     AffineConstraints<double> hanging_nodes;
     DoFTools::make_hanging_node_constraints(dofs, hanging_nodes);
     hanging_nodes.close();
@@ -116,7 +179,7 @@ namespace
     const QGauss<2> quadrature(
       VI::FluxReconstruction<2>::quadrature_points(degree));
     FEValues<2>            values(mapping,
-                       fe,
+                       space.fe,
                        quadrature,
                        update_values | update_gradients |
                          update_quadrature_points | update_JxW_values);
@@ -126,11 +189,11 @@ namespace
     SparsityPattern sparsity;
     sparsity.copy_from(dsp);
     SparseMatrix<double>                 mass(sparsity);
-    std::vector<types::global_dof_index> local(fe.n_dofs_per_cell());
+    std::vector<types::global_dof_index> local(space.fe.n_dofs_per_cell());
     std::vector<Tensor<1, 2>>            grad_u(quadrature.size());
-    Vector<double>                       cell_R(fe.n_dofs_per_cell()),
-      cell_lumped(fe.n_dofs_per_cell());
-    FullMatrix<double> cell_mass(fe.n_dofs_per_cell());
+    Vector<double>                       cell_R(space.fe.n_dofs_per_cell()),
+      cell_lumped(space.fe.n_dofs_per_cell());
+    FullMatrix<double> cell_mass(space.fe.n_dofs_per_cell());
     for (const auto &cell : dofs.active_cell_iterators())
       {
         values.reinit(cell);
@@ -175,7 +238,7 @@ namespace
         if (!constraints.is_constrained(i))
           r(i) = R(i) / lumped(i);
     hanging_nodes.distribute(r);
-    std::vector<double> vertex_residual(tria.n_vertices(), 0.);
+    std::vector<double> vertex_residual(space.tria.n_vertices(), 0.);
     if (degree == 1)
       for (const auto &cell : dofs.active_cell_iterators())
         for (const unsigned int v : cell->vertex_indices())
@@ -185,91 +248,25 @@ namespace
     VI::FluxReconstruction<2> reconstruction(mapping, flux_degree, degree);
     EXPECT_EQ(reconstruction.get_quadrature().size(), quadrature.size());
     reconstruction.reinit(dofs);
-    typename VI::FluxReconstruction<2>::Sources sources;
-    sources.make_cell_values = [&]() {
-      // per thread (the cells are evaluated concurrently)
-      const auto data_values =
-        std::make_shared<FEValues<2>>(mapping,
-                                      fe,
-                                      reconstruction.get_quadrature(),
-                                      update_values | update_gradients |
-                                        update_quadrature_points);
-      const auto r_values = std::make_shared<std::vector<double>>(
-        reconstruction.get_quadrature().size());
-      return
-        [&, data_values, r_values](const auto &cell, auto &flux, auto &source) {
-          typename DoFHandler<2>::active_cell_iterator dof_cell(&tria,
-                                                                cell->level(),
-                                                                cell->index(),
-                                                                &dofs);
-          data_values->reinit(dof_cell);
-          data_values->get_function_gradients(u, flux[0]);
-          data_values->get_function_values(r, *r_values);
-          for (unsigned int q = 0; q < flux[0].size(); ++q)
-            source[0][q] = f.value(data_values->quadrature_point(q)) -
-                           (degree > 1 ? (*r_values)[q] : 0.);
-        };
-    };
+    // p >= 2: the source f - r_h; p = 1: f, and -r_a on the patches.
+    auto sources = gradient_sources(mapping,
+                                    dofs,
+                                    reconstruction.get_quadrature(),
+                                    u,
+                                    f,
+                                    degree > 1 ? &r : nullptr);
     if (degree == 1)
       sources.vertex_source = [&](const unsigned int a, const unsigned int) {
         return -vertex_residual[a];
       };
-    TrilinosWrappers::MPI::Vector sigma;
-    reconstruction.reconstruct(sources, {&sigma});
 
     // Compare div sigma with the target f - r_h (p >= 2) or
-    // f - sum_a r_a psi_a (p = 1), in the moments of Q_k.
-    FE_DGQ<2>   fe_q(flux_degree);
-    FEValues<2> q_values(mapping, fe_q, quadrature, update_values);
-    FEValues<2> sigma_values(mapping,
-                             reconstruction.get_dof_handler().get_fe(),
-                             quadrature,
-                             update_gradients | update_JxW_values);
-    const FEValuesExtractors::Vector sigma_extractor(0);
-    std::vector<double>              divergence(quadrature.size()),
-      r_at_q(quadrature.size());
-    double defect = 0;
-    for (const auto &cell : dofs.active_cell_iterators())
-      {
-        values.reinit(cell);
-        q_values.reinit(cell);
-        typename DoFHandler<2>::active_cell_iterator rt_cell(
-          &tria,
-          cell->level(),
-          cell->index(),
-          &reconstruction.get_dof_handler());
-        sigma_values.reinit(rt_cell);
-        sigma_values[sigma_extractor].get_function_divergences(sigma,
-                                                               divergence);
-        values.get_function_values(r, r_at_q);
-
-        std::vector<double> target(quadrature.size());
-        for (const unsigned int q : values.quadrature_point_indices())
-          {
-            // f - r_h; for p = 1, r_h = sum_a r_a psi_a is the Q1 function r.
-            target[q] = f.value(values.quadrature_point(q)) - r_at_q[q];
-          }
-        // The moments (div sigma - target, q)_K for all q in Q_k(K), relative
-        // to |target|_K |q|_K. (On non-affine cells div sigma is not in the
-        // mapped Q_p, so the moments, not the functions, must agree.)
-        double size = 0;
-        for (const unsigned int q : values.quadrature_point_indices())
-          size += std::pow(target[q], 2) * values.JxW(q);
-        for (unsigned int i = 0; i < fe_q.n_dofs_per_cell(); ++i)
-          {
-            double moment = 0, q_norm = 0;
-            for (const unsigned int q : values.quadrature_point_indices())
-              {
-                moment += (divergence[q] - target[q]) *
-                          q_values.shape_value(i, q) * values.JxW(q);
-                q_norm +=
-                  std::pow(q_values.shape_value(i, q), 2) * values.JxW(q);
-              }
-            defect =
-              std::max(defect, std::abs(moment) / std::sqrt(size * q_norm));
-          }
-      }
-    return defect;
+    // f - sum_a r_a psi_a (p = 1: r_h is the Q1 function r), in the moments
+    // of Q_k.
+    return VITest::reconstructed_flux_defect(reconstruction,
+                                             sources,
+                                             {mapping, quadrature, dofs, f, r},
+                                             FE_DGQ<2>(flux_degree));
   }
 } // namespace
 
@@ -331,16 +328,11 @@ INSTANTIATE_TEST_SUITE_P(Degrees,
 TEST_P(FluxReconstructionTest, ReproducesAConstantFluxOnDistortedMeshes)
 {
   const auto [degree, distorted, hanging] = GetParam();
-  Triangulation<2> tria;
-  make_mesh(tria, distorted, hanging);
-  MappingQ<2>   mapping(1);
-  FE_Q<2>       fe(degree);
-  DoFHandler<2> dofs(tria);
-  dofs.distribute_dofs(fe);
+  const ConformingSpace space(degree, distorted, hanging);
 
   const Tensor<1, 2>        c({0.3, -1.2});
-  VI::FluxReconstruction<2> reconstruction(mapping, degree);
-  reconstruction.reinit(dofs);
+  VI::FluxReconstruction<2> reconstruction(space.mapping, degree);
+  reconstruction.reinit(space.dofs);
   typename VI::FluxReconstruction<2>::Sources sources;
   sources.make_cell_values = [&]() {
     return [&](const auto &, auto &flux, auto &source) {
@@ -353,7 +345,7 @@ TEST_P(FluxReconstructionTest, ReproducesAConstantFluxOnDistortedMeshes)
       TrilinosWrappers::MPI::Vector sigma;
       reconstruction.reconstruct(sources, {&sigma});
 
-      FEValues<2>                      sigma_values(mapping,
+      FEValues<2>                      sigma_values(space.mapping,
                                reconstruction.get_dof_handler().get_fe(),
                                reconstruction.get_quadrature(),
                                update_values);
@@ -382,35 +374,21 @@ TEST(FluxReconstruction, DoesNotDependOnTheNumberOfThreads)
 {
   for (const unsigned int degree : {1u, 2u})
     {
-      Triangulation<2> tria;
-      make_mesh(tria, /*distorted=*/true, /*hanging=*/true);
-      tria.refine_global(3); // many chunks of cells and patches per thread
-      MappingQ<2>   mapping(1);
-      FE_Q<2>       fe(degree);
-      DoFHandler<2> dofs(tria);
-      dofs.distribute_dofs(fe);
-      Vector<double> u(dofs.n_dofs());
+      // many chunks of cells and patches per thread: refined 3 times more
+      const ConformingSpace space(degree,
+                                  /*distorted=*/true,
+                                  /*hanging=*/true,
+                                  /*refinements=*/3);
+      const Mapping<2>     &mapping = space.mapping;
+      const DoFHandler<2>  &dofs    = space.dofs;
+      Vector<double>        u(dofs.n_dofs());
       VectorTools::interpolate(mapping, dofs, Potential(), u);
       const Load f;
 
       VI::FluxReconstruction<2> serial_setup(mapping, degree),
         threaded_setup(mapping, degree);
-      typename VI::FluxReconstruction<2>::Sources sources;
-      sources.make_cell_values = [&]() {
-        const auto values =
-          std::make_shared<FEValues<2>>(mapping,
-                                        fe,
-                                        serial_setup.get_quadrature(),
-                                        update_gradients |
-                                          update_quadrature_points);
-        return [&, values](const auto &cell, auto &flux, auto &source) {
-          values->reinit(typename DoFHandler<2>::active_cell_iterator(
-            &tria, cell->level(), cell->index(), &dofs));
-          values->get_function_gradients(u, flux[0]);
-          for (unsigned int q = 0; q < source[0].size(); ++q)
-            source[0][q] = f.value(values->quadrature_point(q));
-        };
-      };
+      auto sources =
+        gradient_sources(mapping, dofs, serial_setup.get_quadrature(), u, f);
       // the vertex constants vary, so that every patch has its own data
       sources.vertex_source = [&](const unsigned int a, const unsigned int) {
         return std::sin(double(a));

@@ -28,6 +28,7 @@
 #include <gtest/gtest.h>
 
 #include "../../step-hho/local_operators.h"
+#include "test_helpers.h"
 
 #include <algorithm>
 #include <numeric>
@@ -110,6 +111,32 @@ namespace
             v(n_c + face_fe.face_to_cell_index(k, f)) = c(k);
         }
       return v;
+    }
+
+    /// The reconstruction G_K of the gradient in the space spanned by
+    /// `basis`, and the mass matrix of that space.
+    void
+    reconstruct_gradient(const std::vector<unsigned int> &basis,
+                         FullMatrix<double>              &G,
+                         FullMatrix<double>              &gradient_mass)
+    {
+      LO::gradient_reconstruction<2>(
+        cell, cell_values, trace_values, face_values, basis, G, gradient_mass);
+    }
+
+    /// The local HHO matrix a_K, with the gradient reconstructed in
+    /// P_k(K)^2.
+    FullMatrix<double>
+    local_matrix(const unsigned int k)
+    {
+      FullMatrix<double> A;
+      LO::local_hho_matrix<2>(cell,
+                              cell_values,
+                              trace_values,
+                              face_values,
+                              LO::subspace_basis(cell_fe, k),
+                              A);
+      return A;
     }
 
     Triangulation<2>                tria;
@@ -247,13 +274,7 @@ namespace
   {
     const std::vector<unsigned int> basis = LO::subspace_basis(s.cell_fe, k);
     FullMatrix<double>              G, gradient_mass;
-    LO::gradient_reconstruction<2>(s.cell,
-                                   s.cell_values,
-                                   s.trace_values,
-                                   s.face_values,
-                                   basis,
-                                   G,
-                                   gradient_mass);
+    s.reconstruct_gradient(basis, G, gradient_mass);
     const unsigned int n_c = s.cell_fe.n_dofs_per_cell(), n_g = basis.size();
     FullMatrix<double> M_inverse(n_g, n_g);
     for (unsigned int m = 0; m < n_g; ++m)
@@ -346,13 +367,7 @@ TEST(HHOLocalOperators, GradientReconstructionSeesTheFaceUnknowns)
   LocalSetting       s(shapes[0], 2);
   FullMatrix<double> G, gradient_mass;
   const auto         basis = LO::subspace_basis(s.cell_fe, 2);
-  LO::gradient_reconstruction<2>(s.cell,
-                                 s.cell_values,
-                                 s.trace_values,
-                                 s.face_values,
-                                 basis,
-                                 G,
-                                 gradient_mass);
+  s.reconstruct_gradient(basis, G, gradient_mass);
   const unsigned int n_c = s.cell_fe.n_dofs_per_cell();
   Vector<double>     v(G.n()), g(G.m());
   // Face 1 ({x = 0.25}, outer normal +e_x) of FE_FaceQ(1): its two nodal
@@ -423,16 +438,10 @@ TEST(HHOLocalOperators, LocalMatrixIsConsistentOnParallelograms)
       for (unsigned int p = 1; p <= 4; ++p)
         for (const unsigned int k : {p, p - 1})
           {
-            LocalSetting       s(shape, p);
-            FullMatrix<double> A;
-            LO::local_hho_matrix<2>(s.cell,
-                                    s.cell_values,
-                                    s.trace_values,
-                                    s.face_values,
-                                    LO::subspace_basis(s.cell_fe, k),
-                                    A);
-            const unsigned int n_c = s.cell_fe.n_dofs_per_cell();
-            FullMatrix<double> stiffness(n_c, n_c);
+            LocalSetting             s(shape, p);
+            const FullMatrix<double> A   = s.local_matrix(k);
+            const unsigned int       n_c = s.cell_fe.n_dofs_per_cell();
+            FullMatrix<double>       stiffness(n_c, n_c);
             s.cell_values.reinit(s.cell);
             for (const unsigned int q :
                  s.cell_values.quadrature_point_indices())
@@ -466,24 +475,13 @@ TEST(HHOLocalOperators, LocalMatrixIsStableWithTheConstantsAsKernel)
     for (unsigned int p = 1; p <= 4; ++p)
       for (const unsigned int k : {p, p - 1})
         {
-          LocalSetting       s(shape, p);
-          FullMatrix<double> A;
-          LO::local_hho_matrix<2>(s.cell,
-                                  s.cell_values,
-                                  s.trace_values,
-                                  s.face_values,
-                                  LO::subspace_basis(s.cell_fe, k),
-                                  A);
+          LocalSetting             s(shape, p);
+          const FullMatrix<double> A = s.local_matrix(k);
           for (unsigned int i = 0; i < A.m(); ++i)
             for (unsigned int j = 0; j < i; ++j)
               EXPECT_NEAR(A(i, j), A(j, i), 1e-13 * A.linfty_norm());
 
-          LAPACKFullMatrix<double> A_lapack(A.m(), A.n());
-          A_lapack = A;
-          Vector<double>     eigenvalues;
-          FullMatrix<double> eigenvectors;
-          A_lapack.compute_eigenvalues_symmetric(
-            -1e300, 1e300, 0., eigenvalues, eigenvectors);
+          const Vector<double> eigenvalues = VITest::symmetric_eigenvalues(A);
           ASSERT_EQ(eigenvalues.size(), A.m());
           const double largest = eigenvalues(A.m() - 1);
           EXPECT_LE(std::abs(eigenvalues(0)), 1e-12 * largest)
@@ -506,14 +504,8 @@ TEST(HHOLocalOperators, LocalMatrixIsStableWithTheConstantsAsKernel)
 TEST(HHOLocalOperators, NodalBasisChangeKeepsTheBilinearForm)
 {
   // a(v, w) is the same number in the modal and the nodal cell basis.
-  LocalSetting       s(shapes[2], 3);
-  FullMatrix<double> A;
-  LO::local_hho_matrix<2>(s.cell,
-                          s.cell_values,
-                          s.trace_values,
-                          s.face_values,
-                          LO::subspace_basis(s.cell_fe, 3),
-                          A);
+  LocalSetting             s(shapes[2], 3);
+  const FullMatrix<double> A = s.local_matrix(3);
   const FullMatrix<double> V =
     LO::vandermonde_matrix(s.cell_fe,
                            LO::contact_nodes(3, LO::ContactNodes::gauss_padua));

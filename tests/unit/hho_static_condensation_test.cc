@@ -11,12 +11,12 @@
 #include <deal.II/fe/mapping_q.h>
 #include <deal.II/grid/grid_generator.h>
 #include <deal.II/grid/tria.h>
-#include <deal.II/lac/lapack_full_matrix.h>
 
 #include <gtest/gtest.h>
 
 #include "../../step-hho/local_operators.h"
 #include "../../step-hho/static_condensation.h"
+#include "test_helpers.h"
 
 #include <cmath>
 #include <string>
@@ -138,113 +138,127 @@ namespace
       }
     return E;
   }
+
+
+  /// One case of the tests below: the cell of nodal_local_matrix() at
+  /// degree p, with the Jacobian J, its cell unknowns eliminated and S the
+  /// condensed matrix.
+  struct CondensedCell
+  {
+    unsigned int               p, n_c;
+    const FullMatrix<double>  &A;
+    const SC::CellOperators   &cell;
+    const Jacobian            &J;
+    const SC::CellElimination &elimination;
+    const FullMatrix<double>  &S;
+  };
+
+  /// Call `check` on the condensed cell of each degree in `degrees` with
+  /// each Jacobian of jacobians().
+  template <typename Check>
+  void
+  for_each_condensed_cell(const std::vector<unsigned int> &degrees,
+                          const double                     mu1,
+                          const double                     mu2,
+                          const Check                     &check)
+  {
+    for (const unsigned int p : degrees)
+      {
+        unsigned int             n_c;
+        const FullMatrix<double> A = nodal_local_matrix(p, n_c);
+        SC::CellOperators        cell;
+        cell.reinit(A, n_c);
+        for (const Jacobian &J : jacobians(n_c))
+          {
+            SC::CellElimination elimination;
+            elimination.reinit(cell, mu1, mu2, J.Ga, J.Gb);
+            FullMatrix<double> S;
+            elimination.condensed_matrix(cell, S);
+            check(CondensedCell{p, n_c, A, cell, J, elimination, S});
+          }
+      }
+  }
 } // namespace
 
 
 TEST(HHOStaticCondensation, CondensedMatrixIsTheSchurComplement)
 {
   const double mu1 = 1., mu2 = 3.;
-  for (unsigned int p = 1; p <= 4; ++p)
-    {
-      unsigned int             n_c;
-      const FullMatrix<double> A = nodal_local_matrix(p, n_c);
-      SC::CellOperators        cell;
-      cell.reinit(A, n_c);
-      const unsigned int n_f = cell.n_face, n_L = 3 * n_c;
+  for_each_condensed_cell({1, 2, 3, 4}, mu1, mu2, [&](const CondensedCell &c) {
+    const FullMatrix<double> &S   = c.S;
+    const unsigned int        n_f = c.cell.n_face, n_L = 3 * c.n_c;
 
-      for (const Jacobian &J : jacobians(n_c))
+    // Brute force: A_FF - A_FL A_LL^{-1} A_LF of the full system.
+    const FullMatrix<double> E = full_local_system(c.A, c.n_c, mu1, mu2, c.J);
+    FullMatrix<double> A_LL(n_L, n_L), A_LF(n_L, 2 * n_f), A_FL(2 * n_f, n_L),
+      S_reference(2 * n_f, 2 * n_f);
+    const auto L = SC::CellOperators::range(0, n_L);
+    const auto F = SC::CellOperators::range(n_L, n_L + 2 * n_f);
+    A_LL.extract_submatrix_from(E, L, L);
+    A_LF.extract_submatrix_from(E, L, F);
+    A_FL.extract_submatrix_from(E, F, L);
+    S_reference.extract_submatrix_from(E, F, F);
+    FullMatrix<double> A_LL_inverse(n_L, n_L), Z(n_L, 2 * n_f),
+      correction(2 * n_f, 2 * n_f);
+    A_LL_inverse.invert(A_LL);
+    A_LL_inverse.mmult(Z, A_LF);
+    A_FL.mmult(correction, Z);
+    S_reference.add(-1., correction);
+
+    const double scale = S_reference.linfty_norm();
+    for (unsigned int k = 0; k < 2 * n_f; ++k)
+      for (unsigned int l = 0; l < 2 * n_f; ++l)
         {
-          SC::CellElimination elimination;
-          elimination.reinit(cell, mu1, mu2, J.Ga, J.Gb);
-          FullMatrix<double> S;
-          elimination.condensed_matrix(cell, S);
-
-          // Brute force: A_FF - A_FL A_LL^{-1} A_LF of the full system.
-          const FullMatrix<double> E = full_local_system(A, n_c, mu1, mu2, J);
-          FullMatrix<double>       A_LL(n_L, n_L), A_LF(n_L, 2 * n_f),
-            A_FL(2 * n_f, n_L), S_reference(2 * n_f, 2 * n_f);
-          const auto L = SC::CellOperators::range(0, n_L);
-          const auto F = SC::CellOperators::range(n_L, n_L + 2 * n_f);
-          A_LL.extract_submatrix_from(E, L, L);
-          A_LF.extract_submatrix_from(E, L, F);
-          A_FL.extract_submatrix_from(E, F, L);
-          S_reference.extract_submatrix_from(E, F, F);
-          FullMatrix<double> A_LL_inverse(n_L, n_L), Z(n_L, 2 * n_f),
-            correction(2 * n_f, 2 * n_f);
-          A_LL_inverse.invert(A_LL);
-          A_LL_inverse.mmult(Z, A_LF);
-          A_FL.mmult(correction, Z);
-          S_reference.add(-1., correction);
-
-          const double scale = S_reference.linfty_norm();
-          for (unsigned int k = 0; k < 2 * n_f; ++k)
-            for (unsigned int l = 0; l < 2 * n_f; ++l)
-              {
-                EXPECT_NEAR(S(k, l), S_reference(k, l), 1e-11 * scale)
-                  << "p = " << p << ", " << J.name << ", (" << k << ", " << l
-                  << ")";
-                EXPECT_EQ(S(k, l), S(l, k));
-              }
-
-          // Without contact the membranes decouple: no (u1, u2) block.
-          if (J.name == "inactive")
-            {
-              for (unsigned int k = 0; k < n_f; ++k)
-                for (unsigned int l = 0; l < n_f; ++l)
-                  EXPECT_EQ(S(k, n_f + l), 0.);
-            }
+          EXPECT_NEAR(S(k, l), S_reference(k, l), 1e-11 * scale)
+            << "p = " << c.p << ", " << c.J.name << ", (" << k << ", " << l
+            << ")";
+          EXPECT_EQ(S(k, l), S(l, k));
         }
-    }
+
+    // Without contact the membranes decouple: no (u1, u2) block.
+    if (c.J.name == "inactive")
+      {
+        for (unsigned int k = 0; k < n_f; ++k)
+          for (unsigned int l = 0; l < n_f; ++l)
+            EXPECT_EQ(S(k, n_f + l), 0.);
+      }
+  });
 }
 
 
 TEST(HHOStaticCondensation, RecoverySolvesTheCellRowsAndMatchesTheFaceRows)
 {
   const double mu1 = 2., mu2 = 0.5;
-  for (unsigned int p = 1; p <= 4; ++p)
-    {
-      unsigned int             n_c;
-      const FullMatrix<double> A = nodal_local_matrix(p, n_c);
-      SC::CellOperators        cell;
-      cell.reinit(A, n_c);
-      const unsigned int n_f = cell.n_face, n_L = 3 * n_c;
+  for_each_condensed_cell({1, 2, 3, 4}, mu1, mu2, [&](const CondensedCell &c) {
+    const unsigned int n_f = c.cell.n_face, n_L = 3 * c.n_c;
+    Vector<double>     r_L(n_L), dy(2 * n_f), dx_L, rhs_F;
+    for (unsigned int i = 0; i < n_L; ++i)
+      r_L(i) = std::sin(0.7 * i + 0.3);
+    for (unsigned int k = 0; k < 2 * n_f; ++k)
+      dy(k) = std::cos(1.3 * k);
+    c.elimination.recover(c.cell, r_L, dy, dx_L);
+    c.elimination.condensed_rhs(c.cell, r_L, rhs_F);
 
-      for (const Jacobian &J : jacobians(n_c))
-        {
-          SC::CellElimination elimination;
-          elimination.reinit(cell, mu1, mu2, J.Ga, J.Gb);
-          FullMatrix<double> S;
-          elimination.condensed_matrix(cell, S);
-
-          Vector<double> r_L(n_L), dy(2 * n_f), dx_L, rhs_F;
-          for (unsigned int i = 0; i < n_L; ++i)
-            r_L(i) = std::sin(0.7 * i + 0.3);
-          for (unsigned int k = 0; k < 2 * n_f; ++k)
-            dy(k) = std::cos(1.3 * k);
-          elimination.recover(cell, r_L, dy, dx_L);
-          elimination.condensed_rhs(cell, r_L, rhs_F);
-
-          // The full local system applied to (dx_L, dy): its cell rows must
-          // give r_L, its face rows S dy - rhs_F (the cell's contribution to
-          // the condensed equations).
-          const FullMatrix<double> E = full_local_system(A, n_c, mu1, mu2, J);
-          Vector<double>           x(n_L + 2 * n_f), Ex(n_L + 2 * n_f);
-          for (unsigned int i = 0; i < n_L; ++i)
-            x(i) = dx_L(i);
-          for (unsigned int k = 0; k < 2 * n_f; ++k)
-            x(n_L + k) = dy(k);
-          E.vmult(Ex, x);
-          Vector<double> Sdy(2 * n_f);
-          S.vmult(Sdy, dy);
-          const double scale = E.linfty_norm() * x.linfty_norm();
-          for (unsigned int i = 0; i < n_L; ++i)
-            EXPECT_NEAR(Ex(i), r_L(i), 1e-11 * scale)
-              << "p = " << p << ", " << J.name << ", cell row " << i;
-          for (unsigned int k = 0; k < 2 * n_f; ++k)
-            EXPECT_NEAR(Ex(n_L + k), Sdy(k) - rhs_F(k), 1e-11 * scale)
-              << "p = " << p << ", " << J.name << ", face row " << k;
-        }
-    }
+    // The full local system applied to (dx_L, dy): its cell rows must
+    // give r_L, its face rows S dy - rhs_F (the cell's contribution to
+    // the condensed equations).
+    const FullMatrix<double> E = full_local_system(c.A, c.n_c, mu1, mu2, c.J);
+    Vector<double>           x(n_L + 2 * n_f), Ex(n_L + 2 * n_f);
+    for (unsigned int i = 0; i < n_L; ++i)
+      x(i) = dx_L(i);
+    for (unsigned int k = 0; k < 2 * n_f; ++k)
+      x(n_L + k) = dy(k);
+    E.vmult(Ex, x);
+    Vector<double> Sdy(2 * n_f);
+    c.S.vmult(Sdy, dy);
+    const double scale = E.linfty_norm() * x.linfty_norm();
+    for (unsigned int i = 0; i < n_L; ++i)
+      EXPECT_NEAR(Ex(i), r_L(i), 1e-11 * scale)
+        << "p = " << c.p << ", " << c.J.name << ", cell row " << i;
+    for (unsigned int k = 0; k < 2 * n_f; ++k)
+      EXPECT_NEAR(Ex(n_L + k), Sdy(k) - rhs_F(k), 1e-11 * scale)
+        << "p = " << c.p << ", " << c.J.name << ", face row " << k;
+  });
 }
 
 
@@ -253,31 +267,18 @@ TEST(HHOStaticCondensation, CondensedMatrixIsPositiveSemidefinite)
   // For a fixed active set the condensed operator is the energy of the
   // equality-constrained local problem: symmetric positive semidefinite,
   // zero only on equal constants on the faces of both membranes.
-  unsigned int             n_c;
-  const FullMatrix<double> A = nodal_local_matrix(3, n_c);
-  SC::CellOperators        cell;
-  cell.reinit(A, n_c);
-  for (const Jacobian &J : jacobians(n_c))
-    {
-      SC::CellElimination elimination;
-      elimination.reinit(cell, 1., 1., J.Ga, J.Gb);
-      FullMatrix<double> S;
-      elimination.condensed_matrix(cell, S);
-      LAPACKFullMatrix<double> S_lapack(S.m(), S.n());
-      S_lapack = S;
-      Vector<double>     eigenvalues;
-      FullMatrix<double> eigenvectors;
-      S_lapack.compute_eigenvalues_symmetric(
-        -1e300, 1e300, 0., eigenvalues, eigenvectors);
-      const double largest = eigenvalues(S.m() - 1);
-      EXPECT_GE(eigenvalues(0), -1e-12 * largest) << J.name;
-      // Kernel: constants on the faces of u1 and of u2 (independently when
-      // they decouple, only equal ones when the multiplier ties them).
-      const unsigned int kernel_dimension = J.name == "inactive" ? 2 : 1;
-      EXPECT_GT(eigenvalues(kernel_dimension), 1e-6 * largest) << J.name;
-      EXPECT_LE(std::abs(eigenvalues(kernel_dimension - 1)), 1e-10 * largest)
-        << J.name;
-    }
+  for_each_condensed_cell({3}, 1., 1., [](const CondensedCell &c) {
+    const Vector<double> eigenvalues = VITest::symmetric_eigenvalues(c.S);
+    const std::string   &name        = c.J.name;
+    const double         largest     = eigenvalues(c.S.m() - 1);
+    EXPECT_GE(eigenvalues(0), -1e-12 * largest) << name;
+    // Kernel: constants on the faces of u1 and of u2 (independently when
+    // they decouple, only equal ones when the multiplier ties them).
+    const unsigned int kernel_dimension = name == "inactive" ? 2 : 1;
+    EXPECT_GT(eigenvalues(kernel_dimension), 1e-6 * largest) << name;
+    EXPECT_LE(std::abs(eigenvalues(kernel_dimension - 1)), 1e-10 * largest)
+      << name;
+  });
 }
 
 

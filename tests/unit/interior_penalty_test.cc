@@ -28,6 +28,8 @@
 
 #include <gtest/gtest.h>
 
+#include "equilibration_defect.h"
+
 #include <cmath>
 
 using namespace dealii;
@@ -458,48 +460,12 @@ namespace
           source[0][q] = f.value(data_values.quadrature_point(q)) - r_values[q];
       };
     };
-    TrilinosWrappers::MPI::Vector sigma;
-    reconstruction.reconstruct(sources, {&sigma});
 
-    FEValues<2>                      sigma_values(mapping,
-                             reconstruction.get_dof_handler().get_fe(),
-                             quadrature,
-                             update_gradients);
-    const FEValuesExtractors::Vector extractor(0);
-    std::vector<double>              divergence(quadrature.size()),
-      r_at_q(quadrature.size());
-    double defect = 0;
-    for (const auto &cell : dofs.active_cell_iterators())
-      {
-        values.reinit(cell);
-        typename DoFHandler<2>::active_cell_iterator rt_cell(
-          &tria,
-          cell->level(),
-          cell->index(),
-          &reconstruction.get_dof_handler());
-        sigma_values.reinit(rt_cell);
-        sigma_values[extractor].get_function_divergences(sigma, divergence);
-        values.get_function_values(r, r_at_q);
-        double size = 0;
-        for (const unsigned int q : values.quadrature_point_indices())
-          size += std::pow(f.value(values.quadrature_point(q)) - r_at_q[q], 2) *
-                  values.JxW(q);
-        for (unsigned int i = 0; i < n; ++i)
-          {
-            double moment = 0, q_norm = 0;
-            for (const unsigned int q : values.quadrature_point_indices())
-              {
-                const double target =
-                  f.value(values.quadrature_point(q)) - r_at_q[q];
-                moment += (divergence[q] - target) * values.shape_value(i, q) *
-                          values.JxW(q);
-                q_norm += std::pow(values.shape_value(i, q), 2) * values.JxW(q);
-              }
-            defect =
-              std::max(defect, std::abs(moment) / std::sqrt(size * q_norm));
-          }
-      }
-    return defect;
+    // The moments of div sigma - (f - r_h) against Q_p(K).
+    return VITest::reconstructed_flux_defect(reconstruction,
+                                             sources,
+                                             {mapping, quadrature, dofs, f, r},
+                                             fe);
   }
 } // namespace
 

@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_helpers.h"
+
 #include <cmath>
 #include <vector>
 
@@ -152,17 +154,10 @@ TEST(PetscVI, NonConvergenceIsAFailureThatSaysWhy)
   VI::PetscVI::AdditionalData settings;
   settings.max_iterations = 1;
   PETScWrappers::MPI::Vector y;
-  try
-    {
-      solve(problem, settings, y);
-      FAIL() << "one step cannot find the active set from y = 0";
-    }
-  catch (const VI::SolverFailure &failure)
-    {
-      EXPECT_NE(std::string(failure.what()).find("DIVERGED_MAX_IT"),
-                std::string::npos)
-        << failure.what();
-    }
+  // One step cannot find the active set from y = 0.
+  VITest::expect_error_saying<VI::SolverFailure>("DIVERGED_MAX_IT", [&] {
+    solve(problem, settings, y);
+  });
 }
 
 

@@ -23,22 +23,47 @@ using namespace dealii;
 
 namespace
 {
+  /// RT_degree on the disk of five cells, refined twice and distorted (with
+  /// `hanging`: its right part refined twice more), and the Gauss rule of
+  /// degree + 3 points per direction. The disk has interior faces with
+  /// neighbours on faces 0 or 1 as well as 2 or 3, so both signs occur; the
+  /// distortion makes the cells non-affine on top of the curved boundary.
+  struct RaviartThomasOnDisk
+  {
+    RaviartThomasOnDisk(const unsigned int degree, const bool hanging)
+        : fe(degree)
+        , quadrature(degree + 3)
+    {
+      GridGenerator::hyper_ball(tria);
+      tria.refine_global(2);
+      GridTools::distort_random(0.2, tria, /*keep_boundary=*/true, 7);
+      if (hanging)
+        for (unsigned int step = 0; step < 2; ++step)
+          {
+            for (const auto &cell : tria.active_cell_iterators())
+              if (cell->center()[0] > 0.1)
+                cell->set_refine_flag();
+            tria.execute_coarsening_and_refinement();
+          }
+      dof_handler.reinit(tria);
+      dof_handler.distribute_dofs(fe);
+    }
+
+    Triangulation<2>          tria;
+    const FE_RaviartThomas<2> fe;
+    const QGauss<2>           quadrature;
+    DoFHandler<2>             dof_handler;
+  };
+
+
   void
   compare_with_fevalues(const unsigned int degree)
   {
-    // The disk of five cells has interior faces with neighbours on faces
-    // 0 or 1 as well as 2 or 3, so both signs occur; the distortion makes
-    // the cells non-affine on top of the curved boundary.
-    Triangulation<2> tria;
-    GridGenerator::hyper_ball(tria);
-    tria.refine_global(2);
-    GridTools::distort_random(0.2, tria, /*keep_boundary=*/true, 7);
+    const RaviartThomasOnDisk disk(degree, false);
+    const auto               &fe         = disk.fe;
+    const auto               &quadrature = disk.quadrature;
     const MappingQ<2>         mapping(3);
-    const FE_RaviartThomas<2> fe(degree);
     const FE_DGQ<2>           fe_q(degree);
-    const QGauss<2>           quadrature(degree + 3);
-    DoFHandler<2>             dof_handler(tria);
-    dof_handler.distribute_dofs(fe);
 
     FEValues<2>                      values(mapping,
                        fe,
@@ -52,7 +77,7 @@ namespace
     double              largest = 0, difference = 0, moment_difference = 0;
     std::vector<double> coefficients(fe.n_dofs_per_cell()),
       expected(quadrature.size()), computed;
-    for (const auto &cell : dof_handler.active_cell_iterators())
+    for (const auto &cell : disk.dof_handler.active_cell_iterators())
       {
         values.reinit(cell);
         divergence.reinit(values);
@@ -125,33 +150,20 @@ TEST(PiolaDivergence, SignsFromTheMeshAndValuesFromTheReference)
   for (const bool hanging : {false, true})
     for (const unsigned int degree : {1u, 2u})
       {
-        Triangulation<2> tria;
-        GridGenerator::hyper_ball(tria);
-        tria.refine_global(2);
-        GridTools::distort_random(0.2, tria, /*keep_boundary=*/true, 7);
-        if (hanging)
-          for (unsigned int step = 0; step < 2; ++step)
-            {
-              for (const auto &cell : tria.active_cell_iterators())
-                if (cell->center()[0] > 0.1)
-                  cell->set_refine_flag();
-              tria.execute_coarsening_and_refinement();
-            }
+        const RaviartThomasOnDisk disk(degree, hanging);
+        const auto               &fe         = disk.fe;
+        const auto               &quadrature = disk.quadrature;
         const MappingQ<2>         mapping(2);
-        const FE_RaviartThomas<2> fe(degree);
         const FE_DGQ<2>           fe_geometry(1);
-        const QGauss<2>           quadrature(degree + 3);
-        DoFHandler<2>             dof_handler(tria);
-        dof_handler.distribute_dofs(fe);
-        FEValues<2>            values(mapping,
+        FEValues<2>               values(mapping,
                            fe,
                            quadrature,
                            VI::PiolaDivergence<2>::update_flags());
-        FEValues<2>            geometry(mapping,
+        FEValues<2>               geometry(mapping,
                              fe_geometry,
                              quadrature,
                              update_jacobians | update_JxW_values);
-        VI::PiolaDivergence<2> from_values(fe, quadrature),
+        VI::PiolaDivergence<2>    from_values(fe, quadrature),
           from_reference(fe, quadrature);
         const FEValuesExtractors::Vector flux(0);
         std::vector<std::int8_t>         signs(fe.n_dofs_per_cell());
@@ -160,7 +172,7 @@ TEST(PiolaDivergence, SignsFromTheMeshAndValuesFromTheReference)
         std::vector<double>              divergences;
         unsigned int                     n_negative = 0, n_differ = 0;
         double                           difference = 0, largest = 0;
-        for (const auto &cell : dof_handler.active_cell_iterators())
+        for (const auto &cell : disk.dof_handler.active_cell_iterators())
           {
             values.reinit(cell);
             from_values.reinit(values);

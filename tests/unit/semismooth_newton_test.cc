@@ -10,8 +10,11 @@
 
 #include <gtest/gtest.h>
 
+#include "test_helpers.h"
+
 #include <cmath>
 #include <memory>
+#include <string>
 
 using dealii::FullMatrix;
 using dealii::Vector;
@@ -135,6 +138,21 @@ namespace
     EXPECT_GT(n_contact, 0u);
     EXPECT_LT(n_contact, n);
   }
+
+
+  /// Newton with `data` from X = 0 must fail with a SolverFailure that
+  /// says `reason`.
+  void
+  expect_failure(
+    ObstacleProblem &problem,
+    const typename VI::SemismoothNewton<Vector<double>>::AdditionalData &data,
+    const std::string                                                   &reason)
+  {
+    auto           newton = problem.make_newton(data);
+    Vector<double> X(2 * problem.n);
+    VITest::expect_error_saying<VI::SolverFailure>(reason,
+                                                   [&] { newton.solve(X); });
+  }
 } // namespace
 
 
@@ -188,21 +206,10 @@ TEST(SemismoothNewton, IterationLimitIsAFailureWithAReason)
 {
   ObstacleProblem problem(40, ComplementarityFunction());
   typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
-  data.max_iterations   = 1;
-  data.tolerance        = 1e-13;
-  auto           newton = problem.make_newton(data);
-  Vector<double> X(80);
-  try
-    {
-      newton.solve(X);
-      FAIL() << "one iteration cannot find the contact set";
-    }
-  catch (const VI::SolverFailure &failure)
-    {
-      EXPECT_NE(std::string(failure.what()).find("no convergence in 1"),
-                std::string::npos)
-        << failure.what();
-    }
+  data.max_iterations = 1;
+  data.tolerance      = 1e-13;
+  // One iteration cannot find the contact set.
+  expect_failure(problem, data, "no convergence in 1");
 }
 
 
@@ -210,20 +217,8 @@ TEST(SemismoothNewton, NotANumberIsAFailureWithAReason)
 {
   ObstacleProblem problem(10, ComplementarityFunction());
   problem.f(3) = std::nan("");
-  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
-  auto           newton = problem.make_newton(data);
-  Vector<double> X(20);
-  try
-    {
-      newton.solve(X);
-      FAIL() << "NaN in the data must stop Newton";
-    }
-  catch (const VI::SolverFailure &failure)
-    {
-      EXPECT_NE(std::string(failure.what()).find("not a number"),
-                std::string::npos)
-        << failure.what();
-    }
+  // NaN in the data must stop Newton.
+  expect_failure(problem, /*default settings*/ {}, "not a number");
 }
 
 

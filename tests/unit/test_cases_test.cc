@@ -8,8 +8,13 @@
 
 #include <gtest/gtest.h>
 
+#include "test_helpers.h"
+
 #include <cmath>
 #include <random>
+#include <string>
+#include <tuple>
+#include <vector>
 
 using dealii::Point;
 
@@ -182,40 +187,27 @@ TEST(Expression, ReproducesTheSeedSmoothCase)
 
 TEST(Expression, BadInputIsAnInputErrorNamingTheParameter)
 {
-  const auto expect_error = [](VI::ProblemParameters problem,
-                               const std::string    &fragment) {
-    problem.test_case = "expression";
-    try
-      {
-        VI::make_membrane_data<2>(problem, Point<2>(0.5, 0.5));
-        ADD_FAILURE() << "no error for " << fragment;
-      }
-    catch (const VI::InputError &error)
-      {
-        EXPECT_NE(std::string(error.what()).find(fragment), std::string::npos)
-          << error.what();
-      }
-  };
   VI::ProblemParameters problem;
+  problem.test_case  = "expression";
   problem.expression = {"0", "0", "0", "0", "", "", "", ""};
 
-  auto malformed          = problem;
-  malformed.expression.f2 = "sin(x";
-  expect_error(malformed, "Problem/Expression/f2");
-
-  auto undefined          = problem;
-  undefined.expression.g1 = "x + q";
-  expect_error(undefined, "Problem/Expression/g1");
-
-  auto constants                 = problem;
-  constants.expression.constants = "R=0.3, N";
-  expect_error(constants, "Problem/Expression/Constants");
-
-  auto half_exact          = problem;
-  half_exact.expression.u1 = "x";
-  expect_error(half_exact, "both exact solutions");
-
-  auto empty          = problem;
-  empty.expression.f1 = " ";
-  expect_error(empty, "Problem/Expression/f1 is empty");
+  // One bad entry each: the member of Problem/Expression, its text, and
+  // what the error must say.
+  using Entry = std::string VI::ExpressionParameters::*;
+  const std::vector<std::tuple<Entry, std::string, std::string>> bad_inputs = {
+    {&VI::ExpressionParameters::f2, "sin(x", "Problem/Expression/f2"},
+    {&VI::ExpressionParameters::g1, "x + q", "Problem/Expression/g1"},
+    {&VI::ExpressionParameters::constants,
+     "R=0.3, N",
+     "Problem/Expression/Constants"},
+    {&VI::ExpressionParameters::u1, "x", "both exact solutions"},
+    {&VI::ExpressionParameters::f1, " ", "Problem/Expression/f1 is empty"}};
+  for (const auto &[entry, text, fragment] : bad_inputs)
+    {
+      VI::ProblemParameters bad = problem;
+      bad.expression.*entry     = text;
+      VITest::expect_error_saying<VI::InputError>(fragment, [&] {
+        VI::make_membrane_data<2>(bad, Point<2>(0.5, 0.5));
+      });
+    }
 }

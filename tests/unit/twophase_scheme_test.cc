@@ -33,6 +33,23 @@ namespace
     return v;
   }
 
+  /// Saturated with water, no dissolved hydrogen, 1 MPa: the benchmark's
+  /// initial state and its state at x = L.
+  const CellState saturated{1., 1e6, 0.};
+
+  /// The scheme of the benchmark's data on n equal cells of [0, length].
+  FiniteVolumeScheme
+  scheme_on(const TwoPhaseModel               &model,
+            const unsigned int                 n,
+            const double                       length,
+            const FiniteVolumeScheme::Ordering ordering)
+  {
+    return FiniteVolumeScheme(model,
+                              uniform_vertices(n, length),
+                              saturated,
+                              ordering);
+  }
+
   /// A state with gas in the left half (in equilibrium up to a perturbation
   /// that keeps every pair away from the kink of min), pressures that rise
   /// and fall (upwinding in both directions) and dissolved hydrogen.
@@ -119,10 +136,7 @@ TEST(FiniteVolumeScheme, JacobianMatchesFiniteDifferences)
     for (const std::string c_function : {"min", "fischer-burmeister"})
       {
         const auto C = VI::ComplementarityFunction::from_name(c_function);
-        FiniteVolumeScheme scheme(model,
-                                  uniform_vertices(8, 2.),
-                                  CellState{1., 1e6, 0.},
-                                  ordering);
+        FiniteVolumeScheme scheme = scheme_on(model, 8, 2., ordering);
         SparsityPattern    pattern;
         set_up(scheme, pattern);
         SparseMatrix<double> J(pattern);
@@ -174,11 +188,9 @@ TEST(FiniteVolumeScheme, JacobianMatchesFiniteDifferences)
 // what entered at x = 0 minus what left at x = L.
 TEST(FiniteVolumeScheme, ConservesBothComponents)
 {
-  const TwoPhaseModel  model(benchmark);
-  FiniteVolumeScheme   scheme(model,
-                            uniform_vertices(10, 3.),
-                            CellState{1., 1e6, 0.},
-                            FiniteVolumeScheme::Ordering::field_wise);
+  const TwoPhaseModel model(benchmark);
+  FiniteVolumeScheme  scheme =
+    scheme_on(model, 10, 3., FiniteVolumeScheme::Ordering::field_wise);
   const auto           C = VI::ComplementarityFunction::from_name("min");
   const Vector<double> X = mixed_state(scheme);
   Vector<double>       X_old(X);
@@ -219,13 +231,11 @@ TEST(FiniteVolumeScheme, ConservesBothComponents)
 TEST(FiniteVolumeScheme, InitialStateIsSteady)
 {
   const TwoPhaseModel model(benchmark);
-  FiniteVolumeScheme  scheme(model,
-                            uniform_vertices(5, 200.),
-                            CellState{1., 1e6, 0.},
-                            FiniteVolumeScheme::Ordering::cell_wise);
-  Vector<double>      X(scheme.n_unknowns());
+  FiniteVolumeScheme  scheme =
+    scheme_on(model, 5, 200., FiniteVolumeScheme::Ordering::cell_wise);
+  Vector<double> X(scheme.n_unknowns());
   for (unsigned int K = 0; K < 5; ++K)
-    scheme.set_state(K, CellState{1., 1e6, 0.}, X);
+    scheme.set_state(K, saturated, X);
   scheme.set_time_step(X, 5e3 * seconds_per_year, 0.);
   Vector<double>          R(X.size());
   const VI::ResidualNorms norms =
@@ -243,10 +253,8 @@ namespace
   {
     SmallBenchmark()
         : model(benchmark)
-        , scheme(model,
-                 uniform_vertices(40, 20.),
-                 CellState{1., 1e6, 0.},
-                 FiniteVolumeScheme::Ordering::cell_wise)
+        , scheme(
+            scheme_on(model, 40, 20., FiniteVolumeScheme::Ordering::cell_wise))
         , C(VI::ComplementarityFunction::from_name("min"))
     {
       scheme.make_sparsity_pattern(pattern);
