@@ -4,15 +4,8 @@
 
 #include <deal.II/base/parallel.h>
 #include <deal.II/base/quadrature_lib.h>
-#include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
-#include <deal.II/grid/filtered_iterator.h>
-#include <deal.II/lac/dynamic_sparsity_pattern.h>
-#include <deal.II/lac/sparsity_tools.h>
 #include <deal.II/lac/trilinos_index_access.h>
-#include <deal.II/meshworker/copy_data.h>
-#include <deal.II/meshworker/mesh_loop.h>
-#include <deal.II/meshworker/scratch_data.h>
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/errors.h>
@@ -25,11 +18,6 @@
 
 namespace StepMembranes
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   // Distribute the nodes, build the constraints (hanging nodes, Dirichlet
   // data, no multiplier on constrained nodes), the contact rows and the
   // sparsity of A; and the patches of the flux reconstruction.
@@ -39,41 +27,8 @@ namespace StepMembranes
   {
     TimerOutput::Scope t(timer, "setup");
 
-    mapping->initialize(*geometry_mapping, triangulation);
-
-    dof_handler.distribute_dofs(fe);
-    owned_nodes = dof_handler.locally_owned_dofs();
-    DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_nodes);
-    ghosted_nodes.reinit(owned_nodes, relevant_nodes, comm);
-    owned_system    = VI::NodalFields::system_index_set(owned_nodes);
-    relevant_system = VI::NodalFields::system_index_set(relevant_nodes);
-
-    hanging_node_constraints.clear();
-    hanging_node_constraints.reinit(relevant_nodes);
-    DoFTools::make_hanging_node_constraints(dof_handler,
-                                            hanging_node_constraints);
-    hanging_node_constraints.close();
-
-    const auto make_dirichlet = [&](const Function<dim>       &g,
-                                    AffineConstraints<double> &constraints) {
-      constraints.clear();
-      constraints.reinit(relevant_nodes);
-      constraints.merge(hanging_node_constraints);
-      std::map<types::boundary_id, const Function<dim> *> boundary_data;
-      for (const types::boundary_id id : triangulation.get_boundary_ids())
-        boundary_data[id] = &g;
-      VectorTools::interpolate_boundary_values(*mapping,
-                                               dof_handler,
-                                               boundary_data,
-                                               constraints);
-      constraints.close();
-    };
-    make_dirichlet(*data.g1, u1_constraints);
-    make_dirichlet(*data.g2, u2_constraints);
-    VI::NodalFields::make_system_constraints(u1_constraints,
-                                             u2_constraints,
-                                             relevant_system,
-                                             system_constraints);
+    distribute_nodes();
+    make_constraints(*data.g1, *data.g2);
     VI::NodalFields::make_system_constraints(hanging_node_constraints,
                                              hanging_node_constraints,
                                              relevant_system,
@@ -85,43 +40,8 @@ namespace StepMembranes
       if (hanging_node_constraints.is_constrained(i))
         hanging_nodes.add_index(i);
     contact_system.reinit(owned_nodes, u1_constraints, comm, hanging_nodes);
-
-    DynamicSparsityPattern scalar_pattern(relevant_nodes);
-    DoFTools::make_sparsity_pattern(dof_handler,
-                                    scalar_pattern,
-                                    u1_constraints,
-                                    /*keep_constrained_dofs=*/false);
-    SparsityTools::distribute_sparsity_pattern(scalar_pattern,
-                                               owned_nodes,
-                                               comm,
-                                               relevant_nodes);
-    DynamicSparsityPattern system_pattern(relevant_system);
-    VI::NodalFields::make_system_sparsity(scalar_pattern,
-                                          owned_nodes,
-                                          system_pattern);
-    contact_system.matrix.reinit(owned_system,
-                                 owned_system,
-                                 system_pattern,
-                                 comm);
-    stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
-
+    reinit_matrices(contact_system);
     solution.reinit(owned_system, comm);
-    for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
-      field->reinit(owned_nodes, relevant_nodes, comm);
-
-    if (fe.degree > 1)
-      {
-        DynamicSparsityPattern mass_pattern(relevant_nodes);
-        DoFTools::make_sparsity_pattern(dof_handler,
-                                        mass_pattern,
-                                        hanging_node_constraints,
-                                        false);
-        SparsityTools::distribute_sparsity_pattern(mass_pattern,
-                                                   owned_nodes,
-                                                   comm,
-                                                   relevant_nodes);
-        mass_matrix.reinit(owned_nodes, owned_nodes, mass_pattern, comm);
-      }
 
     t.stop();
     if (parameters.estimators.enabled)
@@ -161,12 +81,7 @@ namespace StepMembranes
                                                          geometry));
             dual_norm->reinit(triangulation);
           }
-        vertex_dofs.assign(triangulation.n_vertices(),
-                           numbers::invalid_dof_index);
-        for (const auto &cell : dof_handler.active_cell_iterators())
-          if (!cell->is_artificial())
-            for (const unsigned int v : cell->vertex_indices())
-              vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+        make_vertex_dofs();
       }
   }
 
@@ -233,105 +148,50 @@ namespace StepMembranes
       });
     loads.stop();
 
-    // (a mass matrix for p >= 2 only, see setup_system())
-    const bool with_mass_matrix = fe.degree > 1;
-    contact_system.matrix       = 0;
-    contact_system.rhs          = 0;
-    stiffness_matrix            = 0;
-    Vector lumped_mass(owned_nodes, comm);
-    if (with_mass_matrix)
-      mass_matrix = 0;
+    contact_system.matrix = 0;
+    contact_system.rhs    = 0;
+    stiffness_matrix      = 0;
 
-    // mesh_loop calls the copier for every cell of the range it is given,
-    // so the range is filtered to the locally owned cells.
-    const auto owned_cells =
-      dof_handler.active_cell_iterators() | IteratorFilters::LocallyOwnedCell();
-    using Iterator = typename DoFHandler<dim>::active_cell_iterator;
-    // Matrices: stiffness, mass. Vectors: (f1, psi), (f2, psi), (1, psi).
-    using CopyData = MeshWorker::CopyData<2, 3, 1>;
-
-    MeshWorker::ScratchData<dim> scratch(*mapping,
-                                         fe,
-                                         quadrature,
-                                         update_values | update_gradients |
-                                           update_JxW_values);
-    CopyData                     copy(fe.n_dofs_per_cell());
-
-    const auto cell_worker = [&](const Iterator               &cell,
-                                 MeshWorker::ScratchData<dim> &scratch,
-                                 CopyData                     &copy) {
-      const FEValues<dim> &fe_values = scratch.reinit(cell);
-      for (auto &m : copy.matrices)
-        m = 0;
-      for (auto &v : copy.vectors)
-        v = 0;
-      cell->get_dof_indices(copy.local_dof_indices[0]);
-
-      const std::size_t first = cell->active_cell_index() * quadrature.size();
-      for (const unsigned int q : fe_values.quadrature_point_indices())
-        {
-          const double f1 = load_values[0][first + q];
-          const double f2 = load_values[1][first + q];
-          const double dx = fe_values.JxW(q);
-          for (const unsigned int i : fe_values.dof_indices())
-            {
-              const double phi_i = fe_values.shape_value(i, q);
-              for (const unsigned int j : fe_values.dof_indices())
-                copy.matrices[0](i, j) +=
-                  fe_values.shape_grad(i, q) * fe_values.shape_grad(j, q) * dx;
-              if (with_mass_matrix)
-                for (const unsigned int j : fe_values.dof_indices())
-                  copy.matrices[1](i, j) +=
-                    phi_i * fe_values.shape_value(j, q) * dx;
-              copy.vectors[0](i) += f1 * phi_i * dx;
-              copy.vectors[1](i) += f2 * phi_i * dx;
-              copy.vectors[2](i) += phi_i * dx;
-            }
-        }
-    };
-
+    // The cells' loads are the tabulated f1, f2; the copier moves the
+    // Dirichlet data g_j to the right-hand side of the unconstrained rows
+    // through the stiffness mu_alpha S, and assembles S. (The blocks
+    // mu_alpha S themselves are copied from S below.)
     std::vector<types::global_dof_index> system_dofs(fe.n_dofs_per_cell());
     FullMatrix<double>                   scaled_stiffness(fe.n_dofs_per_cell());
-    const double                         mu[2]  = {data.mu1, data.mu2};
-    const auto                           copier = [&](const CopyData &copy) {
-      const auto &dofs = copy.local_dof_indices[0];
-      // The loads; the stiffness mu_alpha S moves the Dirichlet data g_j to
-      // the right-hand side of the unconstrained rows. (The blocks mu_alpha
-      // S themselves are copied from S below.)
-      for (const unsigned int field :
-           {VI::NodalFields::u1, VI::NodalFields::u2})
-        {
-          for (unsigned int i = 0; i < dofs.size(); ++i)
-            system_dofs[i] = index(dofs[i], field);
-          scaled_stiffness.equ(mu[field], copy.matrices[0]);
-          system_constraints.distribute_local_to_global(copy.vectors[field],
-                                                        system_dofs,
-                                                        contact_system.rhs,
-                                                        scaled_stiffness);
-        }
-      u1_constraints.distribute_local_to_global(copy.matrices[0],
-                                                dofs,
-                                                stiffness_matrix);
-      hanging_node_constraints.distribute_local_to_global(copy.vectors[2],
-                                                          dofs,
-                                                          lumped_mass);
-      if (with_mass_matrix)
-        hanging_node_constraints.distribute_local_to_global(copy.matrices[1],
-                                                            dofs,
-                                                            mass_matrix);
+    const double                         mu[2]      = {data.mu1, data.mu2};
+    const auto                           cell_loads = [&](const auto &cell,
+                                const FEValues<dim> &,
+                                std::vector<double>(&loads)[2]) {
+      const std::size_t first = cell->active_cell_index() * quadrature.size();
+      for (unsigned int a = 0; a < 2; ++a)
+        std::copy(load_values[a].begin() + first,
+                  load_values[a].begin() + first + quadrature.size(),
+                  loads[a].begin());
     };
-
-    MeshWorker::mesh_loop(owned_cells,
-                          cell_worker,
-                          copier,
-                          scratch,
-                          copy,
-                          MeshWorker::assemble_own_cells);
+    const auto copy_system =
+      [&](const typename Discretisation::CellSystem &copy) {
+        const auto &dofs = copy.local_dof_indices[0];
+        for (const unsigned int field :
+             {VI::NodalFields::u1, VI::NodalFields::u2})
+          {
+            for (unsigned int i = 0; i < dofs.size(); ++i)
+              system_dofs[i] = index(dofs[i], field);
+            scaled_stiffness.equ(mu[field], copy.matrices[0]);
+            system_constraints.distribute_local_to_global(copy.vectors[field],
+                                                          system_dofs,
+                                                          contact_system.rhs,
+                                                          scaled_stiffness);
+          }
+        u1_constraints.distribute_local_to_global(copy.matrices[0],
+                                                  dofs,
+                                                  stiffness_matrix);
+      };
+    const Vector lumped_mass = assemble_cells(cell_loads,
+                                              update_default,
+                                              /*mass_term=*/false,
+                                              copy_system);
     contact_system.rhs.compress(VectorOperation::add);
     stiffness_matrix.compress(VectorOperation::add);
-    lumped_mass.compress(VectorOperation::add);
-    if (with_mass_matrix)
-      mass_matrix.compress(VectorOperation::add);
 
     // The blocks of u1 and u2 are mu1 S and mu2 S (the constraints of u1
     // and u2 constrain the same nodes, with the same weights), copied row
@@ -382,15 +242,7 @@ namespace StepMembranes
 
     // Coupling -D / +D in the rows of u1 / u2, and X3 = 0 as the row of each
     // constrained node (boundary, hanging), where there is no contact row.
-    std::vector<types::global_dof_index> constrained_nodes;
-    for (const types::global_dof_index i : owned_nodes)
-      if (u1_constraints.is_constrained(i))
-        constrained_nodes.push_back(i);
-    contact_system.set_coupling(
-      [&](const types::global_dof_index i) {
-        return fe.degree == 1 ? lumped_mass(i) : 1.;
-      },
-      constrained_nodes);
+    set_coupling(contact_system, lumped_mass);
 
     // Rows that enforce u1 = u2 weigh mu_r S_ii.
     const double        mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);

@@ -16,11 +16,6 @@
 
 namespace StepMembranes
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   // The peer solver. PETSc's SNES VI bounds variables, not combinations of
   // them, so the problem is handed over in the variables y = (s, w) of each
   // node, the weighted mean s = theta1 u1 + theta2 u2 and the gap

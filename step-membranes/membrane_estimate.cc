@@ -14,11 +14,6 @@
 
 namespace StepMembranes
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   template <int dim>
   void
   MembraneProblem<dim>::describe_iterate(const Vector &X,
@@ -44,33 +39,19 @@ namespace StepMembranes
   {
     it.X = X;
 
-    Vector u1(owned_nodes, comm), u2(owned_nodes, comm), s1(owned_nodes, comm),
-      s2(owned_nodes, comm), moments(owned_nodes, comm),
-      function(owned_nodes, comm);
-
-    VI::NodalFields::extract(X, VI::NodalFields::u1, u1);
-    VI::NodalFields::extract(X, VI::NodalFields::u2, u2);
-    // (a GMRES iterate need not satisfy the hanging node constraints; its
-    // conforming version has the same residual in the condensed rows)
-    hanging_node_constraints.distribute(u1);
-    hanging_node_constraints.distribute(u2);
-    VI::average_at_violated_nodes(data.mu1, data.mu2, u1, u2, s1, s2);
-    // (hanging nodes follow the averaged values of their parents)
-    hanging_node_constraints.distribute(s1);
-    hanging_node_constraints.distribute(s2);
-    ghosted_nodes.copy(u1, it.u1);
-    ghosted_nodes.copy(u2, it.u2);
-    ghosted_nodes.copy(s1, it.s1);
-    ghosted_nodes.copy(s2, it.s2);
+    Vector owned[4];
+    potentials(
+      X, data.mu1, data.mu2, owned, {{&it.u1, &it.u2, &it.s1, &it.s2}});
 
     // lambda_h: <lambda_h, psi_i>_h = D_i X3_i = m_i.
+    Vector moments(owned_nodes, comm);
     VI::NodalFields::extract(X, multiplier, moments);
     moments.scale(contact_system.coupling());
     if (cell_multiplier)
       {
         // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i).
-        Vector gap(u1);
-        gap -= u2;
+        Vector gap(owned[0]);
+        gap -= owned[1];
         it.complementarity = 2. * (moments * gap);
         Vector m;
         ghosted_nodes.copy(moments, m);
@@ -86,20 +67,7 @@ namespace StepMembranes
                                                 it.lambda_nonnegative);
 
     // r_h from the residual F - E X of the rows of u1 and u2.
-    Vector R(owned_system, comm);
-    contact_system.matrix.vmult(R, X);
-    R.sadd(-1., 1., contact_system.rhs);
-    Vector *r[2] = {&it.r1, &it.r2};
-    for (const unsigned int field : {VI::NodalFields::u1, VI::NodalFields::u2})
-      {
-        VI::NodalFields::extract(R, field, moments);
-        for (const types::global_dof_index i : owned_nodes)
-          if (u1_constraints.is_constrained(i))
-            moments(i) = 0;
-        moments.compress(VectorOperation::insert);
-        multiplier_function.from_moments(moments, function);
-        ghosted_nodes.copy(function, *r[field]);
-      }
+    residual_functions(contact_system, multiplier_function, X, it.r1, it.r2);
   }
 
 

@@ -19,11 +19,6 @@
 
 namespace StepMembranes
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   // The inverse map: X3_i = <lambda_h, psi_i>_h / D_i, i.e. lambda_h(x_i)
   // for p = 1 and (lambda_h, psi_i) for p >= 2, on the contact nodes.
   template <int dim>
@@ -50,23 +45,8 @@ namespace StepMembranes
   MembraneProblem<dim>::postprocess()
   {
     TimerOutput::Scope t(timer, "postprocess");
-    Vector             u1(owned_nodes, comm), u2(owned_nodes, comm),
-      field(owned_nodes, comm), lambda(owned_nodes, comm);
-    VI::NodalFields::extract(solution, VI::NodalFields::u1, u1);
-    VI::NodalFields::extract(solution, VI::NodalFields::u2, u2);
-    u1_h = u1;
-    u2_h = u2;
-    u1 -= u2;
-    gap_h = u1;
-
-    VI::NodalFields::extract(solution, multiplier, field);
-    field.scale(contact_system.coupling());
-    multiplier_function.from_moments(field, lambda);
-    lambda_h = lambda;
-
     n_contact_nodes =
-      contact_system.contact_rows().contact_set(solution, field);
-    contact_set = field;
+      make_solution_fields(contact_system, multiplier_function, solution);
   }
 
 

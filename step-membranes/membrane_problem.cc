@@ -16,38 +16,22 @@
 
 namespace StepMembranes
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   template <int dim>
   MembraneProblem<dim>::MembraneProblem(const Parameters &parameters,
                                         ParameterHandler &prm,
                                         const MPI_Comm    comm)
-      : parameters(parameters)
+      : Discretisation(VI::geometry_from_name(parameters.mesh.geometry),
+                       parameters.discretization.degree,
+                       comm)
+      , parameters(parameters)
       , prm(prm)
-      , comm(comm)
       , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
       // Wall times of rank 0: a TimerOutput without communicator needs no MPI
       // in its destructor, which also runs when a failure unwinds the stack.
       , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
-      , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
       , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
-      , triangulation(comm)
-      , geometry_mapping(
-          VI::make_mapping<dim>(geometry, parameters.discretization.degree))
-      , mapping(std::make_unique<MappingQCache<dim>>(
-          dynamic_cast<const MappingQ<dim> &>(*geometry_mapping).get_degree()))
-      , fe(parameters.discretization.degree)
-      , dof_handler(triangulation)
-      // One quadrature for the load, the flux reconstruction and the
-      // estimators, so that the patch problems are exactly compatible with the
-      // discrete equations (see FluxReconstruction::quadrature_points).
-      , quadrature(VI::FluxReconstruction<dim>::quadrature_points(
-          parameters.discretization.degree))
       , contact_system(C,
                        parameters.nonlinear_solver,
                        parameters.linear_solver,
@@ -80,16 +64,6 @@ namespace StepMembranes
                             quadrature.get_points(),
                             fe.get_unit_support_points(),
                             comm);
-  }
-
-
-  template <int dim>
-  void
-  MembraneProblem<dim>::make_grid()
-  {
-    VI::make_coarse_mesh(geometry, triangulation);
-    triangulation.refine_global(parameters.mesh.initial_refinements);
-    mapping->initialize(*geometry_mapping, triangulation);
   }
 
 
@@ -165,7 +139,7 @@ namespace StepMembranes
   MembraneProblem<dim>::run()
   {
     run_record.start(prm, description());
-    make_grid();
+    make_grid(parameters.mesh.initial_refinements);
     check_data();
     VI::prepare_output_directory(parameters.output.directory, comm);
 
@@ -212,8 +186,6 @@ namespace StepMembranes
                                                const MPI_Comm    comm);
   template void
   MembraneProblem<2>::check_data() const;
-  template void
-  MembraneProblem<2>::make_grid();
   template std::string
   MembraneProblem<2>::description() const;
   template std::string

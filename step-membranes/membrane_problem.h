@@ -26,7 +26,9 @@
 #include <vi/geometry.h>
 #include <vi/linear_solvers.h>
 #include <vi/marking.h>
+#include <vi/membrane_discretisation.h>
 #include <vi/multiplier_function.h>
+#include <vi/nodal_fields.h>
 #include <vi/parameters.h>
 #include <vi/process_usage.h>
 #include <vi/run_record.h>
@@ -43,6 +45,11 @@
 namespace StepMembranes
 {
   using namespace dealii;
+  // The node-interleaved unknowns X = (X1, X2, X3) of every node: the
+  // vocabulary of all the files of the program.
+  using VI::NodalFields::index;
+  using VI::NodalFields::multiplier;
+  using VI::NodalFields::n_fields;
 
   /// The .prm interface of step-membranes: the shared sections of
   /// parameters.h and the program's own entries.
@@ -103,7 +110,7 @@ namespace StepMembranes
    * each Newton run starts from the previous mesh's solution.
    */
   template <int dim>
-  class MembraneProblem
+  class MembraneProblem : private VI::MembraneDiscretisation<dim>
   {
   public:
     MembraneProblem(const Parameters &parameters,
@@ -115,6 +122,7 @@ namespace StepMembranes
 
   private:
     using Vector = TrilinosWrappers::MPI::Vector;
+    VI_MEMBRANE_DISCRETISATION_MEMBERS(dim)
 
     /**
      * An iterate X = (u1h, u2h, lambda_h) as the estimators see it: its
@@ -138,8 +146,6 @@ namespace StepMembranes
 
     void
     check_data() const;
-    void
-    make_grid();
     void
     setup_system();
     void
@@ -248,45 +254,19 @@ namespace StepMembranes
 
     const Parameters            parameters;
     ParameterHandler           &prm;
-    const MPI_Comm              comm;
     ConditionalOStream          pcout;
     mutable TimerOutput         timer;
-    const VI::Geometry          geometry;
     VI::MembraneData<dim>       data;
     VI::ComplementarityFunction C;
 
-    parallel::distributed::Triangulation<dim> triangulation;
-    /// The geometry's mapping, and the one used everywhere: its support
-    /// points cached once per mesh (on the disk the transfinite manifold is
-    /// expensive to evaluate cell by cell).
-    std::unique_ptr<Mapping<dim>>       geometry_mapping;
-    std::unique_ptr<MappingQCache<dim>> mapping;
-    FE_Q<dim>                           fe;
-    DoFHandler<dim>                     dof_handler;
-    QGauss<dim>                         quadrature;
-
-    // Nodes (scalar DoFs) and the node-interleaved unknowns X.
-    IndexSet owned_nodes, relevant_nodes;
-    /// Copies owned node vectors into ghosted ones (map and import built
-    /// once per mesh).
-    VI::GhostedCopy ghosted_nodes;
-    IndexSet        owned_system, relevant_system;
-
-    AffineConstraints<double> hanging_node_constraints;
     /// Hanging node constraints of u1 and u2 in the system numbering.
     AffineConstraints<double> system_hanging_constraints;
-    AffineConstraints<double> u1_constraints, u2_constraints;
-    AffineConstraints<double> system_constraints;
     /// A = [E ; J_C], F, the contact rows and the linear solvers.
     VI::ContactSystem contact_system;
 
-    Vector                         solution;    ///< X
-    TrilinosWrappers::SparseMatrix mass_matrix; ///< L2 Gram matrix, p >= 2
+    Vector solution; ///< X
     /// lambda_h as a finite element function, from its nodal moments.
-    const VI::MultiplierFunction   multiplier_function;
-    TrilinosWrappers::SparseMatrix stiffness_matrix; ///< S, for AMG
-    /// Global vertex index -> DoF of the vertex (the patch constants of p = 1).
-    std::vector<types::global_dof_index> vertex_dofs;
+    const VI::MultiplierFunction multiplier_function;
     /// f1, f2 at the points of `quadrature` (the flux quadrature) of the
     /// owned cells, [active cell index * n_q + q]: tabulated by the assembly,
     /// read by it, the flux reconstruction and every estimate.
@@ -318,9 +298,6 @@ namespace StepMembranes
     /// field of its mesh (for predicted_eta_disc()).
     double                  last_eta_disc      = 0;
     types::global_dof_index last_eta_disc_dofs = 0;
-
-    // The discrete solution as finite element functions (with ghosts).
-    Vector u1_h, u2_h, gap_h, lambda_h, contact_set;
 
     std::unique_ptr<parallel::distributed::SolutionTransfer<dim, Vector>>
       solution_transfer;

@@ -7,11 +7,6 @@
 
 namespace StepMembranes
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   // Semismooth Newton with the chosen strategy. Every Newton iterate gets an
   // a posteriori estimate (when the estimators are on): the one computed by
   // the linear solver's checks if the iterate is the one it accepted,

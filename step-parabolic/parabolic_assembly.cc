@@ -4,12 +4,6 @@
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
-#include <deal.II/grid/filtered_iterator.h>
-#include <deal.II/lac/dynamic_sparsity_pattern.h>
-#include <deal.II/lac/sparsity_tools.h>
-#include <deal.II/meshworker/copy_data.h>
-#include <deal.II/meshworker/mesh_loop.h>
-#include <deal.II/meshworker/scratch_data.h>
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/errors.h>
@@ -22,11 +16,6 @@
 
 namespace StepParabolic
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   // Nodes, constraints (hanging nodes, the Dirichlet data at the current
   // time of `data`, no multiplier on constrained nodes), contact rows,
   // sparsity; the patches of the flux reconstruction. The mesh is the same
@@ -37,67 +26,15 @@ namespace StepParabolic
   {
     TimerOutput::Scope t(timer, "setup");
 
-    mapping->initialize(*geometry_mapping, triangulation);
-    dof_handler.distribute_dofs(fe);
-    owned_nodes = dof_handler.locally_owned_dofs();
-    DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_nodes);
-    ghosted_nodes.reinit(owned_nodes, relevant_nodes, comm);
-    owned_system    = VI::NodalFields::system_index_set(owned_nodes);
-    relevant_system = VI::NodalFields::system_index_set(relevant_nodes);
-
-    hanging_node_constraints.clear();
-    hanging_node_constraints.reinit(relevant_nodes);
-    DoFTools::make_hanging_node_constraints(dof_handler,
-                                            hanging_node_constraints);
-    hanging_node_constraints.close();
-    make_constraints();
+    distribute_nodes();
+    make_constraints(*data.g1, *data.g2);
     contact_system.reinit(owned_nodes, u1_constraints, comm);
     preconditioner_dt = 0; // none for the new matrices yet
-
-    DynamicSparsityPattern scalar_pattern(relevant_nodes);
-    DoFTools::make_sparsity_pattern(dof_handler,
-                                    scalar_pattern,
-                                    u1_constraints,
-                                    /*keep_constrained_dofs=*/false);
-    SparsityTools::distribute_sparsity_pattern(scalar_pattern,
-                                               owned_nodes,
-                                               comm,
-                                               relevant_nodes);
-    DynamicSparsityPattern system_pattern(relevant_system);
-    VI::NodalFields::make_system_sparsity(scalar_pattern,
-                                          owned_nodes,
-                                          system_pattern);
-    contact_system.matrix.reinit(owned_system,
-                                 owned_system,
-                                 system_pattern,
-                                 comm);
-    stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
+    reinit_matrices(contact_system);
     solution.reinit(owned_system, comm);
     previous_solution.reinit(owned_system, comm);
-    for (auto *field : {&u1_h,
-                        &u2_h,
-                        &gap_h,
-                        &lambda_h,
-                        &contact_set,
-                        &previous_u1,
-                        &previous_u2,
-                        &previous_s1,
-                        &previous_s2})
+    for (auto *field : {&previous_u1, &previous_u2, &previous_s1, &previous_s2})
       field->reinit(owned_nodes, relevant_nodes, comm);
-
-    if (fe.degree > 1)
-      {
-        DynamicSparsityPattern mass_pattern(relevant_nodes);
-        DoFTools::make_sparsity_pattern(dof_handler,
-                                        mass_pattern,
-                                        hanging_node_constraints,
-                                        false);
-        SparsityTools::distribute_sparsity_pattern(mass_pattern,
-                                                   owned_nodes,
-                                                   comm,
-                                                   relevant_nodes);
-        mass_matrix.reinit(owned_nodes, owned_nodes, mass_pattern, comm);
-      }
 
     if (parameters.estimators.enabled)
       {
@@ -106,12 +43,7 @@ namespace StepParabolic
           parameters.estimators.flux_degree_for(fe.degree),
           fe.degree);
         flux_reconstruction->reinit(dof_handler);
-        vertex_dofs.assign(triangulation.n_vertices(),
-                           numbers::invalid_dof_index);
-        for (const auto &cell : dof_handler.active_cell_iterators())
-          if (!cell->is_artificial())
-            for (const unsigned int v : cell->vertex_indices())
-              vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+        make_vertex_dofs();
       }
 
     // The ring of every owned node (ring test: where contact begins).
@@ -128,35 +60,6 @@ namespace StepParabolic
             ring_index(support_points.at(owned_nodes.nth_index_in_set(k)),
                        center);
       }
-  }
-
-
-  // The constraints of u1, u2 and X with the boundary data at the time of
-  // `data` (rebuilt every step when g depends on t).
-  template <int dim>
-  void
-  ParabolicProblem<dim>::make_constraints()
-  {
-    const auto make_dirichlet = [&](const Function<dim>       &g,
-                                    AffineConstraints<double> &constraints) {
-      constraints.clear();
-      constraints.reinit(relevant_nodes);
-      constraints.merge(hanging_node_constraints);
-      std::map<types::boundary_id, const Function<dim> *> boundary_data;
-      for (const types::boundary_id id : triangulation.get_boundary_ids())
-        boundary_data[id] = &g;
-      VectorTools::interpolate_boundary_values(*mapping,
-                                               dof_handler,
-                                               boundary_data,
-                                               constraints);
-      constraints.close();
-    };
-    make_dirichlet(*data.g1, u1_constraints);
-    make_dirichlet(*data.g2, u2_constraints);
-    VI::NodalFields::make_system_constraints(u1_constraints,
-                                             u2_constraints,
-                                             relevant_system,
-                                             system_constraints);
   }
 
 
@@ -179,64 +82,28 @@ namespace StepParabolic
     contact_system.rhs    = 0;
     if (with_amg)
       stiffness_matrix = 0;
-    if (fe.degree > 1)
-      mass_matrix = 0;
-    Vector lumped_mass(owned_nodes, comm);
 
-    const auto owned_cells =
-      dof_handler.active_cell_iterators() | IteratorFilters::LocallyOwnedCell();
-    using Iterator = typename DoFHandler<dim>::active_cell_iterator;
-    // Matrices: stiffness, mass. Vectors: loads of u1 and u2, (1, psi).
-    using CopyData = MeshWorker::CopyData<2, 3, 1>;
-    MeshWorker::ScratchData<dim> scratch(*mapping,
-                                         fe,
-                                         quadrature,
-                                         update_values | update_gradients |
-                                           update_quadrature_points |
-                                           update_JxW_values);
-    CopyData                     copy(fe.n_dofs_per_cell());
-
-    const auto cell_worker = [&](const Iterator               &cell,
-                                 MeshWorker::ScratchData<dim> &scratch,
-                                 CopyData                     &copy) {
-      const FEValues<dim> &fe_values = scratch.reinit(cell);
-      const auto          &points    = fe_values.get_quadrature_points();
-      for (auto &m : copy.matrices)
-        m = 0;
-      for (auto &v : copy.vectors)
-        v = 0;
-      cell->get_dof_indices(copy.local_dof_indices[0]);
-      std::vector<double> old_u1(points.size()), old_u2(points.size());
-      fe_values.get_function_values(previous_u1, old_u1);
-      fe_values.get_function_values(previous_u2, old_u2);
-
-      for (const unsigned int q : fe_values.quadrature_point_indices())
+    // The loads (f(t_n), psi) + (u_h^(n-1), psi) / dt of the backward Euler
+    // step; the copier puts the blocks mu_alpha S + M / dt into A and F
+    // through the constraints, and S + M / (mu dt) into the matrix of AMG.
+    const auto cell_loads = [&](const auto &,
+                                const FEValues<dim> &fe_values,
+                                std::vector<double>(&loads)[2]) {
+      const auto          &points = fe_values.get_quadrature_points();
+      const Function<dim> *f[2]   = {data.f1.get(), data.f2.get()};
+      const Vector        *old[2] = {&previous_u1, &previous_u2};
+      for (unsigned int a = 0; a < 2; ++a)
         {
-          const double load1 = data.f1->value(points[q]) + old_u1[q] / dt;
-          const double load2 = data.f2->value(points[q]) + old_u2[q] / dt;
-          const double dx    = fe_values.JxW(q);
-          for (const unsigned int i : fe_values.dof_indices())
-            {
-              const double phi_i = fe_values.shape_value(i, q);
-              for (const unsigned int j : fe_values.dof_indices())
-                {
-                  copy.matrices[0](i, j) += fe_values.shape_grad(i, q) *
-                                            fe_values.shape_grad(j, q) * dx;
-                  copy.matrices[1](i, j) +=
-                    phi_i * fe_values.shape_value(j, q) * dx;
-                }
-              copy.vectors[0](i) += load1 * phi_i * dx;
-              copy.vectors[1](i) += load2 * phi_i * dx;
-              copy.vectors[2](i) += phi_i * dx;
-            }
+          fe_values.get_function_values(*old[a], loads[a]);
+          for (const unsigned int q : fe_values.quadrature_point_indices())
+            loads[a][q] = f[a]->value(points[q]) + loads[a][q] / dt;
         }
     };
-
     std::vector<types::global_dof_index> system_dofs(fe.n_dofs_per_cell());
     FullMatrix<double>                   block(fe.n_dofs_per_cell());
-    const auto                           copier = [&](const CopyData &copy) {
-      const auto  &dofs  = copy.local_dof_indices[0];
-      const double mu[2] = {data.mu1, data.mu2};
+    const double                         mu[2]       = {data.mu1, data.mu2};
+    const auto                           copy_system = [&](const auto &copy) {
+      const auto &dofs = copy.local_dof_indices[0];
       for (const unsigned int field :
            {VI::NodalFields::u1, VI::NodalFields::u2})
         {
@@ -261,28 +128,15 @@ namespace StepParabolic
                                                     dofs,
                                                     stiffness_matrix);
         }
-      hanging_node_constraints.distribute_local_to_global(copy.vectors[2],
-                                                          dofs,
-                                                          lumped_mass);
-      if (fe.degree > 1)
-        hanging_node_constraints.distribute_local_to_global(copy.matrices[1],
-                                                            dofs,
-                                                            mass_matrix);
     };
-
-    MeshWorker::mesh_loop(owned_cells,
-                          cell_worker,
-                          copier,
-                          scratch,
-                          copy,
-                          MeshWorker::assemble_own_cells);
+    const Vector lumped_mass = assemble_cells(cell_loads,
+                                              update_quadrature_points,
+                                              /*mass_term=*/true,
+                                              copy_system);
     contact_system.matrix.compress(VectorOperation::add);
     contact_system.rhs.compress(VectorOperation::add);
     if (with_amg)
       stiffness_matrix.compress(VectorOperation::add);
-    lumped_mass.compress(VectorOperation::add);
-    if (fe.degree > 1)
-      mass_matrix.compress(VectorOperation::add);
 
     // The constraint rows must weigh like the balance rows (forces): a row
     // that enforces u1 = u2 gets the diagonal of the gap operator,
@@ -301,15 +155,7 @@ namespace StepParabolic
     contact_system.set_stiffness_weights(std::move(stiffness_weight));
 
     // The coupling D: lumped masses for p = 1, the identity for p >= 2.
-    std::vector<types::global_dof_index> constrained_nodes;
-    for (const types::global_dof_index i : owned_nodes)
-      if (u1_constraints.is_constrained(i))
-        constrained_nodes.push_back(i);
-    contact_system.set_coupling(
-      [&](const types::global_dof_index i) {
-        return fe.degree == 1 ? lumped_mass(i) : 1.;
-      },
-      constrained_nodes);
+    set_coupling(contact_system, lumped_mass);
 
     // The AMG hierarchy of S + M / (mu dt): once per value of dt.
     if (with_amg && preconditioner_dt != dt)
@@ -353,20 +199,11 @@ namespace StepParabolic
   ParabolicProblem<dim>::store_previous_step()
   {
     previous_solution = solution;
-    for (Vector &v : previous_owned)
-      v.reinit(owned_nodes, comm);
-    VI::NodalFields::extract(solution, VI::NodalFields::u1, previous_owned[0]);
-    VI::NodalFields::extract(solution, VI::NodalFields::u2, previous_owned[1]);
-    VI::average_at_violated_nodes(data.mu1,
-                                  data.mu2,
-                                  previous_owned[0],
-                                  previous_owned[1],
-                                  previous_owned[2],
-                                  previous_owned[3]);
-    previous_u1 = previous_owned[0];
-    previous_u2 = previous_owned[1];
-    previous_s1 = previous_owned[2];
-    previous_s2 = previous_owned[3];
+    potentials(solution,
+               data.mu1,
+               data.mu2,
+               previous_owned,
+               {{&previous_u1, &previous_u2, &previous_s1, &previous_s2}});
   }
 
 
@@ -381,8 +218,9 @@ namespace StepParabolic
   {
     const double new_time = time + time_step;
     data.set_time(new_time);
+    // (the constraints carry the boundary data of t_n)
     if (data.boundary_depends_on_time)
-      make_constraints();
+      make_constraints(*data.g1, *data.g2);
     assemble_system();
     step_oscillation = force_oscillation();
 
@@ -453,8 +291,6 @@ namespace StepParabolic
   // Explicit instantiations of this file's members.
   template void
   ParabolicProblem<2>::setup_system();
-  template void
-  ParabolicProblem<2>::make_constraints();
   template void
   ParabolicProblem<2>::assemble_system();
   template void

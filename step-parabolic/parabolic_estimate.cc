@@ -14,11 +14,6 @@
 
 namespace StepParabolic
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   // The iterate as the estimators need it (see step-membranes): u_h, s_h,
   // lambda_h and its part from nonnegative coefficients, the residual r_h
   // (<r_h, psi_i>_h = (F - E X)_i), d_t u_h = (u_h - u_h^(n-1)) / dt_n, and
@@ -30,29 +25,16 @@ namespace StepParabolic
     TimerOutput::Scope t(timer, "estimators: fluxes");
     it.X = X;
 
-    Vector u1(owned_nodes, comm), u2(owned_nodes, comm), s1(owned_nodes, comm),
-      s2(owned_nodes, comm), moments(owned_nodes, comm),
-      function(owned_nodes, comm);
-    // (The layout of u1_h, copied, is much cheaper than a new one.)
-
-    VI::NodalFields::extract(X, VI::NodalFields::u1, u1);
-    VI::NodalFields::extract(X, VI::NodalFields::u2, u2);
-    VI::average_at_violated_nodes(data.mu1, data.mu2, u1, u2, s1, s2);
-    ghosted_nodes.copy(u1, it.u1);
-    ghosted_nodes.copy(u2, it.u2);
-    ghosted_nodes.copy(s1, it.s1);
-    ghosted_nodes.copy(s2, it.s2);
-    it.owned[0] = u1;
-    it.owned[1] = u2;
-    it.owned[2] = s1;
-    it.owned[3] = s2;
+    potentials(
+      X, data.mu1, data.mu2, it.owned, {{&it.u1, &it.u2, &it.s1, &it.s2}});
 
     // d_t u_h, from the owned values of u_h^(n-1).
+    Vector function(owned_nodes, comm), moments(owned_nodes, comm);
     for (const auto &[u, old, target] :
-         {std::tuple<Vector *, const Vector *, Vector *>{&u1,
-                                                         &previous_u1,
-                                                         &it.dt_u1},
-          {&u2, &previous_u2, &it.dt_u2}})
+         {std::tuple<const Vector *, const Vector *, Vector *>{&it.owned[0],
+                                                               &previous_u1,
+                                                               &it.dt_u1},
+          {&it.owned[1], &previous_u2, &it.dt_u2}})
       {
         for (const types::global_dof_index i : owned_nodes)
           function(i) = ((*u)(i) - (*old)(i)) / time_step;
@@ -66,20 +48,8 @@ namespace StepParabolic
                                               it.lambda,
                                               it.lambda_nonnegative);
 
-    Vector R(owned_system, comm);
-    contact_system.matrix.vmult(R, X);
-    R.sadd(-1., 1., contact_system.rhs);
-    Vector *r[2] = {&it.r1, &it.r2};
-    for (const unsigned int field : {VI::NodalFields::u1, VI::NodalFields::u2})
-      {
-        VI::NodalFields::extract(R, field, moments);
-        for (const types::global_dof_index i : owned_nodes)
-          if (u1_constraints.is_constrained(i))
-            moments(i) = 0;
-        moments.compress(VectorOperation::insert);
-        multiplier_function.from_moments(moments, function);
-        ghosted_nodes.copy(function, *r[field]);
-      }
+    residual_functions(contact_system, multiplier_function, X, it.r1, it.r2);
+    const Vector *r[2] = {&it.r1, &it.r2};
 
     // The mass term enters the source at the quadrature points, as in the
     // assembly, so that the patch problems stay compatible; for p = 1 the

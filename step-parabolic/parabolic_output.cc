@@ -18,11 +18,6 @@
 
 namespace StepParabolic
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
-
   // The solution of the step as finite element functions; the contact set
   // (and, for the ring test, its size in every ring).
   template <int dim>
@@ -30,29 +25,14 @@ namespace StepParabolic
   ParabolicProblem<dim>::postprocess()
   {
     TimerOutput::Scope t(timer, "postprocess");
-    Vector             u1(owned_nodes, comm), u2(owned_nodes, comm),
-      field(owned_nodes, comm), lambda(owned_nodes, comm);
-    VI::NodalFields::extract(solution, VI::NodalFields::u1, u1);
-    VI::NodalFields::extract(solution, VI::NodalFields::u2, u2);
-    u1_h = u1;
-    u2_h = u2;
-    u1 -= u2;
-    gap_h = u1;
-
-    VI::NodalFields::extract(solution, multiplier, field);
-    field.scale(contact_system.coupling());
-    multiplier_function.from_moments(field, lambda);
-    lambda_h = lambda;
-
     n_contact_nodes =
-      contact_system.contact_rows().contact_set(solution, field);
-    contact_set = field;
+      make_solution_fields(contact_system, multiplier_function, solution);
     contact_per_ring.clear();
     if (!node_ring.empty())
       {
         std::vector<double> local(5, 0.), total(5);
         for (std::size_t k = 0; k < node_ring.size(); ++k)
-          if (field(owned_nodes.nth_index_in_set(k)) > 0.5)
+          if (contact_set(owned_nodes.nth_index_in_set(k)) > 0.5)
             local[node_ring[k]] += 1.;
         Utilities::MPI::sum(local, comm, total);
         for (const double n : total)

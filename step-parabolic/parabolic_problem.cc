@@ -19,10 +19,6 @@
 
 namespace StepParabolic
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
   // The bound and its components up to the current time (see StepEstimate
   // and doc/step-parabolic.md): with the cone correction d = s~ - u_h,
   //   |||u - u_ht|||_(0,t) + |(u - u_h)(t)| <= eta
@@ -76,28 +72,17 @@ namespace StepParabolic
   ParabolicProblem<dim>::ParabolicProblem(const Parameters &parameters,
                                           ParameterHandler &prm,
                                           const MPI_Comm    comm)
-      : parameters(parameters)
+      : Discretisation(VI::geometry_from_name(parameters.mesh.geometry),
+                       parameters.discretization.degree,
+                       comm)
+      , parameters(parameters)
       , prm(prm)
-      , comm(comm)
       , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
       , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
-      , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , center(VI::geometry_center<dim>(geometry))
       , data(make_parabolic_data<dim>(parameters.problem, center))
       , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
       , friedrichs_constant(VI::friedrichs_constant(geometry))
-      , triangulation(comm)
-      , geometry_mapping(
-          VI::make_mapping<dim>(geometry, parameters.discretization.degree))
-      , mapping(std::make_unique<MappingQCache<dim>>(
-          dynamic_cast<const MappingQ<dim> &>(*geometry_mapping).get_degree()))
-      , fe(parameters.discretization.degree)
-      , dof_handler(triangulation)
-      // One quadrature for the load, the mass matrix, the flux reconstruction
-      // and the estimators: the patch problems are then exactly compatible
-      // with the discrete equations.
-      , quadrature(VI::FluxReconstruction<dim>::quadrature_points(
-          parameters.discretization.degree))
       , contact_system(C,
                        parameters.nonlinear_solver,
                        parameters.linear_solver,
@@ -112,16 +97,6 @@ namespace StepParabolic
                  stopping_hooks(),
                  parameters.output.verbose ? &pcout : nullptr)
   {
-  }
-
-
-  template <int dim>
-  void
-  ParabolicProblem<dim>::make_grid()
-  {
-    VI::make_coarse_mesh(geometry, triangulation);
-    triangulation.refine_global(parameters.mesh.initial_refinements);
-    mapping->initialize(*geometry_mapping, triangulation);
   }
 
 
@@ -323,7 +298,7 @@ namespace StepParabolic
       }
     else
       {
-        make_grid();
+        make_grid(parameters.mesh.initial_refinements);
         check_data();
         VI::prepare_output_directory(parameters.output.directory, comm);
         setup_system();
@@ -491,8 +466,6 @@ namespace StepParabolic
   template ParabolicProblem<2>::ParabolicProblem(const Parameters &parameters,
                                                  ParameterHandler &prm,
                                                  const MPI_Comm    comm);
-  template void
-  ParabolicProblem<2>::make_grid();
   template void
   ParabolicProblem<2>::check_data() const;
   template void

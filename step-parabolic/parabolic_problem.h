@@ -22,7 +22,9 @@
 #include <vi/flux_reconstruction.h>
 #include <vi/geometry.h>
 #include <vi/linear_solvers.h>
+#include <vi/membrane_discretisation.h>
 #include <vi/multiplier_function.h>
+#include <vi/nodal_fields.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 
@@ -37,6 +39,11 @@
 namespace StepParabolic
 {
   using namespace dealii;
+  // The node-interleaved unknowns X = (X1, X2, X3) of every node: the
+  // vocabulary of all the files of the program.
+  using VI::NodalFields::index;
+  using VI::NodalFields::multiplier;
+  using VI::NodalFields::n_fields;
 
   /**
    * The a posteriori estimate of one time step I_n = (t_(n-1), t_n) for an
@@ -96,7 +103,7 @@ namespace StepParabolic
    * stop the solvers (adaptive strategy) and can choose dt_n.
    */
   template <int dim>
-  class ParabolicProblem
+  class ParabolicProblem : private VI::MembraneDiscretisation<dim>
   {
   public:
     ParabolicProblem(const Parameters &parameters,
@@ -108,6 +115,7 @@ namespace StepParabolic
 
   private:
     using Vector = TrilinosWrappers::MPI::Vector;
+    VI_MEMBRANE_DISCRETISATION_MEMBERS(dim)
 
     /**
      * An iterate X^n = (u1h^n, u2h^n, lambda_h^n) as the estimators see it:
@@ -176,13 +184,9 @@ namespace StepParabolic
 
     // Set-up.
     void
-    make_grid();
-    void
     check_data() const;
     void
     setup_system();
-    void
-    make_constraints();
     void
     assemble_system();
     void
@@ -262,40 +266,22 @@ namespace StepParabolic
 
     const Parameters            parameters;
     ParameterHandler           &prm;
-    const MPI_Comm              comm;
     ConditionalOStream          pcout;
     mutable TimerOutput         timer;
-    const VI::Geometry          geometry;
     const Point<dim>            center;
     ParabolicData<dim>          data;
     VI::ComplementarityFunction C;
     const double                friedrichs_constant;
 
-    parallel::distributed::Triangulation<dim> triangulation;
-    std::unique_ptr<Mapping<dim>>             geometry_mapping;
-    std::unique_ptr<MappingQCache<dim>>       mapping;
-    FE_Q<dim>                                 fe;
-    DoFHandler<dim>                           dof_handler;
-    QGauss<dim>                               quadrature;
-
-    IndexSet owned_nodes, relevant_nodes, owned_system, relevant_system;
-    /// Copies owned node vectors into ghosted ones (map and import built
-    /// once per mesh).
-    VI::GhostedCopy           ghosted_nodes;
-    AffineConstraints<double> hanging_node_constraints;
-    AffineConstraints<double> u1_constraints, u2_constraints;
-    AffineConstraints<double> system_constraints;
     /// A = [E^n ; J_C], F^n, the contact rows and the linear solvers.
     VI::ContactSystem contact_system;
 
-    Vector                         solution;    ///< X^n
-    TrilinosWrappers::SparseMatrix mass_matrix; ///< L2 Gram matrix, p >= 2
+    Vector solution; ///< X^n
     /// lambda_h as a finite element function, from its nodal moments.
     const VI::MultiplierFunction multiplier_function;
-    /// S + M / (mu dt) (mu1 = mu2 = mu), for the AMG preconditioner.
-    TrilinosWrappers::SparseMatrix       stiffness_matrix;
-    std::vector<types::global_dof_index> vertex_dofs;
-    double                               preconditioner_dt = 0;
+    /// The dt of stiffness_matrix = S + M / (mu dt) (mu1 = mu2 = mu) and of
+    /// the AMG preconditioner built from it.
+    double preconditioner_dt = 0;
     /// Ring test: the ring of every owned node.
     std::vector<unsigned int> node_ring;
 
@@ -322,9 +308,6 @@ namespace StepParabolic
     /// The adaptive stopping of GMRES and Newton, and every estimate of
     /// the step.
     VI::AdaptiveStopping<Iterate, StepEstimate> stopping;
-
-    // The solution of the step as finite element functions (with ghosts).
-    Vector u1_h, u2_h, gap_h, lambda_h, contact_set;
 
     VI::NewtonReport                newton_report;
     std::optional<StepEstimate>     final_estimate;

@@ -1,0 +1,346 @@
+// The conforming discretisation of two membranes shared by step-membranes
+// and step-parabolic: nodes, constraints, matrices and the cell assembly.
+
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/mapping_q.h>
+#include <deal.II/grid/filtered_iterator.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/sparsity_tools.h>
+#include <deal.II/meshworker/mesh_loop.h>
+#include <deal.II/meshworker/scratch_data.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <vi/estimators.h>
+#include <vi/flux_reconstruction.h>
+#include <vi/membrane_discretisation.h>
+#include <vi/nodal_fields.h>
+
+#include <map>
+
+namespace VI
+{
+  using namespace dealii;
+
+
+  template <int dim>
+  MembraneDiscretisation<dim>::MembraneDiscretisation(const Geometry geometry,
+                                                      const unsigned int degree,
+                                                      const MPI_Comm     comm)
+      : comm(comm)
+      , geometry(geometry)
+      , triangulation(comm)
+      , geometry_mapping(make_mapping<dim>(geometry, degree))
+      , mapping(std::make_unique<MappingQCache<dim>>(
+          dynamic_cast<const MappingQ<dim> &>(*geometry_mapping).get_degree()))
+      , fe(degree)
+      , dof_handler(triangulation)
+      , quadrature(FluxReconstruction<dim>::quadrature_points(degree))
+  {
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::make_grid(const unsigned int refinements)
+  {
+    make_coarse_mesh(geometry, triangulation);
+    triangulation.refine_global(refinements);
+    mapping->initialize(*geometry_mapping, triangulation);
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::distribute_nodes()
+  {
+    mapping->initialize(*geometry_mapping, triangulation);
+    dof_handler.distribute_dofs(fe);
+    owned_nodes = dof_handler.locally_owned_dofs();
+    DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_nodes);
+    ghosted_nodes.reinit(owned_nodes, relevant_nodes, comm);
+    owned_system    = NodalFields::system_index_set(owned_nodes);
+    relevant_system = NodalFields::system_index_set(relevant_nodes);
+
+    hanging_node_constraints.clear();
+    hanging_node_constraints.reinit(relevant_nodes);
+    DoFTools::make_hanging_node_constraints(dof_handler,
+                                            hanging_node_constraints);
+    hanging_node_constraints.close();
+
+    for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
+      field->reinit(owned_nodes, relevant_nodes, comm);
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::make_constraints(const Function<dim> &g1,
+                                                const Function<dim> &g2)
+  {
+    const auto make_dirichlet = [&](const Function<dim>       &g,
+                                    AffineConstraints<double> &constraints) {
+      constraints.clear();
+      constraints.reinit(relevant_nodes);
+      constraints.merge(hanging_node_constraints);
+      std::map<types::boundary_id, const Function<dim> *> boundary_data;
+      for (const types::boundary_id id : triangulation.get_boundary_ids())
+        boundary_data[id] = &g;
+      VectorTools::interpolate_boundary_values(*mapping,
+                                               dof_handler,
+                                               boundary_data,
+                                               constraints);
+      constraints.close();
+    };
+    make_dirichlet(g1, u1_constraints);
+    make_dirichlet(g2, u2_constraints);
+    NodalFields::make_system_constraints(u1_constraints,
+                                         u2_constraints,
+                                         relevant_system,
+                                         system_constraints);
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::reinit_matrices(ContactSystem &contact_system)
+  {
+    // A has the sparsity of S in each of its 3 x 3 node blocks; the
+    // constrained rows of S are left out (they are copied as identities).
+    DynamicSparsityPattern scalar_pattern(relevant_nodes);
+    DoFTools::make_sparsity_pattern(dof_handler,
+                                    scalar_pattern,
+                                    u1_constraints,
+                                    /*keep_constrained_dofs=*/false);
+    SparsityTools::distribute_sparsity_pattern(scalar_pattern,
+                                               owned_nodes,
+                                               comm,
+                                               relevant_nodes);
+    DynamicSparsityPattern system_pattern(relevant_system);
+    NodalFields::make_system_sparsity(scalar_pattern,
+                                      owned_nodes,
+                                      system_pattern);
+    contact_system.matrix.reinit(owned_system,
+                                 owned_system,
+                                 system_pattern,
+                                 comm);
+    stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
+
+    if (fe.degree > 1)
+      {
+        DynamicSparsityPattern mass_pattern(relevant_nodes);
+        DoFTools::make_sparsity_pattern(dof_handler,
+                                        mass_pattern,
+                                        hanging_node_constraints,
+                                        false);
+        SparsityTools::distribute_sparsity_pattern(mass_pattern,
+                                                   owned_nodes,
+                                                   comm,
+                                                   relevant_nodes);
+        mass_matrix.reinit(owned_nodes, owned_nodes, mass_pattern, comm);
+      }
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::make_vertex_dofs()
+  {
+    vertex_dofs.assign(triangulation.n_vertices(), numbers::invalid_dof_index);
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (!cell->is_artificial())
+        for (const unsigned int v : cell->vertex_indices())
+          vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+  }
+
+
+  template <int dim>
+  MembraneDiscretisation<dim>::CellSystem::CellSystem(const unsigned int n_dofs,
+                                                      const unsigned int n_q)
+      : MeshWorker::CopyData<2, 3, 1>(n_dofs)
+      , loads{std::vector<double>(n_q), std::vector<double>(n_q)}
+  {
+  }
+
+
+  template <int dim>
+  typename MembraneDiscretisation<dim>::Vector
+  MembraneDiscretisation<dim>::assemble_cells(
+    const CellLoads                               &cell_loads,
+    const UpdateFlags                              load_flags,
+    const bool                                     mass_term,
+    const std::function<void(const CellSystem &)> &copy_system)
+  {
+    const bool with_mass_matrix = fe.degree > 1;
+    const bool cell_mass        = mass_term || with_mass_matrix;
+    Vector     lumped_mass(owned_nodes, comm);
+    if (with_mass_matrix)
+      mass_matrix = 0;
+
+    // mesh_loop calls the copier for every cell of the range it is given,
+    // so the range is filtered to the locally owned cells.
+    const auto owned_cells =
+      dof_handler.active_cell_iterators() | IteratorFilters::LocallyOwnedCell();
+    MeshWorker::ScratchData<dim> scratch(*mapping,
+                                         fe,
+                                         quadrature,
+                                         update_values | update_gradients |
+                                           update_JxW_values | load_flags);
+    CellSystem sample(fe.n_dofs_per_cell(), quadrature.size());
+
+    const auto cell_worker = [&](const CellIterator           &cell,
+                                 MeshWorker::ScratchData<dim> &scratch,
+                                 CellSystem                   &copy) {
+      const FEValues<dim> &fe_values = scratch.reinit(cell);
+      for (auto &m : copy.matrices)
+        m = 0;
+      for (auto &v : copy.vectors)
+        v = 0;
+      cell->get_dof_indices(copy.local_dof_indices[0]);
+      cell_loads(cell, fe_values, copy.loads);
+
+      for (const unsigned int q : fe_values.quadrature_point_indices())
+        {
+          const double l1 = copy.loads[0][q];
+          const double l2 = copy.loads[1][q];
+          const double dx = fe_values.JxW(q);
+          for (const unsigned int i : fe_values.dof_indices())
+            {
+              const double phi_i = fe_values.shape_value(i, q);
+              for (const unsigned int j : fe_values.dof_indices())
+                copy.matrices[0](i, j) +=
+                  fe_values.shape_grad(i, q) * fe_values.shape_grad(j, q) * dx;
+              if (cell_mass)
+                for (const unsigned int j : fe_values.dof_indices())
+                  copy.matrices[1](i, j) +=
+                    phi_i * fe_values.shape_value(j, q) * dx;
+              copy.vectors[0](i) += l1 * phi_i * dx;
+              copy.vectors[1](i) += l2 * phi_i * dx;
+              copy.vectors[2](i) += phi_i * dx;
+            }
+        }
+    };
+
+    const auto copier = [&](const CellSystem &copy) {
+      copy_system(copy);
+      const auto &dofs = copy.local_dof_indices[0];
+      hanging_node_constraints.distribute_local_to_global(copy.vectors[2],
+                                                          dofs,
+                                                          lumped_mass);
+      if (with_mass_matrix)
+        hanging_node_constraints.distribute_local_to_global(copy.matrices[1],
+                                                            dofs,
+                                                            mass_matrix);
+    };
+
+    MeshWorker::mesh_loop(owned_cells,
+                          cell_worker,
+                          copier,
+                          scratch,
+                          sample,
+                          MeshWorker::assemble_own_cells);
+    lumped_mass.compress(VectorOperation::add);
+    if (with_mass_matrix)
+      mass_matrix.compress(VectorOperation::add);
+    return lumped_mass;
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::set_coupling(ContactSystem &contact_system,
+                                            const Vector  &lumped_mass) const
+  {
+    std::vector<types::global_dof_index> constrained_nodes;
+    for (const types::global_dof_index i : owned_nodes)
+      if (u1_constraints.is_constrained(i))
+        constrained_nodes.push_back(i);
+    contact_system.set_coupling(
+      [&](const types::global_dof_index i) {
+        return fe.degree == 1 ? lumped_mass(i) : 1.;
+      },
+      constrained_nodes);
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::potentials(
+    const Vector &X,
+    const double  mu1,
+    const double  mu2,
+    Vector (&owned)[4],
+    const std::array<Vector *, 4> &ghosted) const
+  {
+    for (Vector &v : owned)
+      v.reinit(owned_nodes, comm);
+    auto &[u1, u2, s1, s2] = owned;
+    NodalFields::extract(X, NodalFields::u1, u1);
+    NodalFields::extract(X, NodalFields::u2, u2);
+    hanging_node_constraints.distribute(u1);
+    hanging_node_constraints.distribute(u2);
+    average_at_violated_nodes(mu1, mu2, u1, u2, s1, s2);
+    hanging_node_constraints.distribute(s1);
+    hanging_node_constraints.distribute(s2);
+    for (unsigned int k = 0; k < 4; ++k)
+      ghosted_nodes.copy(owned[k], *ghosted[k]);
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::residual_functions(
+    const ContactSystem      &contact_system,
+    const MultiplierFunction &multiplier_function,
+    const Vector             &X,
+    Vector                   &r1,
+    Vector                   &r2) const
+  {
+    Vector R(owned_system, comm);
+    contact_system.matrix.vmult(R, X);
+    R.sadd(-1., 1., contact_system.rhs);
+    Vector  moments(owned_nodes, comm), function(owned_nodes, comm);
+    Vector *r[2] = {&r1, &r2};
+    for (const unsigned int field : {NodalFields::u1, NodalFields::u2})
+      {
+        NodalFields::extract(R, field, moments);
+        for (const types::global_dof_index i : owned_nodes)
+          if (u1_constraints.is_constrained(i))
+            moments(i) = 0;
+        moments.compress(VectorOperation::insert);
+        multiplier_function.from_moments(moments, function);
+        ghosted_nodes.copy(function, *r[field]);
+      }
+  }
+
+
+  template <int dim>
+  types::global_dof_index
+  MembraneDiscretisation<dim>::make_solution_fields(
+    const ContactSystem      &contact_system,
+    const MultiplierFunction &multiplier_function,
+    const Vector             &X)
+  {
+    Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
+      field(owned_nodes, comm), lambda(owned_nodes, comm);
+    NodalFields::extract(X, NodalFields::u1, u1);
+    NodalFields::extract(X, NodalFields::u2, u2);
+    u1_h = u1;
+    u2_h = u2;
+    u1 -= u2;
+    gap_h = u1;
+
+    // lambda_h from its moments <lambda_h, psi_i>_h = D_i X3_i.
+    NodalFields::extract(X, NodalFields::multiplier, field);
+    field.scale(contact_system.coupling());
+    multiplier_function.from_moments(field, lambda);
+    lambda_h = lambda;
+
+    const types::global_dof_index n_contact_nodes =
+      contact_system.contact_rows().contact_set(X, field);
+    contact_set = field;
+    return n_contact_nodes;
+  }
+
+
+  template class MembraneDiscretisation<2>;
+} // namespace VI
