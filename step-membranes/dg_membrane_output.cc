@@ -30,6 +30,7 @@
 
 namespace StepMembranes
 {
+  using VI::NodalFields::index;
   using VI::NodalFields::multiplier;
   using VI::NodalFields::n_fields;
 

@@ -19,6 +19,7 @@
 
 namespace StepParabolic
 {
+  using VI::NodalFields::index;
   using VI::NodalFields::multiplier;
   using VI::NodalFields::n_fields;
 
