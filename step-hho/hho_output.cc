@@ -1,8 +1,8 @@
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/utilities.h>
-#include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
 
+#include <vi/field_output.h>
 #include <vi/nodal_fields.h>
 
 #include "hho_problem.h"
@@ -123,27 +123,12 @@ namespace StepHHO
       return;
     TimerOutput::Scope t(timer, "output");
 
-    DataOut<dim> data_out;
-    data_out.attach_dof_handler(cell_dof_handler);
-    data_out.add_data_vector(u1_h, "u1");
-    data_out.add_data_vector(u2_h, "u2");
-    data_out.add_data_vector(gap_h, "gap");
-    data_out.add_data_vector(lambda_h, "lambda");
-    data_out.add_data_vector(contact_fraction,
-                             "contact",
-                             DataOut<dim>::type_cell_data);
-    Vector<float> subdomain(triangulation.n_active_cells());
-    subdomain = triangulation.locally_owned_subdomain();
-    data_out.add_data_vector(subdomain,
-                             "partition",
-                             DataOut<dim>::type_cell_data);
-    data_out.build_patches(*mapping,
-                           degree,
-                           VI::has_curved_cells(geometry) ?
-                             DataOut<dim>::curved_inner_cells :
-                             DataOut<dim>::curved_boundary);
-    data_out.write_vtu_with_pvtu_record(
-      parameters.output.directory + "/", "solution", cycle, comm, 2, 8);
+    VI::FieldOutput<dim>(
+      *mapping,
+      geometry,
+      cell_dof_handler,
+      {u1_h, u2_h, gap_h, lambda_h, nullptr, &contact_fraction})
+      .write(parameters.output.directory, cycle, 2, comm);
   }
 
 

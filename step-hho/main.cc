@@ -9,16 +9,10 @@
 int
 main(int argc, char **argv)
 {
-  VI::ProgramDescription program;
-  program.name    = "step-hho";
-  program.purpose = "contact between two membranes (Hybrid High-Order "
-                    "method with static condensation, semismooth Newton)";
-  program.declare_parameters = StepHHO::Parameters::declare;
-  program.run = [](dealii::ParameterHandler &prm, const MPI_Comm comm) {
-    StepHHO::Parameters parameters;
-    parameters.parse(prm);
-    StepHHO::HHOProblem<2> problem(parameters, prm, comm);
-    problem.run();
-  };
-  return VI::run_program(argc, argv, program);
+  return VI::run_program<StepHHO::Parameters, StepHHO::HHOProblem<2>>(
+    argc,
+    argv,
+    "step-hho",
+    "contact between two membranes (Hybrid High-Order method with static "
+    "condensation, semismooth Newton)");
 }

@@ -12,11 +12,11 @@
 #include <deal.II/lac/sparsity_tools.h>
 #include <deal.II/meshworker/mesh_loop.h>
 #include <deal.II/meshworker/scratch_data.h>
-#include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/errors.h>
 #include <vi/estimators.h>
+#include <vi/field_output.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
 
@@ -44,35 +44,49 @@ namespace StepMembranes
   DGMembraneProblem<dim>::function_from_moments(const Vector &moments,
                                                 Vector       &v) const
   {
+    const unsigned int     n = fe.n_dofs_per_cell();
+    FullMatrix<double>     mass(n, n);
+    dealii::Vector<double> local(n), coefficients(n);
+    Vector                 owned(owned_nodes, comm);
+    for_each_owned_cell(quadrature, [&](const auto &values, const auto &dofs) {
+      mass = 0;
+      for (const unsigned int q : values.quadrature_point_indices())
+        for (unsigned int i = 0; i < n; ++i)
+          for (unsigned int j = 0; j < n; ++j)
+            mass(i, j) += values.shape_value(i, q) * values.shape_value(j, q) *
+                          values.JxW(q);
+      mass.gauss_jordan();
+      for (unsigned int i = 0; i < n; ++i)
+        local(i) = moments(dofs[i]);
+      mass.vmult(coefficients, local);
+      for (unsigned int i = 0; i < n; ++i)
+        owned(dofs[i]) = coefficients(i);
+    });
+    owned.compress(VectorOperation::insert);
+    ghosted_nodes.copy(owned, v);
+  }
+
+
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::for_each_owned_cell(
+    const Quadrature<dim> &quadrature,
+    const std::function<void(const FEValues<dim> &,
+                             const std::vector<types::global_dof_index> &)>
+      &local) const
+  {
     FEValues<dim>                        values(*mapping,
                          fe,
                          quadrature,
                          update_values | update_JxW_values);
-    const unsigned int                   n = fe.n_dofs_per_cell();
-    FullMatrix<double>                   mass(n, n);
-    dealii::Vector<double>               local(n), coefficients(n);
-    std::vector<types::global_dof_index> dofs(n);
-    Vector                               owned(owned_nodes, comm);
+    std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
     for (const auto &cell : dof_handler.active_cell_iterators())
       if (cell->is_locally_owned())
         {
           values.reinit(cell);
-          mass = 0;
-          for (const unsigned int q : values.quadrature_point_indices())
-            for (unsigned int i = 0; i < n; ++i)
-              for (unsigned int j = 0; j < n; ++j)
-                mass(i, j) += values.shape_value(i, q) *
-                              values.shape_value(j, q) * values.JxW(q);
-          mass.gauss_jordan();
           cell->get_dof_indices(dofs);
-          for (unsigned int i = 0; i < n; ++i)
-            local(i) = moments(dofs[i]);
-          mass.vmult(coefficients, local);
-          for (unsigned int i = 0; i < n; ++i)
-            owned(dofs[i]) = coefficients(i);
+          local(values, dofs);
         }
-    owned.compress(VectorOperation::insert);
-    ghosted_nodes.copy(owned, v);
   }
 
 
@@ -109,44 +123,37 @@ namespace StepMembranes
   DGMembraneProblem<dim>::limited_nodal_function(const Vector &moments,
                                                  Vector       &lambda) const
   {
-    FEValues<dim>                        values(*mapping,
-                         fe,
-                         flux_reconstruction->get_quadrature(),
-                         update_values | update_JxW_values);
-    const unsigned int                   n = fe.n_dofs_per_cell();
-    std::vector<types::global_dof_index> dofs(n);
-    std::vector<double>                  nodal(n);
-    Vector                               owned(owned_nodes, comm);
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      if (cell->is_locally_owned())
-        {
-          values.reinit(cell);
-          cell->get_dof_indices(dofs);
-          double sum = 0, volume = 0;
-          for (unsigned int i = 0; i < n; ++i)
-            {
-              nodal[i] = moments(dofs[i]) / lumped_mass(dofs[i]);
-              sum += moments(dofs[i]);
-            }
-          for (const unsigned int q : values.quadrature_point_indices())
-            volume += values.JxW(q);
-          const double mean    = sum / volume;
-          double       minimum = *std::min_element(nodal.begin(), nodal.end());
-          for (const unsigned int q : values.quadrature_point_indices())
-            {
-              double value = 0;
-              for (unsigned int i = 0; i < n; ++i)
-                value += nodal[i] * values.shape_value(i, q);
-              minimum = std::min(minimum, value);
-            }
-          double theta = 1.;
-          if (mean <= 0)
-            theta = 0.;
-          else if (minimum < 0)
-            theta = mean / (mean - minimum);
-          for (unsigned int i = 0; i < n; ++i)
-            owned(dofs[i]) = mean + theta * (nodal[i] - mean);
-        }
+    const unsigned int  n = fe.n_dofs_per_cell();
+    std::vector<double> nodal(n);
+    Vector              owned(owned_nodes, comm);
+    for_each_owned_cell(
+      flux_reconstruction->get_quadrature(),
+      [&](const auto &values, const auto &dofs) {
+        double sum = 0, volume = 0;
+        for (unsigned int i = 0; i < n; ++i)
+          {
+            nodal[i] = moments(dofs[i]) / lumped_mass(dofs[i]);
+            sum += moments(dofs[i]);
+          }
+        for (const unsigned int q : values.quadrature_point_indices())
+          volume += values.JxW(q);
+        const double mean    = sum / volume;
+        double       minimum = *std::min_element(nodal.begin(), nodal.end());
+        for (const unsigned int q : values.quadrature_point_indices())
+          {
+            double value = 0;
+            for (unsigned int i = 0; i < n; ++i)
+              value += nodal[i] * values.shape_value(i, q);
+            minimum = std::min(minimum, value);
+          }
+        double theta = 1.;
+        if (mean <= 0)
+          theta = 0.;
+        else if (minimum < 0)
+          theta = mean / (mean - minimum);
+        for (unsigned int i = 0; i < n; ++i)
+          owned(dofs[i]) = mean + theta * (nodal[i] - mean);
+      });
     owned.compress(VectorOperation::insert);
     ghosted_nodes.copy(owned, lambda);
   }
@@ -157,29 +164,18 @@ namespace StepMembranes
   DGMembraneProblem<dim>::moments_of_function(const Vector &v,
                                               Vector       &moments) const
   {
-    FEValues<dim>                        values(*mapping,
-                         fe,
-                         quadrature,
-                         update_values | update_JxW_values);
-    const unsigned int                   n = fe.n_dofs_per_cell();
-    std::vector<double>                  v_values(quadrature.size());
-    std::vector<types::global_dof_index> dofs(n);
+    std::vector<double> v_values(quadrature.size());
     moments = 0;
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      if (cell->is_locally_owned())
+    for_each_owned_cell(quadrature, [&](const auto &values, const auto &dofs) {
+      values.get_function_values(v, v_values);
+      for (unsigned int i = 0; i < dofs.size(); ++i)
         {
-          values.reinit(cell);
-          values.get_function_values(v, v_values);
-          cell->get_dof_indices(dofs);
-          for (unsigned int i = 0; i < n; ++i)
-            {
-              double moment = 0;
-              for (const unsigned int q : values.quadrature_point_indices())
-                moment +=
-                  v_values[q] * values.shape_value(i, q) * values.JxW(q);
-              moments(dofs[i]) = moment;
-            }
+          double moment = 0;
+          for (const unsigned int q : values.quadrature_point_indices())
+            moment += v_values[q] * values.shape_value(i, q) * values.JxW(q);
+          moments(dofs[i]) = moment;
         }
+    });
     moments.compress(VectorOperation::insert);
   }
 
@@ -392,30 +388,14 @@ namespace StepMembranes
     if (!parameters.output.write_vtu)
       return;
     TimerOutput::Scope t(timer, "output");
-    DataOut<dim>       data_out;
-    data_out.attach_dof_handler(dof_handler);
-    data_out.add_data_vector(u1_h, "u1");
-    data_out.add_data_vector(u2_h, "u2");
-    data_out.add_data_vector(gap_h, "gap");
-    data_out.add_data_vector(lambda_h, "lambda");
-    data_out.add_data_vector(contact_set, "contact");
-    dealii::Vector<float> subdomain(triangulation.n_active_cells());
-    subdomain = triangulation.locally_owned_subdomain();
-    data_out.add_data_vector(subdomain, "partition");
-
-    // Per-cell estimators.
-    std::vector<std::pair<std::string, dealii::Vector<float>>> indicators;
-    if (final_estimate)
-      indicators = VI::cell_indicators(*final_estimate);
-    for (const auto &[name, values] : indicators)
-      data_out.add_data_vector(values, name, DataOut<dim>::type_cell_data);
-    data_out.build_patches(*mapping,
-                           fe.degree,
-                           VI::has_curved_cells(geometry) ?
-                             DataOut<dim>::curved_inner_cells :
-                             DataOut<dim>::curved_boundary);
-    data_out.write_vtu_with_pvtu_record(
-      parameters.output.directory + "/", "solution", cycle, comm, 2, 8);
+    // The broken functions of the nodes, with the indicators of the
+    // guaranteed estimate.
+    VI::FieldOutput<dim> output(*mapping,
+                                geometry,
+                                dof_handler,
+                                {u1_h, u2_h, gap_h, lambda_h, &contact_set});
+    output.add_indicators(final_estimate ? &*final_estimate : nullptr);
+    output.write(parameters.output.directory, cycle, 2, comm);
   }
 
 
@@ -561,6 +541,12 @@ namespace StepMembranes
   template void
   DGMembraneProblem<2>::moments_of_function(const Vector &v,
                                             Vector       &moments) const;
+  template void
+  DGMembraneProblem<2>::for_each_owned_cell(
+    const Quadrature<2> &quadrature,
+    const std::function<void(const FEValues<2> &,
+                             const std::vector<types::global_dof_index> &)>
+      &local) const;
   template VI::DGContactEstimate
   DGMembraneProblem<2>::estimate(const Vector &X) const;
   template void

@@ -156,6 +156,14 @@ namespace StepMembranes
     /// The inverse map: moments_I = (v, psi_I)_K; v ghosted, moments not.
     void
     moments_of_function(const Vector &v, Vector &moments) const;
+    /// The loop of these cellwise maps: `local` on every owned cell, with
+    /// the values and JxW of `quadrature` there and the cell's nodes.
+    void
+    for_each_owned_cell(
+      const Quadrature<dim> &quadrature,
+      const std::function<void(const FEValues<dim> &,
+                               const std::vector<types::global_dof_index> &)>
+        &local) const;
 
     const Parameters            parameters;
     ParameterHandler           &prm;

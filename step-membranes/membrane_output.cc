@@ -5,10 +5,10 @@
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/filtered_iterator.h>
-#include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/cell_function_values.h>
+#include <vi/field_output.h>
 #include <vi/nodal_fields.h>
 
 #include "membrane_problem.h"
@@ -135,35 +135,14 @@ namespace StepMembranes
       return;
     TimerOutput::Scope t(timer, "output");
 
-    DataOut<dim> data_out;
-    data_out.attach_dof_handler(dof_handler);
-    data_out.add_data_vector(u1_h, "u1");
-    data_out.add_data_vector(u2_h, "u2");
-    data_out.add_data_vector(gap_h, "gap");
-    data_out.add_data_vector(lambda_h, "lambda");
-    data_out.add_data_vector(contact_set, "contact");
-    dealii::Vector<float> subdomain(triangulation.n_active_cells());
-    subdomain = triangulation.locally_owned_subdomain();
-    data_out.add_data_vector(subdomain, "partition");
-
-    // Per-cell estimators.
-    std::vector<std::pair<std::string, dealii::Vector<float>>> indicators;
-    if (final_estimate)
-      indicators = VI::cell_indicators(*final_estimate);
-    for (const auto &[name, values] : indicators)
-      data_out.add_data_vector(values, name, DataOut<dim>::type_cell_data);
+    VI::FieldOutput<dim> output(*mapping,
+                                geometry,
+                                dof_handler,
+                                {u1_h, u2_h, gap_h, lambda_h, &contact_set});
+    output.add_indicators(final_estimate ? &*final_estimate : nullptr);
     if (data.has_exact_solution())
-      data_out.add_data_vector(cell_error,
-                               "error_energy",
-                               DataOut<dim>::type_cell_data);
-
-    data_out.build_patches(*mapping,
-                           fe.degree,
-                           VI::has_curved_cells(geometry) ?
-                             DataOut<dim>::curved_inner_cells :
-                             DataOut<dim>::curved_boundary);
-    data_out.write_vtu_with_pvtu_record(
-      parameters.output.directory + "/", "solution", cycle, comm, 2, 8);
+      output.add_cell_field(cell_error, "error_energy");
+    output.write(parameters.output.directory, cycle, 2, comm);
   }
 
 

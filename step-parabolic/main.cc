@@ -10,16 +10,11 @@
 int
 main(int argc, char **argv)
 {
-  VI::ProgramDescription program;
-  program.name    = "step-parabolic";
-  program.purpose = "time-dependent contact between two membranes (backward "
-                    "Euler, semismooth Newton, space-time estimators)";
-  program.declare_parameters = StepParabolic::Parameters::declare;
-  program.run = [](dealii::ParameterHandler &prm, const MPI_Comm comm) {
-    StepParabolic::Parameters parameters;
-    parameters.parse(prm);
-    StepParabolic::ParabolicProblem<2> problem(parameters, prm, comm);
-    problem.run();
-  };
-  return VI::run_program(argc, argv, program);
+  return VI::run_program<StepParabolic::Parameters,
+                         StepParabolic::ParabolicProblem<2>>(
+    argc,
+    argv,
+    "step-parabolic",
+    "time-dependent contact between two membranes (backward Euler, "
+    "semismooth Newton, space-time estimators)");
 }

@@ -7,6 +7,7 @@
 #include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
 
+#include <vi/field_output.h>
 #include <vi/nodal_fields.h>
 
 #include "parabolic_problem.h"
@@ -189,36 +190,14 @@ namespace StepParabolic
       return;
     TimerOutput::Scope t(timer, "output");
 
-    DataOut<dim> data_out;
-    data_out.attach_dof_handler(dof_handler);
-    data_out.add_data_vector(u1_h, "u1");
-    data_out.add_data_vector(u2_h, "u2");
-    data_out.add_data_vector(gap_h, "gap");
-    data_out.add_data_vector(lambda_h, "lambda");
-    data_out.add_data_vector(contact_set, "contact");
-    dealii::Vector<float> subdomain(triangulation.n_active_cells());
-    subdomain = triangulation.locally_owned_subdomain();
-    data_out.add_data_vector(subdomain, "partition");
-
-    // Per-cell estimators.
-    std::vector<std::pair<std::string, dealii::Vector<float>>> indicators;
-    if (final_estimate)
-      indicators = VI::cell_indicators(final_estimate->at_end);
-    for (const auto &[name, values] : indicators)
-      data_out.add_data_vector(values, name, DataOut<dim>::type_cell_data);
-
-    data_out.build_patches(*mapping,
-                           fe.degree,
-                           VI::has_curved_cells(geometry) ?
-                             DataOut<dim>::curved_inner_cells :
-                             DataOut<dim>::curved_boundary);
-    DataOutBase::VtkFlags flags;
-    flags.time  = time;
-    flags.cycle = step;
-    data_out.set_flags(flags);
-    const std::string name = data_out.write_vtu_with_pvtu_record(
-      parameters.output.directory + "/", "solution", step, comm, 5, 8);
-    vtu_files.emplace_back(time, name);
+    // The indicators of the estimate at the end of the step, t_n.
+    VI::FieldOutput<dim> output(*mapping,
+                                geometry,
+                                dof_handler,
+                                {u1_h, u2_h, gap_h, lambda_h, &contact_set});
+    output.add_indicators(final_estimate ? &final_estimate->at_end : nullptr);
+    vtu_files.emplace_back(
+      time, output.write(parameters.output.directory, step, 5, comm, time));
     if (Utilities::MPI::this_mpi_process(comm) == 0)
       {
         std::ofstream pvd(parameters.output.directory + "/solution.pvd");

@@ -16,12 +16,7 @@
 int
 main(int argc, char **argv)
 {
-  VI::ProgramDescription program;
-  program.name               = "step-twophase";
-  program.purpose            = "1D finite volume water-hydrogen flow with gas "
-                               "appearance and disappearance (Couplex-Gas benchmark)";
-  program.declare_parameters = StepTwoPhase::Parameters::declare;
-  program.run = [](dealii::ParameterHandler &prm, const MPI_Comm comm) {
+  const auto serial = [](const MPI_Comm comm) {
     // 1D: p4est has no 1D meshes, and 1000 cells take a second.
     const unsigned int ranks = dealii::Utilities::MPI::n_mpi_processes(comm);
     if (ranks > 1)
@@ -31,10 +26,13 @@ main(int argc, char **argv)
     // One thread: with a few thousand unknowns, TBB's threads cost more
     // than they bring.
     dealii::MultithreadInfo::set_thread_limit(1);
-    StepTwoPhase::Parameters parameters;
-    parameters.parse(prm);
-    StepTwoPhase::TwoPhaseProblem problem(parameters, prm, comm);
-    problem.run();
   };
-  return VI::run_program(argc, argv, program);
+  return VI::run_program<StepTwoPhase::Parameters,
+                         StepTwoPhase::TwoPhaseProblem>(
+    argc,
+    argv,
+    "step-twophase",
+    "1D finite volume water-hydrogen flow with gas appearance and "
+    "disappearance (Couplex-Gas benchmark)",
+    serial);
 }

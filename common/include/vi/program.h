@@ -36,6 +36,35 @@ namespace VI
   run_program(int argc, char **argv, const ProgramDescription &program);
 
   /**
+   * run_program() for the usual program: one Parameters class with static
+   * declare() and parse(), and a Problem(parameters, prm, comm) with run().
+   * `check`, if given, runs before the parameters are read (e.g. to refuse
+   * a number of ranks the program does not support).
+   */
+  template <typename Parameters, typename Problem>
+  int
+  run_program(int                                  argc,
+              char                               **argv,
+              const std::string                   &name,
+              const std::string                   &purpose,
+              const std::function<void(MPI_Comm)> &check = {})
+  {
+    ProgramDescription program;
+    program.name               = name;
+    program.purpose            = purpose;
+    program.declare_parameters = Parameters::declare;
+    program.run = [&check](dealii::ParameterHandler &prm, const MPI_Comm comm) {
+      if (check)
+        check(comm);
+      Parameters parameters;
+      parameters.parse(prm);
+      Problem problem(parameters, prm, comm);
+      problem.run();
+    };
+    return run_program(argc, argv, program);
+  }
+
+  /**
    * Create `directory` (on rank 0) and check that a file can be written
    * into it; throws InputError on every rank otherwise.
    */
