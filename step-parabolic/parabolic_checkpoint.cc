@@ -10,6 +10,7 @@
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_values.h>
 
+#include <vi/checkpoint.h>
 #include <vi/errors.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
@@ -26,19 +27,11 @@ namespace StepParabolic
 {
   namespace
   {
+    using VI::Checkpoint::read_entry;
+
     const std::string checkpoint_name = "checkpoint.txt";
     const std::string checkpoint_head = "step-parabolic checkpoint, format 1";
-
-    /// Reads "keyword value" and checks the keyword.
-    template <typename T>
-    void
-    read_entry(std::istream &in, const std::string &keyword, T &value)
-    {
-      std::string word;
-      in >> word >> value;
-      if (!in || word != keyword)
-        throw std::runtime_error("expected <" + keyword + ">");
-    }
+    const std::string wrong_head      = "not a checkpoint of step-parabolic";
 
     /// The files Triangulation::save() writes for `name`.
     std::vector<std::string>
@@ -48,6 +41,26 @@ namespace StepParabolic
               name + "_fixed.data",
               name + "_variable.data",
               name + ".info"};
+    }
+
+    /// The text of `file`, read on rank 0 and broadcast to every rank;
+    /// whether rank 0 could open it.
+    std::pair<bool, std::string>
+    read_on_rank_zero(const std::string &file, const MPI_Comm comm)
+    {
+      bool        found = false;
+      std::string text;
+      if (Utilities::MPI::this_mpi_process(comm) == 0)
+        {
+          std::ifstream in(file);
+          found = static_cast<bool>(in);
+          std::ostringstream content;
+          if (in)
+            content << in.rdbuf();
+          text = content.str();
+        }
+      return {Utilities::MPI::broadcast(comm, found, 0),
+              Utilities::MPI::broadcast(comm, text, 0)};
     }
   } // namespace
 
@@ -59,31 +72,8 @@ namespace StepParabolic
   std::vector<std::string>
   ParabolicProblem<dim>::problem_fingerprint() const
   {
-    std::ostringstream text;
-    prm.print_parameters(text, ParameterHandler::PRM | ParameterHandler::Short);
-    std::istringstream       in(text.str());
-    std::vector<std::string> path, lines;
-    for (std::string line; std::getline(in, line);)
-      {
-        const auto first = line.find_first_not_of(' ');
-        if (first == std::string::npos)
-          continue;
-        line = line.substr(first);
-        if (line.rfind("subsection ", 0) == 0)
-          path.push_back(line.substr(11));
-        else if (line == "end")
-          path.pop_back();
-        else if (line.rfind("set ", 0) == 0 && !path.empty() &&
-                 (path[0] == "Problem" || path[0] == "Mesh" ||
-                  path[0] == "Discretization"))
-          {
-            std::string name;
-            for (const std::string &section : path)
-              name += section + "/";
-            lines.push_back(name + line.substr(4));
-          }
-      }
-    return lines;
+    return VI::Checkpoint::problem_fingerprint(
+      prm, {"Problem", "Mesh", "Discretization"});
   }
 
 
@@ -115,46 +105,38 @@ namespace StepParabolic
 
     if (Utilities::MPI::this_mpi_process(comm) == 0)
       {
-        const std::string file      = directory + "/" + checkpoint_name;
-        const std::string temporary = file + ".tmp";
-        {
-          std::ofstream out(temporary);
-          out << std::setprecision(std::numeric_limits<double>::max_digits10);
-          out << checkpoint_head << '\n';
-          const std::vector<std::string> problem = problem_fingerprint();
-          out << "problem " << problem.size() << '\n';
-          for (const std::string &line : problem)
-            out << line << '\n';
-          out << "time " << time << '\n'
-              << "time_step " << time_step << '\n'
-              << "next_time_step " << next_time_step << '\n'
-              << "step " << step << '\n'
-              << "mesh " << mesh_name.str() << '\n';
-          const Accumulated &a = totals;
-          out << "totals " << a.eta_init << ' ' << a.eta_squared << ' '
-              << a.disc_squared << ' ' << a.lin_squared << ' ' << a.alg_squared
-              << ' ' << a.nonc_squared << ' ' << a.nonc_squared_disc << ' '
-              << a.nonc_squared_lin << ' ' << a.final_nonc << ' '
-              << a.final_nonc_disc << ' ' << a.final_nonc_lin << ' '
-              << a.error_squared << ' ' << a.final_error << ' ' << a.newton
-              << ' ' << a.linear << ' ' << a.rejected << '\n';
-          out << "records " << records.size() << '\n';
-          for (const StepRecord &r : records)
-            out << r.step << ' ' << r.time << ' ' << r.dt << ' ' << r.newton
-                << ' ' << r.linear << ' ' << r.rejected << ' ' << r.contact
-                << ' ' << r.eta_step << ' ' << r.eta_time << ' ' << r.eta << ' '
-                << r.error << ' ' << r.effectivity << '\n';
-          out << "summary_steps " << step_json.size() << '\n';
-          for (const std::string &text : step_json)
-            out << text.size() << '\n' << text << '\n';
-          out << "vtu_files " << vtu_files.size() << '\n';
-          for (const auto &[t, name] : vtu_files)
-            out << t << ' ' << name << '\n';
-          out << "end\n";
-          if (!out)
-            throw VI::InputError("cannot write " + temporary);
-        }
-        std::filesystem::rename(temporary, file);
+        VI::Checkpoint::write_atomically(
+          directory + "/" + checkpoint_name, [&](std::ostream &out) {
+            VI::Checkpoint::write_head(out,
+                                       checkpoint_head,
+                                       problem_fingerprint());
+            out << "time " << time << '\n'
+                << "time_step " << time_step << '\n'
+                << "next_time_step " << next_time_step << '\n'
+                << "step " << step << '\n'
+                << "mesh " << mesh_name.str() << '\n';
+            const Accumulated &a = totals;
+            out << "totals " << a.eta_init << ' ' << a.eta_squared << ' '
+                << a.disc_squared << ' ' << a.lin_squared << ' '
+                << a.alg_squared << ' ' << a.nonc_squared << ' '
+                << a.nonc_squared_disc << ' ' << a.nonc_squared_lin << ' '
+                << a.final_nonc << ' ' << a.final_nonc_disc << ' '
+                << a.final_nonc_lin << ' ' << a.error_squared << ' '
+                << a.final_error << ' ' << a.newton << ' ' << a.linear << ' '
+                << a.rejected << '\n';
+            out << "records " << records.size() << '\n';
+            for (const StepRecord &r : records)
+              out << r.step << ' ' << r.time << ' ' << r.dt << ' ' << r.newton
+                  << ' ' << r.linear << ' ' << r.rejected << ' ' << r.contact
+                  << ' ' << r.eta_step << ' ' << r.eta_time << ' ' << r.eta
+                  << ' ' << r.error << ' ' << r.effectivity << '\n';
+            out << "summary_steps " << step_json.size() << '\n';
+            for (const std::string &text : step_json)
+              out << text.size() << '\n' << text << '\n';
+            out << "vtu_files " << vtu_files.size() << '\n';
+            for (const auto &[t, name] : vtu_files)
+              out << t << ' ' << name << '\n';
+          });
         if (!checkpoint_mesh.empty() && checkpoint_mesh != mesh_name.str())
           for (const std::string &old : mesh_files(checkpoint_mesh))
             std::filesystem::remove(directory + "/" + old);
@@ -172,45 +154,20 @@ namespace StepParabolic
   {
     const std::string &directory = parameters.output.directory;
     const std::string  file      = directory + "/" + checkpoint_name;
-    std::string        text;
-    bool               found = false;
-    if (Utilities::MPI::this_mpi_process(comm) == 0)
-      {
-        std::ifstream in(file);
-        found = static_cast<bool>(in);
-        std::ostringstream content;
-        content << in.rdbuf();
-        text = content.str();
-      }
-    found = Utilities::MPI::broadcast(comm, found, 0);
+    const auto [found, text]     = read_on_rank_zero(file, comm);
     if (!found)
       throw VI::InputError("Time stepping/Resume = true, but there is no "
                            "checkpoint <" +
                            file + ">");
-    text = Utilities::MPI::broadcast(comm, text, 0);
 
     std::istringstream in(text);
     try
       {
-        std::string line;
-        std::getline(in, line);
-        if (line != checkpoint_head)
-          throw std::runtime_error("not a checkpoint of step-parabolic");
-        std::size_t n = 0;
-        read_entry(in, "problem", n);
-        std::getline(in, line);
-        std::vector<std::string> problem(n);
-        for (std::string &l : problem)
-          std::getline(in, l);
-        const std::vector<std::string> current = problem_fingerprint();
-        for (std::size_t k = 0; k < std::max(n, current.size()); ++k)
-          if (k >= n || k >= current.size() || problem[k] != current[k])
-            throw VI::InputError(
-              "the checkpoint <" + file + "> belongs to another problem: " +
-              (k < current.size() ? current[k] : std::string("(none)")) +
-              " here, " + (k < n ? problem[k] : std::string("(none)")) +
-              " there");
-
+        if (const auto d = VI::Checkpoint::read_head(
+              in, checkpoint_head, wrong_head, problem_fingerprint(), "(none)"))
+          throw VI::InputError("the checkpoint <" + file +
+                               "> belongs to another problem: " + d->second +
+                               " here, " + d->first + " there");
         read_entry(in, "time", time);
         read_entry(in, "time_step", time_step);
         read_entry(in, "next_time_step", next_time_step);
@@ -223,6 +180,7 @@ namespace StepParabolic
           a.nonc_squared_lin >> a.final_nonc >> a.final_nonc_disc >>
           a.final_nonc_lin >> a.error_squared >> a.final_error >> a.newton >>
           a.linear >> a.rejected;
+        std::size_t n = 0;
         read_entry(in, "records", n);
         records.resize(n);
         for (StepRecord &r : records)
@@ -243,10 +201,7 @@ namespace StepParabolic
         vtu_files.resize(n);
         for (auto &[t, name] : vtu_files)
           in >> t >> name;
-        std::string end;
-        in >> end;
-        if (!in || end != "end")
-          throw std::runtime_error("expected <end>");
+        VI::Checkpoint::read_end(in, "expected <end>");
       }
     catch (const std::runtime_error &error)
       {
@@ -300,33 +255,14 @@ namespace StepParabolic
   void
   ParabolicProblem<dim>::compare_with_run(const std::string &other_directory)
   {
-    const std::string file = other_directory + "/" + checkpoint_name;
-    std::string       text;
-    if (Utilities::MPI::this_mpi_process(comm) == 0)
-      {
-        std::ifstream      in(file);
-        std::ostringstream content;
-        if (in)
-          content << in.rdbuf();
-        text = content.str();
-      }
-    text = Utilities::MPI::broadcast(comm, text, 0);
-    std::istringstream in(text);
+    const std::string  file = other_directory + "/" + checkpoint_name;
+    std::istringstream in(read_on_rank_zero(file, comm).second);
     double             other_time = 0;
     std::string        mesh_name;
     try
       {
-        std::string line;
-        std::getline(in, line);
-        if (line != checkpoint_head)
-          throw std::runtime_error("not a checkpoint of step-parabolic");
-        std::size_t n = 0;
-        read_entry(in, "problem", n);
-        std::getline(in, line);
-        std::vector<std::string> problem(n);
-        for (std::string &l : problem)
-          std::getline(in, l);
-        if (problem != problem_fingerprint())
+        if (VI::Checkpoint::read_head(
+              in, checkpoint_head, wrong_head, problem_fingerprint(), ""))
           throw std::runtime_error("it belongs to another problem");
         read_entry(in, "time", other_time);
         double       dummy;

@@ -7,11 +7,8 @@
 namespace StepParabolic
 {
   using dealii::ParameterHandler;
-  using dealii::Patterns::Anything;
-  using dealii::Patterns::Bool;
-  using dealii::Patterns::Double;
-  using dealii::Patterns::Integer;
-  using dealii::Patterns::Selection;
+  // The patterns of the declarations: Double(), Selection("a|b"), ...
+  using namespace dealii::Patterns;
 
   void
   Parameters::declare(ParameterHandler &prm)
@@ -195,20 +192,21 @@ namespace StepParabolic
     prm.leave_subsection();
 
     const auto &t = time;
-    require(t.final_time > 0,
-            "Time stepping/Final time = " + text(t.final_time) +
-              " must be positive");
-    require(t.time_step > 0,
-            "Time stepping/Time step = " + text(t.time_step) +
-              " must be positive");
+    // "Time stepping/<name> = <value> must be <what>" unless value > bound.
+    const auto require_above = [](const std::string &name,
+                                  const double       value,
+                                  const double       bound,
+                                  const std::string &what) {
+      require(value > bound,
+              "Time stepping/" + name + " = " + text(value) + " must be " +
+                what);
+    };
+    require_above("Final time", t.final_time, 0, "positive");
+    require_above("Time step", t.time_step, 0, "positive");
     if (t.adaptive)
       {
-        require(t.time_space_ratio > 0,
-                "Time stepping/Time-space ratio = " + text(t.time_space_ratio) +
-                  " must be positive");
-        require(t.minimal_time_step > 0,
-                "Time stepping/Minimal time step = " +
-                  text(t.minimal_time_step) + " must be positive");
+        require_above("Time-space ratio", t.time_space_ratio, 0, "positive");
+        require_above("Minimal time step", t.minimal_time_step, 0, "positive");
         require(t.maximal_time_step >= t.minimal_time_step,
                 "Time stepping/Maximal time step = " +
                   text(t.maximal_time_step) +
@@ -220,12 +218,11 @@ namespace StepParabolic
                   " must lie in [Minimal time step, Maximal time step] = [" +
                   text(t.minimal_time_step) + ", " + text(t.maximal_time_step) +
                   "] with Adaptive = true");
-        require(t.growth_factor > 1,
-                "Time stepping/Growth factor = " + text(t.growth_factor) +
-                  " must be greater than 1");
-        require(t.rejection_factor > 1,
-                "Time stepping/Rejection factor = " + text(t.rejection_factor) +
-                  " must be greater than 1");
+        require_above("Growth factor", t.growth_factor, 1, "greater than 1");
+        require_above("Rejection factor",
+                      t.rejection_factor,
+                      1,
+                      "greater than 1");
         require(estimators.enabled,
                 "Time stepping/Adaptive = true chooses dt with the "
                 "estimators: set Estimators/Enabled = true");

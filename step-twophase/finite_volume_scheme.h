@@ -115,14 +115,9 @@ namespace StepTwoPhase
                                chi_ref)}}
         , cells(N)
         , fluxes(N + 1)
+        , right_boundary(cell_data(right_state))
         , old_amounts(N)
     {
-      right_boundary.S    = right_state.S;
-      right_boundary.P    = right_state.P;
-      right_boundary.chi  = right_state.chi;
-      right_boundary.P_cp = model.capillary_pressure(right_state.S);
-      right_boundary.k_rl = model.liquid_relative_permeability(right_state.S);
-      right_boundary.k_rg = model.gas_relative_permeability(right_state.S);
     }
 
     /// A cell's physical state with its constitutive laws.
@@ -131,6 +126,21 @@ namespace StepTwoPhase
       double             S = 1., P = 0., chi = 0.;
       SaturationFunction P_cp, k_rl, k_rg;
     };
+
+    /// The state U with the capillary pressure and relative permeabilities
+    /// at its saturation.
+    CellData
+    cell_data(const CellState &U) const
+    {
+      CellData d;
+      d.S    = U.S;
+      d.P    = U.P;
+      d.chi  = U.chi;
+      d.P_cp = model.capillary_pressure(U.S);
+      d.k_rl = model.liquid_relative_permeability(U.S);
+      d.k_rg = model.gas_relative_permeability(U.S);
+      return d;
+    }
 
     unsigned int
     n_cells() const
@@ -276,14 +286,7 @@ namespace StepTwoPhase
       cached_X = X;
       for (unsigned int K = 0; K < N; ++K)
         {
-          const CellState U = state(X, K);
-          CellData       &d = cells[K];
-          d.S               = U.S;
-          d.P               = U.P;
-          d.chi             = U.chi;
-          d.P_cp            = model.capillary_pressure(U.S);
-          d.k_rl            = model.liquid_relative_permeability(U.S);
-          d.k_rg            = model.gas_relative_permeability(U.S);
+          cells[K] = cell_data(state(X, K));
         }
       for (unsigned int sigma = 1; sigma <= N; ++sigma)
         {

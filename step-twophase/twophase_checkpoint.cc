@@ -4,6 +4,7 @@
 // step number, output bookkeeping, the state of every cell, and the history
 // of the steps (so that the tables of a resumed run are complete).
 
+#include <vi/checkpoint.h>
 #include <vi/errors.h>
 
 #include "twophase_problem.h"
@@ -19,8 +20,12 @@ namespace StepTwoPhase
 {
   namespace
   {
+    using VI::Checkpoint::read_entry;
+
     const std::string checkpoint_name = "checkpoint.txt";
     const std::string checkpoint_head = "step-twophase checkpoint, format 1";
+    const std::string wrong_head =
+      "it does not start with <" + checkpoint_head + ">";
 
     void
     write_estimators(std::ostream &out, const EstimatorValues &eta)
@@ -36,115 +41,66 @@ namespace StepTwoPhase
       in >> eta.disc >> eta.lin >> eta.alg >> eta.flux >> eta.nonconformity >>
         eta.equilibrium >> eta.phase_transition;
     }
-
-    /// Reads "keyword value" and checks the keyword.
-    template <typename T>
-    void
-    read_entry(std::istream &in, const std::string &keyword, T &value)
-    {
-      std::string word;
-      in >> word >> value;
-      if (!in || word != keyword)
-        throw std::runtime_error("expected <" + keyword + ">");
-    }
   } // namespace
 
 
-  // The parameters that define the problem (Physics, Boundary conditions,
-  // Mesh) as "Section/Name = value" lines: a checkpoint continues only the
-  // problem it was written for. Solvers, time step, final time and output
-  // may change on resume.
+  // The parameters that define the problem: a checkpoint continues only
+  // the problem it was written for. Solvers, time step, final time and
+  // output may change on resume.
   std::vector<std::string>
   TwoPhaseProblem::problem_fingerprint() const
   {
-    std::ostringstream text;
-    prm.print_parameters(text, ParameterHandler::PRM | ParameterHandler::Short);
-    std::istringstream       in(text.str());
-    std::vector<std::string> path, lines;
-    for (std::string line; std::getline(in, line);)
-      {
-        const auto first = line.find_first_not_of(' ');
-        if (first == std::string::npos)
-          continue;
-        line = line.substr(first);
-        if (line.rfind("subsection ", 0) == 0)
-          path.push_back(line.substr(11));
-        else if (line == "end")
-          path.pop_back();
-        else if (line.rfind("set ", 0) == 0 && !path.empty() &&
-                 (path[0] == "Physics" || path[0] == "Boundary conditions" ||
-                  path[0] == "Mesh"))
-          {
-            std::string name;
-            for (const std::string &section : path)
-              name += section + "/";
-            lines.push_back(name + line.substr(4));
-          }
-      }
-    return lines;
+    return VI::Checkpoint::problem_fingerprint(
+      prm, {"Physics", "Boundary conditions", "Mesh"});
   }
 
 
-  /**
-   * Write the checkpoint to a temporary file and rename it: a crash while
-   * writing leaves the previous checkpoint intact. Doubles are written
-   * with 17 significant digits, which read back to the same bits.
-   */
+  // The state of the time loop, written atomically (vi/checkpoint.h).
   void
   TwoPhaseProblem::write_checkpoint() const
   {
     TimerOutput::Scope t(timer, "checkpoint");
-    const std::string  file =
-      parameters.output.directory + "/" + checkpoint_name;
-    const std::string temporary = file + ".tmp";
-    {
-      std::ofstream out(temporary);
-      out << std::setprecision(std::numeric_limits<double>::max_digits10);
-      out << checkpoint_head << '\n';
-      const std::vector<std::string> problem = problem_fingerprint();
-      out << "problem " << problem.size() << '\n';
-      for (const std::string &line : problem)
-        out << line << '\n';
-      out << "time " << time << '\n'
-          << "time_step " << time_step << '\n'
-          << "step " << step << '\n'
-          << "next_output " << next_output << '\n';
-      out << "cells " << scheme->n_cells() << '\n';
-      for (unsigned int K = 0; K < scheme->n_cells(); ++K)
-        {
-          const CellState U = scheme->state(solution, K);
-          out << U.S << ' ' << U.P << ' ' << U.chi << '\n';
-        }
-      out << "vtu_files " << vtu_files.size() << '\n';
-      for (const auto &[t, name] : vtu_files)
-        out << t << ' ' << name << '\n';
-      out << "cuts " << cuts.size() << '\n';
-      for (const TimeStepCut &c : cuts)
-        out << c.time << ' ' << c.dt << ' ' << c.reason << '\n';
-      out << "records " << records.size() << '\n';
-      for (const StepRecord &r : records)
-        {
-          out << r.step << ' ' << r.time << ' ' << r.dt << ' ' << r.newton
-              << ' ' << r.linear << ' ' << r.cuts << ' ' << r.rejected_newton
-              << ' ' << r.rejected_linear << ' ' << r.gas_saturation_x0 << ' '
-              << r.liquid_pressure_x0 << ' ' << r.gas_pressure_x0 << ' '
-              << r.molar_fraction_x0 << ' ' << r.gas_front << ' '
-              << r.wall_seconds;
-          write_estimators(out, r.eta);
-          out << ' ' << r.iterations.size() << '\n';
-          for (const IterationRecord &it : r.iterations)
-            {
-              out << it.k << ' ' << it.i << ' ' << it.residual.equations << ' '
-                  << it.residual.complementarity << ' ' << it.step_length;
-              write_estimators(out, it.eta);
-              out << '\n';
-            }
-        }
-      out << "end\n";
-      if (!out)
-        throw VI::InputError("cannot write " + temporary);
-    }
-    std::filesystem::rename(temporary, file);
+    VI::Checkpoint::write_atomically(
+      parameters.output.directory + "/" + checkpoint_name,
+      [&](std::ostream &out) {
+        VI::Checkpoint::write_head(out, checkpoint_head, problem_fingerprint());
+        out << "time " << time << '\n'
+            << "time_step " << time_step << '\n'
+            << "step " << step << '\n'
+            << "next_output " << next_output << '\n';
+        out << "cells " << scheme->n_cells() << '\n';
+        for (unsigned int K = 0; K < scheme->n_cells(); ++K)
+          {
+            const CellState U = scheme->state(solution, K);
+            out << U.S << ' ' << U.P << ' ' << U.chi << '\n';
+          }
+        out << "vtu_files " << vtu_files.size() << '\n';
+        for (const auto &[t, name] : vtu_files)
+          out << t << ' ' << name << '\n';
+        out << "cuts " << cuts.size() << '\n';
+        for (const TimeStepCut &c : cuts)
+          out << c.time << ' ' << c.dt << ' ' << c.reason << '\n';
+        out << "records " << records.size() << '\n';
+        for (const StepRecord &r : records)
+          {
+            out << r.step << ' ' << r.time << ' ' << r.dt << ' ' << r.newton
+                << ' ' << r.linear << ' ' << r.cuts << ' ' << r.rejected_newton
+                << ' ' << r.rejected_linear << ' ' << r.gas_saturation_x0 << ' '
+                << r.liquid_pressure_x0 << ' ' << r.gas_pressure_x0 << ' '
+                << r.molar_fraction_x0 << ' ' << r.gas_front << ' '
+                << r.wall_seconds;
+            write_estimators(out, r.eta);
+            out << ' ' << r.iterations.size() << '\n';
+            for (const IterationRecord &it : r.iterations)
+              {
+                out << it.k << ' ' << it.i << ' ' << it.residual.equations
+                    << ' ' << it.residual.complementarity << ' '
+                    << it.step_length;
+                write_estimators(out, it.eta);
+                out << '\n';
+              }
+          }
+      });
   }
 
 
@@ -162,30 +118,11 @@ namespace StepTwoPhase
                            file);
     try
       {
-        std::string head;
-        std::getline(in, head);
-        if (head != checkpoint_head)
-          throw std::runtime_error("it does not start with <" +
-                                   checkpoint_head + ">");
-
-        std::size_t n_lines = 0;
-        read_entry(in, "problem", n_lines);
-        in.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
-        std::vector<std::string> problem(n_lines);
-        for (std::string &line : problem)
-          std::getline(in, line);
-        const std::vector<std::string> current = problem_fingerprint();
-        for (std::size_t n = 0; n < std::max(problem.size(), current.size());
-             ++n)
-          if (n >= problem.size() || n >= current.size() ||
-              problem[n] != current[n])
-            throw VI::InputError(
-              "Time stepping/Resume: " + file +
-              " was written for another problem (" +
-              (n < problem.size() ? problem[n] : std::string("-")) +
-              " there, " +
-              (n < current.size() ? current[n] : std::string("-")) + " here)");
-
+        if (const auto d = VI::Checkpoint::read_head(
+              in, checkpoint_head, wrong_head, problem_fingerprint(), "-"))
+          throw VI::InputError("Time stepping/Resume: " + file +
+                               " was written for another problem (" + d->first +
+                               " there, " + d->second + " here)");
         read_entry(in, "time", time);
         read_entry(in, "time_step", time_step);
         read_entry(in, "step", step);
@@ -236,10 +173,7 @@ namespace StepTwoPhase
                 read_estimators(in, it.eta);
               }
           }
-        std::string end;
-        in >> end;
-        if (!in || end != "end")
-          throw std::runtime_error("it is truncated");
+        VI::Checkpoint::read_end(in, "it is truncated");
       }
     catch (const std::runtime_error &e)
       {

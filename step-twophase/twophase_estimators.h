@@ -115,8 +115,6 @@ namespace StepTwoPhase
         , g(N + 1)
         , cell_flux(N)
         , cell_nonconformity(N)
-        , cell_lin(N)
-        , cell_alg(N)
         , cell_phase_transition(N)
     {
       // P2 shape functions on the reference cell, in FE_Q's numbering
@@ -258,8 +256,6 @@ namespace StepTwoPhase
           alg2 += cell_alg2;
           cell_flux[K]          = std::sqrt(cell_flux2);
           cell_nonconformity[K] = std::sqrt(cell_nc2);
-          cell_lin[K]           = std::sqrt(cell_lin2);
-          cell_alg[K]           = std::sqrt(cell_alg2);
 
           // (1 - S(t)) int_K b_tilde(t) is quadratic in t: Simpson's rule.
           const auto product = [&](const double s) {
@@ -309,16 +305,6 @@ namespace StepTwoPhase
     nonconformity_indicators() const
     {
       return cell_nonconformity;
-    }
-    const std::vector<double> &
-    linearization_indicators() const
-    {
-      return cell_lin;
-    }
-    const std::vector<double> &
-    algebraic_indicators() const
-    {
-      return cell_alg;
     }
     const std::vector<double> &
     phase_transition_indicators() const
@@ -373,13 +359,7 @@ namespace StepTwoPhase
           // (3..5)
           if ((side == 0 && sigma == 0) || (side == 1 && sigma == N))
             continue;
-          const unsigned int K = sigma - 1 + side;
-          for (unsigned int j = 0; j < 3; ++j)
-            {
-              const unsigned int i = scheme.index(K, j);
-              for (unsigned int c = 0; c < 2; ++c)
-                value[c] += F.derivative[c][3 * side + j] * (X[i] - X_lin[i]);
-            }
+          add_linear_change(F.derivative, 3 * side, sigma - 1 + side, X, value);
         }
       return value;
     }
@@ -391,13 +371,26 @@ namespace StepTwoPhase
     {
       const auto           &a     = amounts_at_linearization[K];
       std::array<double, 2> value = a.value;
+      add_linear_change(a.derivative, 0, K, X, value);
+      return value;
+    }
+
+    /// value += D (U_K - U_K^{k-1}): D[c][offset + j] is the derivative of
+    /// component c by the unknown j of cell K.
+    template <typename Derivatives>
+    void
+    add_linear_change(const Derivatives            &D,
+                      const unsigned int            offset,
+                      const unsigned int            K,
+                      const dealii::Vector<double> &X,
+                      std::array<double, 2>        &value) const
+    {
       for (unsigned int j = 0; j < 3; ++j)
         {
           const unsigned int i = scheme.index(K, j);
           for (unsigned int c = 0; c < 2; ++c)
-            value[c] += a.derivative[c][j] * (X[i] - X_lin[i]);
+            value[c] += D[c][offset + j] * (X[i] - X_lin[i]);
         }
-      return value;
     }
 
     /// The reconstructions of the state X and their physical fluxes (leaves
@@ -543,7 +536,6 @@ namespace StepTwoPhase
     mutable std::vector<std::array<double, 3>> cell_values;
     mutable std::vector<double>                g;
 
-    std::vector<double> cell_flux, cell_nonconformity, cell_lin, cell_alg,
-      cell_phase_transition;
+    std::vector<double> cell_flux, cell_nonconformity, cell_phase_transition;
   };
 } // namespace StepTwoPhase

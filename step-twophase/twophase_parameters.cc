@@ -10,11 +10,8 @@
 namespace StepTwoPhase
 {
   using dealii::ParameterHandler;
-  using dealii::Patterns::Bool;
-  using dealii::Patterns::Double;
-  using dealii::Patterns::Integer;
-  using dealii::Patterns::List;
-  using dealii::Patterns::Selection;
+  // The patterns of the declarations: Double(), Selection("a|b"), ...
+  using namespace dealii::Patterns;
 
   namespace
   {
@@ -34,78 +31,114 @@ namespace StepTwoPhase
     }
 
 
+    /// A value that must be > 0, or >= 0 where zero is allowed.
+    struct LowerBound
+    {
+      const char *name;
+      double      value;
+      bool        zero_allowed = false;
+    };
+
+    /// require() each bound in turn, naming the entry "section/name".
+    void
+    require_bounds(const std::string                      &section,
+                   const std::initializer_list<LowerBound> bounds)
+    {
+      for (const LowerBound &b : bounds)
+        require(b.zero_allowed ? b.value >= 0 : b.value > 0,
+                section + b.name,
+                b.value,
+                b.zero_allowed ? ">= 0" : "> 0");
+    }
+
+
+    // The entries of Physics (all numbers): one table declares and parses
+    // them.
+    struct PhysicsEntry
+    {
+      const char *name;
+      double PhysicalParameters::*field;
+      const char                 *default_value;
+      const char                 *documentation;
+    };
+
+    const PhysicsEntry physics_entries[] = {
+      {"Porosity", &PhysicalParameters::porosity, "0.15", "phi, in (0, 1]."},
+      {"Permeability",
+       &PhysicalParameters::permeability,
+       "5e-20",
+       "Intrinsic permeability K, m^2 (> 0)."},
+      {"van Genuchten pressure",
+       &PhysicalParameters::van_genuchten_pressure,
+       "2e6",
+       "P_r of P_cp = P_r (S_e^(-1/m) - 1)^(1/n), Pa (> 0)."},
+      {"van Genuchten n",
+       &PhysicalParameters::van_genuchten_n,
+       "1.49",
+       "n > 1 of van Genuchten-Mualem; m = 1 - 1/n."},
+      {"Residual liquid saturation",
+       &PhysicalParameters::residual_liquid_saturation,
+       "0.4",
+       "S_lr in the effective saturation S_e = (S - S_lr) / "
+       "(1 - S_lr - S_gr); S_lr, S_gr >= 0, S_lr + S_gr < 1."},
+      {"Residual gas saturation",
+       &PhysicalParameters::residual_gas_saturation,
+       "0",
+       "S_gr."},
+      {"Liquid viscosity",
+       &PhysicalParameters::liquid_viscosity,
+       "1e-3",
+       "mu_l, Pa s (> 0)."},
+      {"Gas viscosity",
+       &PhysicalParameters::gas_viscosity,
+       "9e-6",
+       "mu_g, Pa s (> 0)."},
+      {"Water density",
+       &PhysicalParameters::water_density,
+       "1000",
+       "rho_w, kg/m^3 (> 0); the liquid is incompressible."},
+      {"Water molar mass",
+       &PhysicalParameters::water_molar_mass,
+       "1e-2",
+       "M_w, kg/mol (> 0; the benchmark's value, not water's "
+       "0.018). The liquid has beta^l = rho_w / M_w moles "
+       "per m^3."},
+      {"Hydrogen molar mass",
+       &PhysicalParameters::hydrogen_molar_mass,
+       "2e-3",
+       "M_h, kg/mol (> 0)."},
+      {"Henry constant",
+       &PhysicalParameters::henry_constant,
+       "7.65e-6",
+       "H, mol/(Pa m^3) (> 0): at equilibrium with gas, the "
+       "liquid holds H P^g moles of hydrogen per m^3."},
+      {"Diffusion coefficient",
+       &PhysicalParameters::diffusion_coefficient,
+       "3e-9",
+       "D of dissolved hydrogen (Fick), m^2/s (>= 0)."},
+      {"Temperature", &PhysicalParameters::temperature, "303", "T, K (> 0)."},
+      {"Gas constant",
+       &PhysicalParameters::gas_constant,
+       "8.314",
+       "R, J/(mol K) (> 0); ideal gas P^g = rho^g R T / M_h."},
+      {"Regularization",
+       &PhysicalParameters::regularization,
+       "1e-5",
+       "Width eps in S_e, in (0, 0.1], of the intervals "
+       "[1 - eps, 1] and [0, eps] where the van "
+       "Genuchten-Mualem laws (infinite slopes at S_e = 1) "
+       "are replaced by linear pieces."}};
+
+
     void
     declare_physics(ParameterHandler &prm)
     {
       prm.enter_subsection("Physics");
-      {
-        prm.declare_entry("Porosity", "0.15", Double(), "phi, in (0, 1].");
-        prm.declare_entry("Permeability",
-                          "5e-20",
+      for (const PhysicsEntry &entry : physics_entries)
+        prm.declare_entry(entry.name,
+                          entry.default_value,
                           Double(),
-                          "Intrinsic permeability K, m^2 (> 0).");
-        prm.declare_entry(
-          "van Genuchten pressure",
-          "2e6",
-          Double(),
-          "P_r of P_cp = P_r (S_e^(-1/m) - 1)^(1/n), Pa (> 0).");
-        prm.declare_entry("van Genuchten n",
-                          "1.49",
-                          Double(),
-                          "n > 1 of van Genuchten-Mualem; m = 1 - 1/n.");
-        prm.declare_entry(
-          "Residual liquid saturation",
-          "0.4",
-          Double(),
-          "S_lr in the effective saturation S_e = (S - S_lr) / "
-          "(1 - S_lr - S_gr); S_lr, S_gr >= 0, S_lr + S_gr < 1.");
-        prm.declare_entry("Residual gas saturation", "0", Double(), "S_gr.");
-        prm.declare_entry("Liquid viscosity",
-                          "1e-3",
-                          Double(),
-                          "mu_l, Pa s (> 0).");
-        prm.declare_entry("Gas viscosity",
-                          "9e-6",
-                          Double(),
-                          "mu_g, Pa s (> 0).");
-        prm.declare_entry("Water density",
-                          "1000",
-                          Double(),
-                          "rho_w, kg/m^3 (> 0); the liquid is incompressible.");
-        prm.declare_entry(
-          "Water molar mass",
-          "1e-2",
-          Double(),
-          "M_w, kg/mol (> 0; the benchmark's value, not water's "
-          "0.018). The liquid has beta^l = rho_w / M_w moles "
-          "per m^3.");
-        prm.declare_entry("Hydrogen molar mass",
-                          "2e-3",
-                          Double(),
-                          "M_h, kg/mol (> 0).");
-        prm.declare_entry("Henry constant",
-                          "7.65e-6",
-                          Double(),
-                          "H, mol/(Pa m^3) (> 0): at equilibrium with gas, the "
-                          "liquid holds H P^g moles of hydrogen per m^3.");
-        prm.declare_entry("Diffusion coefficient",
-                          "3e-9",
-                          Double(),
-                          "D of dissolved hydrogen (Fick), m^2/s (>= 0).");
-        prm.declare_entry("Temperature", "303", Double(), "T, K (> 0).");
-        prm.declare_entry(
-          "Gas constant",
-          "8.314",
-          Double(),
-          "R, J/(mol K) (> 0); ideal gas P^g = rho^g R T / M_h.");
-        prm.declare_entry("Regularization",
-                          "1e-5",
-                          Double(),
-                          "Width eps in S_e, in (0, 0.1], of the intervals "
-                          "[1 - eps, 1] and [0, eps] where the van "
-                          "Genuchten-Mualem laws (infinite slopes at S_e = 1) "
-                          "are replaced by linear pieces.");
-      }
+                          entry.documentation);
       prm.leave_subsection();
     }
 
@@ -286,51 +319,31 @@ namespace StepTwoPhase
               s + "Porosity",
               p.porosity,
               "in (0, 1]");
-      require(p.permeability > 0, s + "Permeability", p.permeability, "> 0");
-      require(p.van_genuchten_pressure > 0,
-              s + "van Genuchten pressure",
-              p.van_genuchten_pressure,
-              "> 0");
+      require_bounds(s,
+                     {{"Permeability", p.permeability},
+                      {"van Genuchten pressure", p.van_genuchten_pressure}});
       require(p.van_genuchten_n > 1,
               s + "van Genuchten n",
               p.van_genuchten_n,
               "> 1 (m = 1 - 1/n must be positive)");
-      require(p.residual_liquid_saturation >= 0,
-              s + "Residual liquid saturation",
-              p.residual_liquid_saturation,
-              ">= 0");
-      require(p.residual_gas_saturation >= 0,
-              s + "Residual gas saturation",
-              p.residual_gas_saturation,
-              ">= 0");
+      require_bounds(
+        s,
+        {{"Residual liquid saturation", p.residual_liquid_saturation, true},
+         {"Residual gas saturation", p.residual_gas_saturation, true}});
       require(p.residual_liquid_saturation + p.residual_gas_saturation < 1,
               s + "Residual liquid saturation + Residual gas saturation",
               p.residual_liquid_saturation + p.residual_gas_saturation,
               "< 1");
-      require(p.liquid_viscosity > 0,
-              s + "Liquid viscosity",
-              p.liquid_viscosity,
-              "> 0");
-      require(p.gas_viscosity > 0, s + "Gas viscosity", p.gas_viscosity, "> 0");
-      require(p.water_density > 0, s + "Water density", p.water_density, "> 0");
-      require(p.water_molar_mass > 0,
-              s + "Water molar mass",
-              p.water_molar_mass,
-              "> 0");
-      require(p.hydrogen_molar_mass > 0,
-              s + "Hydrogen molar mass",
-              p.hydrogen_molar_mass,
-              "> 0");
-      require(p.henry_constant > 0,
-              s + "Henry constant",
-              p.henry_constant,
-              "> 0");
-      require(p.diffusion_coefficient >= 0,
-              s + "Diffusion coefficient",
-              p.diffusion_coefficient,
-              ">= 0");
-      require(p.temperature > 0, s + "Temperature", p.temperature, "> 0");
-      require(p.gas_constant > 0, s + "Gas constant", p.gas_constant, "> 0");
+      require_bounds(s,
+                     {{"Liquid viscosity", p.liquid_viscosity},
+                      {"Gas viscosity", p.gas_viscosity},
+                      {"Water density", p.water_density},
+                      {"Water molar mass", p.water_molar_mass},
+                      {"Hydrogen molar mass", p.hydrogen_molar_mass},
+                      {"Henry constant", p.henry_constant},
+                      {"Diffusion coefficient", p.diffusion_coefficient, true},
+                      {"Temperature", p.temperature},
+                      {"Gas constant", p.gas_constant}});
       require(p.regularization > 0 && p.regularization <= 0.1,
               s + "Regularization",
               p.regularization,
@@ -342,23 +355,8 @@ namespace StepTwoPhase
     parse_physics(ParameterHandler &prm, PhysicalParameters &p)
     {
       prm.enter_subsection("Physics");
-      p.porosity               = prm.get_double("Porosity");
-      p.permeability           = prm.get_double("Permeability");
-      p.van_genuchten_pressure = prm.get_double("van Genuchten pressure");
-      p.van_genuchten_n        = prm.get_double("van Genuchten n");
-      p.residual_liquid_saturation =
-        prm.get_double("Residual liquid saturation");
-      p.residual_gas_saturation = prm.get_double("Residual gas saturation");
-      p.liquid_viscosity        = prm.get_double("Liquid viscosity");
-      p.gas_viscosity           = prm.get_double("Gas viscosity");
-      p.water_density           = prm.get_double("Water density");
-      p.water_molar_mass        = prm.get_double("Water molar mass");
-      p.hydrogen_molar_mass     = prm.get_double("Hydrogen molar mass");
-      p.henry_constant          = prm.get_double("Henry constant");
-      p.diffusion_coefficient   = prm.get_double("Diffusion coefficient");
-      p.temperature             = prm.get_double("Temperature");
-      p.gas_constant            = prm.get_double("Gas constant");
-      p.regularization          = prm.get_double("Regularization");
+      for (const PhysicsEntry &entry : physics_entries)
+        p.*entry.field = prm.get_double(entry.name);
       check_physics(p);
       prm.leave_subsection();
     }
@@ -402,12 +400,10 @@ namespace StepTwoPhase
       b.right_saturation     = prm.get_double("Right saturation");
       b.right_molar_fraction = prm.get_double("Right molar fraction");
       const std::string s    = "Boundary conditions/";
-      require(rate >= 0, s + "Injection rate", rate, ">= 0");
-      require(duration >= 0, s + "Injection duration", duration, ">= 0");
-      require(b.right_pressure > 0,
-              s + "Right pressure",
-              b.right_pressure,
-              "> 0");
+      require_bounds(s,
+                     {{"Injection rate", rate, true},
+                      {"Injection duration", duration, true},
+                      {"Right pressure", b.right_pressure}});
       require(b.right_saturation > physics.residual_liquid_saturation &&
                 b.right_saturation <= 1,
               s + "Right saturation",
@@ -476,8 +472,7 @@ namespace StepTwoPhase
       t.saturation_tolerance   = prm.get_double("Saturation tolerance");
       t.checkpoint_interval    = prm.get_integer("Checkpoint interval");
       t.resume                 = prm.get_bool("Resume");
-      require(T > 0, s + "Final time", T, "> 0");
-      require(dt > 0, s + "Time step", dt, "> 0");
+      require_bounds(s, {{"Final time", T}, {"Time step", dt}});
       require(dt_min > 0 && dt_min <= dt,
               s + "Minimal time step",
               dt_min,

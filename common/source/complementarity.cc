@@ -1,5 +1,6 @@
 #include <vi/complementarity.h>
 #include <vi/errors.h>
+#include <vi/spellings.h>
 
 #include <cmath>
 
@@ -11,13 +12,20 @@ namespace VI
   }
 
 
+  namespace
+  {
+    using Type                        = ComplementarityFunction::Type;
+    const Spellings<Type> c_functions = {{Type::min, "min"},
+                                         {Type::fischer_burmeister,
+                                          "fischer-burmeister"}};
+  } // namespace
+
+
   ComplementarityFunction
   ComplementarityFunction::from_name(const std::string &name)
   {
-    if (name == "min")
-      return ComplementarityFunction(Type::min);
-    if (name == "fischer-burmeister")
-      return ComplementarityFunction(Type::fischer_burmeister);
+    if (const auto type = value_spelt(c_functions, name))
+      return ComplementarityFunction(*type);
     throw InputError("Unknown C-function <" + name +
                      ">; accepted values: " + names());
   }
@@ -26,7 +34,7 @@ namespace VI
   std::string
   ComplementarityFunction::names()
   {
-    return "min|fischer-burmeister";
+    return all_spellings(c_functions);
   }
 
 
@@ -40,7 +48,7 @@ namespace VI
   std::string
   ComplementarityFunction::name() const
   {
-    return type_ == Type::min ? "min" : "fischer-burmeister";
+    return spelling_of(c_functions, type_);
   }
 
 

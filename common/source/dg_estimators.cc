@@ -5,6 +5,7 @@
 
 #include <vi/dg_estimators.h>
 #include <vi/piola_divergence.h>
+#include <vi/same_cell.h>
 
 #include <array>
 #include <cmath>
@@ -133,7 +134,6 @@ namespace VI
     {
       explicit DGCellTerms(const DGContactEstimatorInput<dim> &in)
           : in(in)
-          , tria(in.broken->get_triangulation())
           , mu{in.mu1, in.mu2}
           , theta(in.mu2 / (in.mu1 + in.mu2))
           , n_q(in.quadrature->size())
@@ -200,9 +200,8 @@ namespace VI
       read_values(
         const typename DoFHandler<dim>::active_cell_iterator &broken_cell)
       {
-        const typename DoFHandler<dim>::active_cell_iterator continuous_cell(
-          &tria, broken_cell->level(), broken_cell->index(), in.continuous),
-          flux_cell(&tria, broken_cell->level(), broken_cell->index(), in.flux);
+        const auto continuous_cell = same_cell(broken_cell, *in.continuous),
+                   flux_cell       = same_cell(broken_cell, *in.flux);
         broken_values.reinit(broken_cell);
         continuous_values.reinit(continuous_cell);
         flux_values.reinit(flux_cell);
@@ -225,26 +224,13 @@ namespace VI
         broken_values.get_function_values(*in.lambda_nonnegative,
                                           lambda_nonnegative);
 
-        for (unsigned int a = 0; a < 2; ++a)
-          {
-            std::fill(G[a].begin(), G[a].end(), 0.);
-            std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
-          }
-        if (broken_cell->at_boundary())
-          for (const unsigned int face : broken_cell->face_indices())
-            if (broken_cell->face(face)->at_boundary())
-              {
-                FEValues<dim> &on_face = *face_values[face];
-                on_face.reinit(continuous_cell);
-                for (unsigned int a = 0; a < 2; ++a)
-                  add_face_lifting(continuous_values,
-                                   on_face,
-                                   face,
-                                   *s_vectors[a],
-                                   *g[a],
-                                   G[a],
-                                   grad_G[a]);
-              }
+        lift_boundary_data(continuous_cell,
+                           continuous_values,
+                           face_values,
+                           s_vectors,
+                           g,
+                           G,
+                           grad_G);
       }
 
       // The flux and residual terms of both membranes, and the remainder;
@@ -341,7 +327,6 @@ namespace VI
       }
 
       const DGContactEstimatorInput<dim> &in;
-      const Triangulation<dim>           &tria;
       const double                        mu[2];
       const double                        theta;
       const unsigned int                  n_q;
@@ -445,13 +430,7 @@ namespace VI
     const Triangulation<dim> &tria = in.broken->get_triangulation();
 
     DGContactEstimate estimate;
-    for (auto *cell_values : {&estimate.cell_flux,
-                              &estimate.cell_residual,
-                              &estimate.cell_algebraic,
-                              &estimate.cell_nonconformity,
-                              &estimate.cell_contact,
-                              &estimate.cell_total})
-      cell_values->reinit(tria.n_active_cells());
+    estimate.reinit_cell_indicators(tria.n_active_cells());
     DGCellTerms<dim>           terms(in);
     const double               c_mu = terms.c_mu;
     const double               C    = terms.C;

@@ -8,6 +8,7 @@
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/dg_reconstruction.h>
+#include <vi/same_cell.h>
 
 #include <map>
 
@@ -103,11 +104,7 @@ namespace VI
       {
         if (!cell->is_locally_owned())
           continue;
-        const typename DoFHandler<dim>::active_cell_iterator broken_cell(
-          &dof_handler.get_triangulation(),
-          cell->level(),
-          cell->index(),
-          &broken);
+        const auto broken_cell = same_cell(cell, broken);
 
         // Gram matrix of V(K): tau_i = J^{-T} e_{c_i} phi_i.
         values.reinit(cell);
@@ -195,11 +192,7 @@ namespace VI
                            FEValues<dim>               &cell_values,
                            std::vector<Tensor<1, dim>> &result) const
   {
-    const typename DoFHandler<dim>::active_cell_iterator dof_cell(
-      &dof_handler.get_triangulation(),
-      cell->level(),
-      cell->index(),
-      &dof_handler);
+    const auto dof_cell = same_cell(cell, dof_handler);
     cell_values.reinit(dof_cell);
     std::vector<dealii::Vector<double>> reference(cell_quadrature.size(),
                                                   dealii::Vector<double>(dim));
@@ -253,11 +246,7 @@ namespace VI
       {
         if (cell->is_artificial())
           continue;
-        const typename DoFHandler<dim>::active_cell_iterator broken_cell(
-          &continuous.get_triangulation(),
-          cell->level(),
-          cell->index(),
-          &broken);
+        const auto broken_cell = same_cell(cell, broken);
         cell->get_dof_indices(cont_dofs);
         broken_cell->get_dof_indices(broken_dofs);
         for (unsigned int j = 0; j < cont_dofs.size(); ++j)

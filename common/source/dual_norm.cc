@@ -15,6 +15,7 @@
 #include <vi/errors.h>
 #include <vi/linear_solvers.h>
 #include <vi/piola_divergence.h>
+#include <vi/same_cell.h>
 
 #include <algorithm>
 #include <array>
@@ -289,7 +290,6 @@ namespace VI
     flux_and_constant_norms(
       const Cells                                      &owned_cells,
       const EquilibrationScratch<dim>                  &sample,
-      const DoFHandler<dim>                            &dof_handler,
       const DoFHandler<dim>                            &flux_dofs,
       const std::vector<std::int8_t>                   &signs,
       const std::vector<TrilinosWrappers::MPI::Vector> &rho,
@@ -311,11 +311,7 @@ namespace VI
             ArrayView<const std::int8_t>(signs.data() +
                                            cell->active_cell_index() * n_tau,
                                          n_tau));
-          const typename DoFHandler<dim>::active_cell_iterator flux_cell(
-            &dof_handler.get_triangulation(),
-            cell->level(),
-            cell->index(),
-            &flux_dofs);
+          const auto flux_cell = same_cell(cell, flux_dofs);
           std::fill(share.begin(), share.end(), 0.);
           for (unsigned int f = 0; f < n_fields; ++f)
             {
@@ -425,11 +421,7 @@ namespace VI
                                                             quadrature,
                                                             update_gradients);
       return [&, z_values](const auto &cell, auto &flux, auto &source) {
-        typename DoFHandler<dim>::active_cell_iterator dof_cell(
-          &dof_handler.get_triangulation(),
-          cell->level(),
-          cell->index(),
-          &dof_handler);
+        const auto dof_cell = same_cell(cell, dof_handler);
         z_values->reinit(dof_cell);
         const unsigned int K = cell->active_cell_index();
         for (unsigned int f = 0; f < n_fields; ++f)
@@ -455,7 +447,6 @@ namespace VI
     const std::vector<double> local_sums =
       flux_and_constant_norms(owned_cells,
                               sample,
-                              dof_handler,
                               flux_dofs,
                               reconstruction.get_piola_signs(),
                               rho,

@@ -75,6 +75,48 @@ namespace VI
   }
 
 
+  template <int dim>
+  void
+  lift_boundary_data(
+    const typename DoFHandler<dim>::active_cell_iterator &cell,
+    const FEValues<dim>                                  &cell_values,
+    const std::vector<std::unique_ptr<FEValues<dim>>>    &face_values,
+    const TrilinosWrappers::MPI::Vector *const            v[2],
+    const Function<dim> *const                            g[2],
+    std::vector<double>                                   G[2],
+    std::vector<Tensor<1, dim>>                           grad_G[2])
+  {
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        std::fill(G[a].begin(), G[a].end(), 0.);
+        std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
+      }
+    if (g[0] && g[1] && cell->at_boundary())
+      for (const unsigned int f : cell->face_indices())
+        if (cell->face(f)->at_boundary())
+          {
+            FEValues<dim> &on_face = *face_values[f];
+            on_face.reinit(cell);
+            for (unsigned int a = 0; a < 2; ++a)
+              add_face_lifting(
+                cell_values, on_face, f, *v[a], *g[a], G[a], grad_G[a]);
+          }
+  }
+
+
+  void
+  ContactEstimate::reinit_cell_indicators(const unsigned int n_cells)
+  {
+    for (dealii::Vector<double> *indicator : {&cell_flux,
+                                              &cell_residual,
+                                              &cell_algebraic,
+                                              &cell_nonconformity,
+                                              &cell_contact,
+                                              &cell_total})
+      indicator->reinit(n_cells);
+  }
+
+
   MultiplierSplit
   split_multiplier(const std::vector<double> &lambda,
                    const std::vector<double> &JxW)
@@ -156,4 +198,12 @@ namespace VI
                       const Function<2> &,
                       std::vector<double> &,
                       std::vector<Tensor<1, 2>> &);
+  template void
+  lift_boundary_data<2>(const DoFHandler<2>::active_cell_iterator &,
+                        const FEValues<2> &,
+                        const std::vector<std::unique_ptr<FEValues<2>>> &,
+                        const TrilinosWrappers::MPI::Vector *const[2],
+                        const Function<2> *const[2],
+                        std::vector<double>[2],
+                        std::vector<Tensor<1, 2>>[2]);
 } // namespace VI

@@ -10,6 +10,7 @@
 #include <vi/dual_norm.h>
 #include <vi/estimators.h>
 #include <vi/piola_divergence.h>
+#include <vi/same_cell.h>
 
 #include <array>
 #include <cmath>
@@ -366,8 +367,7 @@ namespace VI
                             &lambda_nonnegative = scratch.lambda_nonnegative,
                             &lambda_ahead       = scratch.lambda_ahead;
 
-        typename DoFHandler<dim>::active_cell_iterator flux_cell(
-          &tria, potential_cell->level(), potential_cell->index(), in.flux);
+        const auto flux_cell = same_cell(potential_cell, *in.flux);
         potential_values.reinit(potential_cell);
         if (with_fluxes)
           divergence.reinit(potential_values,
@@ -482,27 +482,13 @@ namespace VI
         auto          &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
              &grad_G = scratch.grad_G;
         auto &u = scratch.u, &s = scratch.s, &G = scratch.G;
-        auto &face_values = scratch.face_values;
-        for (unsigned int a = 0; a < 2; ++a)
-          {
-            std::fill(G[a].begin(), G[a].end(), 0.);
-            std::fill(grad_G[a].begin(), grad_G[a].end(), Tensor<1, dim>());
-          }
-        if (lifting && potential_cell->at_boundary())
-          for (const unsigned int f : potential_cell->face_indices())
-            if (potential_cell->face(f)->at_boundary())
-              {
-                FEValues<dim> &on_face = *face_values[f];
-                on_face.reinit(potential_cell);
-                for (unsigned int a = 0; a < 2; ++a)
-                  add_face_lifting(potential_values,
-                                   on_face,
-                                   f,
-                                   *u_vectors[a],
-                                   *g_functions[a],
-                                   G[a],
-                                   grad_G[a]);
-              }
+        lift_boundary_data(potential_cell,
+                           potential_values,
+                           scratch.face_values,
+                           u_vectors,
+                           g_functions,
+                           G,
+                           grad_G);
         // From here on u_h stands for u_h + G, and s for s + G (s - u_h is
         // unchanged).
         for (unsigned int a = 0; a < 2; ++a)
@@ -829,13 +815,8 @@ namespace VI
   estimate_contact_error(const ContactEstimatorInput<dim> &in)
   {
     ContactEstimate estimate;
-    for (auto *cell_values : {&estimate.cell_flux,
-                              &estimate.cell_residual,
-                              &estimate.cell_algebraic,
-                              &estimate.cell_nonconformity,
-                              &estimate.cell_contact,
-                              &estimate.cell_total})
-      cell_values->reinit(in.potential->get_triangulation().n_active_cells());
+    estimate.reinit_cell_indicators(
+      in.potential->get_triangulation().n_active_cells());
     ContactCellTerms<dim> terms(in, estimate);
 
     std::array<double, n_sums> sums{};

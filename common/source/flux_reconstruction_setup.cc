@@ -12,6 +12,7 @@
 
 #include <vi/flux_reconstruction.h>
 #include <vi/piola_divergence.h>
+#include <vi/same_cell.h>
 
 #include "flux_reconstruction_internal.h"
 
@@ -275,8 +276,7 @@ namespace VI
               data.cell               = cell;
               for (unsigned int d = 0; d < dim; ++d)
                 data.center[d] = cell->center()[d];
-              typename DoFHandler<dim>::active_cell_iterator dof_cell(
-                &tria, cell->level(), cell->index(), &r.dof_handler);
+              const auto dof_cell = same_cell(cell, r.dof_handler);
               dof_cell->get_dof_indices(rt_dofs);
               std::int8_t *const cell_signs =
                 &r.piola_signs[cell->active_cell_index() * n_tau];

@@ -1,5 +1,6 @@
 #include <vi/errors.h>
 #include <vi/interior_penalty.h>
+#include <vi/spellings.h>
 
 #include <algorithm>
 #include <sstream>
@@ -26,17 +27,22 @@ namespace VI
   }
 
 
+  namespace
+  {
+    const Spellings<InteriorPenalty::Type> interior_penalty_methods = {
+      {InteriorPenalty::Type::sipg, "sipg"},
+      {InteriorPenalty::Type::nipg, "nipg"},
+      {InteriorPenalty::Type::iipg, "iipg"}};
+  } // namespace
+
+
   InteriorPenalty
   InteriorPenalty::from_name(const std::string &name,
                              const double       penalty_constant,
                              const unsigned int degree)
   {
-    if (name == "sipg")
-      return InteriorPenalty(Type::sipg, penalty_constant, degree);
-    if (name == "nipg")
-      return InteriorPenalty(Type::nipg, penalty_constant, degree);
-    if (name == "iipg")
-      return InteriorPenalty(Type::iipg, penalty_constant, degree);
+    if (const auto type = value_spelt(interior_penalty_methods, name))
+      return InteriorPenalty(*type, penalty_constant, degree);
     throw InputError("Discretization/Method = " + name +
                      " is not an interior penalty method (" + names() + ")");
   }
@@ -45,7 +51,7 @@ namespace VI
   std::string
   InteriorPenalty::names()
   {
-    return "sipg|nipg|iipg";
+    return all_spellings(interior_penalty_methods);
   }
 
 
@@ -59,15 +65,7 @@ namespace VI
   std::string
   InteriorPenalty::name() const
   {
-    switch (type_)
-      {
-        case Type::sipg:
-          return "sipg";
-        case Type::nipg:
-          return "nipg";
-        default:
-          return "iipg";
-      }
+    return spelling_of(interior_penalty_methods, type_);
   }
 
 

@@ -1,5 +1,6 @@
 #include <vi/errors.h>
 #include <vi/parameters.h>
+#include <vi/spellings.h>
 
 #include <algorithm>
 #include <sstream>
@@ -7,84 +8,36 @@
 namespace VI
 {
   using dealii::ParameterHandler;
-  using dealii::Patterns::Anything;
-  using dealii::Patterns::Bool;
-  using dealii::Patterns::Double;
-  using dealii::Patterns::Integer;
-  using dealii::Patterns::MultipleSelection;
-  using dealii::Patterns::Selection;
+  // The patterns of the declarations: Double(), Selection("a|b"), ...
+  using namespace dealii::Patterns;
 
   namespace
   {
     // The .prm spelling of each choice.
-    template <typename Enum>
-    const std::vector<std::pair<Enum, std::string>> &
-    spellings();
-
-    template <>
-    const std::vector<std::pair<Method, std::string>> &
-    spellings<Method>()
-    {
-      static const std::vector<std::pair<Method, std::string>> table = {
-        {Method::fem, "fem"},
-        {Method::sipg, "sipg"},
-        {Method::nipg, "nipg"},
-        {Method::iipg, "iipg"},
-        {Method::hho, "hho"}};
-      return table;
-    }
-
-    template <>
-    const std::vector<std::pair<Strategy, std::string>> &
-    spellings<Strategy>()
-    {
-      static const std::vector<std::pair<Strategy, std::string>> table = {
-        {Strategy::exact, "exact"},
-        {Strategy::inexact, "inexact"},
-        {Strategy::adaptive, "adaptive"}};
-      return table;
-    }
-
-    template <>
-    const std::vector<std::pair<LinearSolverType, std::string>> &
-    spellings<LinearSolverType>()
-    {
-      static const std::vector<std::pair<LinearSolverType, std::string>> table =
-        {{LinearSolverType::direct, "direct"},
-         {LinearSolverType::gmres, "gmres"},
-         {LinearSolverType::cg, "cg"}};
-      return table;
-    }
-
-    template <>
-    const std::vector<std::pair<PreconditionerType, std::string>> &
-    spellings<PreconditionerType>()
-    {
-      static const std::vector<std::pair<PreconditionerType, std::string>>
-        table = {{PreconditionerType::ilu, "ilu"},
-                 {PreconditionerType::amg, "amg"}};
-      return table;
-    }
+    const Spellings<Method>   method_spellings   = {{Method::fem, "fem"},
+                                                    {Method::sipg, "sipg"},
+                                                    {Method::nipg, "nipg"},
+                                                    {Method::iipg, "iipg"},
+                                                    {Method::hho, "hho"}};
+    const Spellings<Strategy> strategy_spellings = {
+      {Strategy::exact, "exact"},
+      {Strategy::inexact, "inexact"},
+      {Strategy::adaptive, "adaptive"}};
+    const Spellings<LinearSolverType> linear_solver_spellings = {
+      {LinearSolverType::direct, "direct"},
+      {LinearSolverType::gmres, "gmres"},
+      {LinearSolverType::cg, "cg"}};
+    const Spellings<PreconditionerType> preconditioner_spellings =
+      {{PreconditionerType::ilu, "ilu"}, {PreconditionerType::amg, "amg"}};
 
     // A value that has passed its Selection pattern.
     template <typename Enum>
     Enum
-    parse_choice(const std::string &name)
+    parse_choice(const Spellings<Enum> &table, const std::string &name)
     {
-      for (const auto &[value, spelling] : spellings<Enum>())
-        if (spelling == name)
-          return value;
+      if (const auto value = value_spelt(table, name))
+        return *value;
       throw InputError("unknown choice '" + name + "'");
-    }
-
-    template <typename Enum>
-    std::string
-    spelling_of(const Enum value)
-    {
-      for (const auto &[v, spelling] : spellings<Enum>())
-        if (v == value)
-          return spelling;
-      return "?";
     }
   } // namespace
 
@@ -92,28 +45,28 @@ namespace VI
   std::string
   to_string(const Method method)
   {
-    return spelling_of(method);
+    return spelling_of(method_spellings, method);
   }
 
 
   std::string
   to_string(const Strategy strategy)
   {
-    return spelling_of(strategy);
+    return spelling_of(strategy_spellings, strategy);
   }
 
 
   std::string
   to_string(const LinearSolverType solver)
   {
-    return spelling_of(solver);
+    return spelling_of(linear_solver_spellings, solver);
   }
 
 
   std::string
   to_string(const PreconditionerType preconditioner)
   {
-    return spelling_of(preconditioner);
+    return spelling_of(preconditioner_spellings, preconditioner);
   }
 
 
@@ -129,6 +82,52 @@ namespace VI
           throw InputError(message.str());
         }
     }
+  } // namespace
+
+
+  namespace
+  {
+    // The entries of Problem/Expression: the data and, where known, the
+    // exact solution. The documentation of the data's formulas goes on
+    // with the variables they may use.
+    struct ExpressionEntry
+    {
+      const char *name;
+      std::string ExpressionParameters::*field;
+      const char                        *default_value;
+      const char                        *documentation;
+      bool                               is_formula;
+    };
+
+    const ExpressionEntry expression_entries[] = {
+      {"f1", &ExpressionParameters::f1, "0", "Force on membrane 1.", true},
+      {"f2", &ExpressionParameters::f2, "0", "Force on membrane 2.", true},
+      {"g1", &ExpressionParameters::g1, "0", "Dirichlet data of u1.", true},
+      {"g2",
+       &ExpressionParameters::g2,
+       "0",
+       "Dirichlet data of u2 (g1 >= g2).",
+       true},
+      {"u1",
+       &ExpressionParameters::u1,
+       "",
+       "Exact u1, or empty if unknown.",
+       false},
+      {"u2",
+       &ExpressionParameters::u2,
+       "",
+       "Exact u2, or empty if unknown.",
+       false},
+      {"lambda",
+       &ExpressionParameters::lambda,
+       "",
+       "Exact multiplier, or empty if unknown.",
+       false},
+      {"Constants",
+       &ExpressionParameters::constants,
+       "",
+       "Named constants for the expressions, e.g. 'R=0.3333, N=6'.",
+       false}};
   } // namespace
 
 
@@ -160,39 +159,12 @@ namespace VI
           " Variables " + variable_names +
           "; pi and the constants of 'Constants'; muparser "
           "syntax (with atan2 and 'c ? a : b').";
-        prm.declare_entry("f1",
-                          "0",
-                          Anything(),
-                          "Force on membrane 1." + variables);
-        prm.declare_entry("f2",
-                          "0",
-                          Anything(),
-                          "Force on membrane 2." + variables);
-        prm.declare_entry("g1",
-                          "0",
-                          Anything(),
-                          "Dirichlet data of u1." + variables);
-        prm.declare_entry("g2",
-                          "0",
-                          Anything(),
-                          "Dirichlet data of u2 (g1 >= g2)." + variables);
-        prm.declare_entry("u1",
-                          "",
-                          Anything(),
-                          "Exact u1, or empty if unknown.");
-        prm.declare_entry("u2",
-                          "",
-                          Anything(),
-                          "Exact u2, or empty if unknown.");
-        prm.declare_entry("lambda",
-                          "",
-                          Anything(),
-                          "Exact multiplier, or empty if unknown.");
-        prm.declare_entry("Constants",
-                          "",
-                          Anything(),
-                          "Named constants for the expressions, e.g. "
-                          "'R=0.3333, N=6'.");
+        for (const ExpressionEntry &entry : expression_entries)
+          prm.declare_entry(entry.name,
+                            entry.default_value,
+                            Anything(),
+                            std::string(entry.documentation) +
+                              (entry.is_formula ? variables : ""));
       }
       prm.leave_subsection();
     }
@@ -212,14 +184,8 @@ namespace VI
       require_positive(mu2, "Problem/mu2");
       prm.enter_subsection("Expression");
       {
-        expression.f1        = prm.get("f1");
-        expression.f2        = prm.get("f2");
-        expression.g1        = prm.get("g1");
-        expression.g2        = prm.get("g2");
-        expression.u1        = prm.get("u1");
-        expression.u2        = prm.get("u2");
-        expression.lambda    = prm.get("lambda");
-        expression.constants = prm.get("Constants");
+        for (const ExpressionEntry &entry : expression_entries)
+          expression.*entry.field = prm.get(entry.name);
       }
       prm.leave_subsection();
     }
@@ -346,7 +312,7 @@ namespace VI
   {
     prm.enter_subsection("Discretization");
     {
-      method = parse_choice<Method>(prm.get("Method"));
+      method = parse_choice(method_spellings, prm.get("Method"));
       degree = prm.get_integer("Polynomial degree");
     }
     prm.leave_subsection();
@@ -442,7 +408,7 @@ namespace VI
     {
       c_function =
         ComplementarityFunction::from_name(prm.get("C-function")).type();
-      strategy         = parse_choice<Strategy>(prm.get("Strategy"));
+      strategy         = parse_choice(strategy_spellings, prm.get("Strategy"));
       gamma_lin        = prm.get_double("gamma_lin");
       gamma_alg        = prm.get_double("gamma_alg");
       forcing_term     = prm.get_double("Forcing term");
@@ -544,10 +510,10 @@ namespace VI
   {
     prm.enter_subsection("Linear solver");
     {
-      solver         = parse_choice<LinearSolverType>(prm.get("Solver"));
+      solver         = parse_choice(linear_solver_spellings, prm.get("Solver"));
       direct_package = prm.get("Direct solver package");
       preconditioner =
-        parse_choice<PreconditionerType>(prm.get("Preconditioner"));
+        parse_choice(preconditioner_spellings, prm.get("Preconditioner"));
       tolerance        = prm.get_double("Tolerance");
       max_iterations   = prm.get_integer("Maximum iterations");
       krylov_dimension = prm.get_integer("Krylov dimension");

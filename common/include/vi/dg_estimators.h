@@ -38,8 +38,11 @@ namespace VI
   };
 
 
+  /// Of the shared data, u1, u2, lambda and lambda_nonnegative are on
+  /// `broken`; s1, s2 on `continuous`: the Oswald interpolate with the
+  /// nodal values of g on the boundary, averaged at the nodes where s1 < s2.
   template <int dim>
-  struct DGContactEstimatorInput
+  struct DGContactEstimatorInput : ContactEstimatorData<dim>
   {
     const dealii::Mapping<dim>    *mapping    = nullptr;
     const dealii::DoFHandler<dim> *broken     = nullptr; ///< FE_DGQ
@@ -51,24 +54,14 @@ namespace VI
     const dealii::Quadrature<dim - 1> *face_quadrature = nullptr;
     const InteriorPenalty             *penalty         = nullptr;
 
-    double                       mu1 = 1, mu2 = 1;
-    const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
-    const dealii::Function<dim> *g1 = nullptr, *g2 = nullptr;
-    double                       friedrichs_constant = 0;
     /// lambda is a nodal (lumped) representative of the discrete multiplier,
     /// for which (lambda, u1h - u2h) does not vanish exactly at a solution:
     /// the whole contact term is then a discretisation term.
     bool mass_lumped = false;
 
-    using Vector = dealii::TrilinosWrappers::MPI::Vector;
-    /// On `broken`: the iterate, the multiplier lambda_h (and its part from
-    /// the nonnegative coefficients), the algebraic residuals r_h.
-    const Vector *u1 = nullptr, *u2 = nullptr;
-    const Vector *lambda = nullptr, *lambda_nonnegative = nullptr;
+    using Vector = typename ContactEstimatorData<dim>::Vector;
+    /// On `broken`: the algebraic residuals r_h.
     const Vector *r1 = nullptr, *r2 = nullptr;
-    /// On `continuous`: s_h, the Oswald interpolate with the nodal values
-    /// of g on the boundary, averaged at the nodes where s1 < s2.
-    const Vector *s1 = nullptr, *s2 = nullptr;
     /// On `flux`: the equilibrated fluxes.
     const Vector *sigma1 = nullptr, *sigma2 = nullptr;
   };

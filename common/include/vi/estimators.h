@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -72,6 +73,10 @@ namespace VI
     ///           + C^2 |lambda^neg|_K^2 + eta_C~,K + |||G|||_K^2: the local
     ///           indicator.
     dealii::Vector<double> cell_total;
+
+    /// Zero cellwise indicators for a mesh of n_cells active cells.
+    void
+    reinit_cell_indicators(const unsigned int n_cells);
   };
 
 
@@ -87,6 +92,29 @@ namespace VI
 
 
   /**
+   * The data and the iterate that both contact estimators take (this one
+   * and the dG one of dg_estimators.h): the tensions mu_alpha, the loads
+   * f_alpha, the Dirichlet data g_alpha (with gradients), Friedrichs'
+   * constant of the domain, u_alpha,h, s_alpha,h, lambda_h and its part
+   * from the nonnegative multiplier coefficients.
+   */
+  template <int dim>
+  struct ContactEstimatorData
+  {
+    double                       mu1 = 1, mu2 = 1;
+    const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
+    const dealii::Function<dim> *g1 = nullptr, *g2 = nullptr;
+    double                       friedrichs_constant = 0;
+
+    using Vector     = dealii::TrilinosWrappers::MPI::Vector;
+    const Vector *u1 = nullptr, *u2 = nullptr;
+    const Vector *s1 = nullptr, *s2 = nullptr;
+    const Vector *lambda             = nullptr;
+    const Vector *lambda_nonnegative = nullptr;
+  };
+
+
+  /**
    * What the estimate of an iterate (u1h, u2h, lambda_h) needs. The iterate's
    * own discretisation fluxes sigma_disc (equilibrated with its residual)
    * and those of a look-ahead iterate (the same iterate after nu further
@@ -96,9 +124,13 @@ namespace VI
    * and the change of the multiplier) is the remainder, bounded with the
    * Friedrichs constant. Vectors are finite element functions with ghost
    * entries: potential-space ones on `potential`, flux ones on `flux`.
+   * Of the shared data, s_h is the iterate averaged at the nodes where u1h
+   * < u2h, and g1, g2 may be null (the data are exactly represented);
+   * otherwise u_h carries their interpolant on the boundary, and the
+   * estimate accounts for the difference with a lifting.
    */
   template <int dim>
-  struct ContactEstimatorInput
+  struct ContactEstimatorInput : ContactEstimatorData<dim>
   {
     const dealii::Mapping<dim>    *mapping    = nullptr;
     const dealii::DoFHandler<dim> *potential  = nullptr;
@@ -111,27 +143,14 @@ namespace VI
     /// potential's FEValues, without a Raviart-Thomas FEValues per cell.
     const std::vector<std::int8_t> *flux_signs = nullptr;
 
-    double                       mu1 = 1, mu2 = 1;
-    const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
     /// Optional: f1 and f2 at the points of `quadrature` on the locally
     /// owned cells, [active cell index * n_q + q] (tabulated once per mesh,
     /// they spare every estimate the evaluation of the load functions).
     const std::vector<double> *f1_values = nullptr, *f2_values = nullptr;
-    /// The Dirichlet data (with gradients): the discrete u_h carries their
-    /// interpolant on the boundary, and the estimate accounts for the
-    /// difference with a lifting (null: the data are exactly represented).
-    const dealii::Function<dim> *g1 = nullptr, *g2 = nullptr;
-    double                       friedrichs_constant = 0;
     /// p = 1: the whole contact term is a discretisation term (mass lumping).
     bool mass_lumped = true;
 
-    using Vector     = dealii::TrilinosWrappers::MPI::Vector;
-    const Vector *u1 = nullptr, *u2 = nullptr;
-    /// s_h: the iterate averaged at the nodes where u1h < u2h.
-    const Vector *s1 = nullptr, *s2 = nullptr;
-    const Vector *lambda = nullptr;
-    /// lambda_h built from the nonnegative multiplier coefficients only.
-    const Vector *lambda_nonnegative = nullptr;
+    using Vector              = typename ContactEstimatorData<dim>::Vector;
     const Vector *sigma1_disc = nullptr, *sigma2_disc = nullptr;
 
     /// Optional: the multipliers (lambda_h, its part from the nonnegative
@@ -248,6 +267,24 @@ namespace VI
                    const dealii::Function<dim>                 &g,
                    std::vector<double>                         &G,
                    std::vector<dealii::Tensor<1, dim>>         &grad_G);
+
+  /**
+   * The lifting G (with its gradient) of both membranes on `cell`: zero,
+   * plus add_face_lifting() of g_a - v_a from each boundary face, or zero
+   * everywhere if g is null (the data are exactly represented).
+   * `face_values[f]` are the FEValues of face f as for add_face_lifting(),
+   * reinitialised here on `cell`.
+   */
+  template <int dim>
+  void
+  lift_boundary_data(
+    const typename dealii::DoFHandler<dim>::active_cell_iterator &cell,
+    const dealii::FEValues<dim>                                  &cell_values,
+    const std::vector<std::unique_ptr<dealii::FEValues<dim>>>    &face_values,
+    const dealii::TrilinosWrappers::MPI::Vector *const            v[2],
+    const dealii::Function<dim> *const                            g[2],
+    std::vector<double>                                           G[2],
+    std::vector<dealii::Tensor<1, dim>>                           grad_G[2]);
 
 
   /// Evaluate the estimate (collective over the processes of the mesh).
