@@ -13,11 +13,11 @@
 
 namespace
 {
-  using Vector = dealii::TrilinosWrappers::MPI::Vector;
+  using MPIVector = dealii::TrilinosWrappers::MPI::Vector;
 
   struct Iterate
   {
-    Vector       X;
+    MPIVector    X;
     unsigned int linear_iteration = 0;
   };
 
@@ -40,14 +40,14 @@ namespace
       point.reinit(dealii::complete_index_set(1), MPI_COMM_WORLD);
       point = 1.;
 
-      hooks.describe = [](const Vector &X, Iterate &it) { it.X = X; };
+      hooks.describe = [](const MPIVector &X, Iterate &it) { it.X = X; };
       hooks.estimate = [this](const Iterate &it, const Iterate &ahead) {
         ++n_estimates;
         Estimate e;
         e.eta_alg = &it == &ahead ? 1. : 0.01;
         return e;
       };
-      hooks.estimate_iterate = [this](const Vector &) {
+      hooks.estimate_iterate = [this](const MPIVector &) {
         ++n_iterate_estimates;
         return Estimate();
       };
@@ -57,10 +57,10 @@ namespace
       };
     }
 
-    Vector
+    MPIVector
     update(const double value) const
     {
-      Vector u(point);
+      MPIVector u(point);
       u = value;
       return u;
     }
@@ -81,7 +81,7 @@ namespace
 
     VI::NonlinearSolverParameters                  parameters;
     VI::AdaptiveStopping<Iterate, Estimate>::Hooks hooks;
-    Vector                                         point;
+    MPIVector                                      point;
     unsigned int n_estimates = 0, n_iterate_estimates = 0;
   };
 } // namespace
@@ -96,7 +96,7 @@ TEST_F(AdaptiveStoppingTest, AcceptsThePreviousIterateWithItsLookAhead)
   EXPECT_EQ(first_step_gmres(stopping), std::make_pair(false, true));
   EXPECT_EQ(n_estimates, 3u);
 
-  Vector dX = update(0.);
+  MPIVector dX = update(0.);
   EXPECT_TRUE(stopping.accepted_update_of_step()(dX));
   EXPECT_DOUBLE_EQ(dX[0], 0.5);
 
@@ -130,7 +130,7 @@ TEST_F(AdaptiveStoppingTest, OtherStrategiesOnlyRecord)
   parameters.strategy = VI::Strategy::inexact;
   VI::AdaptiveStopping<Iterate, Estimate> stopping(parameters, hooks);
   EXPECT_EQ(first_step_gmres(stopping), std::make_pair(false, false));
-  Vector dX = update(0.75);
+  MPIVector dX = update(0.75);
   EXPECT_FALSE(stopping.accepted_update_of_step()(dX));
   EXPECT_DOUBLE_EQ(dX[0], 0.75);
 
