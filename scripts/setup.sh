@@ -36,17 +36,27 @@ fi
 echo "== Configuring and building (Release) in build/ (log in build.log)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release > build.log 2>&1 ||
   { cat build.log; exit 1; }
-# A line per compiled file and linked program, so that a build of several
-# minutes shows where it is ("   [ 12%] cell_multiplier.cc"); everything
-# goes to build.log as well.
+# A line per compiled batch or file and linked program, so that a build of
+# several minutes shows where it is ("   [ 12%] vi_common, batch 3 of its
+# unity build", "   [ 15%] estimators.cc"); everything goes to build.log
+# as well.
 show_progress() {
-  local line name
+  local line object name target
   while IFS= read -r line; do
     case "$line" in
       *"Building CXX object"* | *"Linking CXX"*)
-        name=${line##* }
-        name=${name##*/}
-        echo "   ${line%%]*}] ${name%.o}"
+        object=${line##* }
+        name=${object##*/}
+        case "$name" in
+          unity_*_cxx.cxx.o)
+            target=${object%%.dir/*}
+            target=${target##*/}
+            name=${name#unity_}
+            name="$target, batch ${name%%_*} of its unity build"
+            ;;
+          *) name=${name%.o} ;;
+        esac
+        echo "   ${line%%]*}] $name"
         ;;
     esac
   done
