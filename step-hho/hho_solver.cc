@@ -22,6 +22,41 @@ namespace StepHHO
 {
   using VI::NodalFields::n_fields;
 
+  namespace
+  {
+    // What the cell workers of the residual, the condensed right-hand side
+    // and the recovery fill: one vector on a cell's unknowns.
+    using CellVectorCopy = MeshWorker::CopyData<0, 1, 1>;
+
+    // Runs `cell_worker` on the locally owned cells and puts each cell's
+    // vector into `target` at the cell's unknowns: added (a residual, a
+    // condensed right-hand side) or inserted (unknowns recovered cell by
+    // cell, each owned by one cell).
+    template <int dim, typename CellWorker, typename Scratch>
+    void
+    gather_cell_vectors(const DoFHandler<dim>         &cells,
+                        const CellWorker              &cell_worker,
+                        const Scratch                 &scratch,
+                        const VectorOperation::values  operation,
+                        TrilinosWrappers::MPI::Vector &target)
+    {
+      const auto copier = [&](const CellVectorCopy &copy) {
+        if (operation == VectorOperation::add)
+          target.add(copy.local_dof_indices[0], copy.vectors[0]);
+        else
+          target.set(copy.local_dof_indices[0], copy.vectors[0]);
+      };
+      MeshWorker::mesh_loop(cells.active_cell_iterators() |
+                              IteratorFilters::LocallyOwnedCell(),
+                            cell_worker,
+                            copier,
+                            scratch,
+                            CellVectorCopy(0),
+                            MeshWorker::assemble_own_cells);
+      target.compress(operation);
+    }
+  } // namespace
+
   void
   JacobianSolver::initialize(const TrilinosWrappers::SparseMatrix &A)
   {
@@ -108,7 +143,7 @@ namespace StepHHO
     const unsigned int n_f   = face_fe.n_dofs_per_cell();
     const double       mu[2] = {data.mu1, data.mu2};
 
-    using CopyData = MeshWorker::CopyData<0, 1, 1>;
+    using CopyData = CellVectorCopy;
     const auto cell_worker =
       [&](const CellIterator &cell, CellVectors &scratch, CopyData &copy) {
         const StaticCondensation::CellOperators &operators =
@@ -155,17 +190,8 @@ namespace StepHHO
                   mu[alpha] * Av(n_c + k);
           }
       };
-    const auto copier = [&](const CopyData &copy) {
-      R.add(copy.local_dof_indices[0], copy.vectors[0]);
-    };
-    MeshWorker::mesh_loop(cell_dof_handler.active_cell_iterators() |
-                            IteratorFilters::LocallyOwnedCell(),
-                          cell_worker,
-                          copier,
-                          CellVectors(),
-                          CopyData(0),
-                          MeshWorker::assemble_own_cells);
-    R.compress(VectorOperation::add);
+    gather_cell_vectors(
+      cell_dof_handler, cell_worker, CellVectors(), VectorOperation::add, R);
   }
 
 
@@ -294,7 +320,7 @@ namespace StepHHO
               rhs.end(),
               condensed.begin() + n_fields * owned_nodes.n_elements());
 
-    using CopyData = MeshWorker::CopyData<0, 1, 1>;
+    using CopyData = CellVectorCopy;
     const auto cell_worker =
       [&](const CellIterator &cell, CellVectors &scratch, CopyData &copy) {
         const auto      unknowns = local_unknowns(cell);
@@ -310,17 +336,11 @@ namespace StepHHO
           if (system_constraints.is_constrained(copy.local_dof_indices[0][k]))
             copy.vectors[0](k) = 0;
       };
-    const auto copier = [&](const CopyData &copy) {
-      condensed.add(copy.local_dof_indices[0], copy.vectors[0]);
-    };
-    MeshWorker::mesh_loop(cell_dof_handler.active_cell_iterators() |
-                            IteratorFilters::LocallyOwnedCell(),
-                          cell_worker,
-                          copier,
-                          CellVectors(),
-                          CopyData(0),
-                          MeshWorker::assemble_own_cells);
-    condensed.compress(VectorOperation::add);
+    gather_cell_vectors(cell_dof_handler,
+                        cell_worker,
+                        CellVectors(),
+                        VectorOperation::add,
+                        condensed);
 
     const double  m = data.mu1 + data.mu2;
     const double *faces =
@@ -376,7 +396,7 @@ namespace StepHHO
     const double       m   = data.mu1 + data.mu2;
     const double       w1 = data.mu2 / m, w2 = -data.mu1 / m;
 
-    using CopyData = MeshWorker::CopyData<0, 1, 1>;
+    using CopyData = CellVectorCopy;
     const auto cell_worker =
       [&](const CellIterator &cell, CellVectors &scratch, CopyData &copy) {
         const auto unknowns = local_unknowns(cell);
@@ -399,17 +419,11 @@ namespace StepHHO
         eliminations[cell->active_cell_index()].recover(
           local_matrices_of(cell).operators, r_L, dy, copy.vectors[0]);
       };
-    const auto copier = [&](const CopyData &copy) {
-      dX.set(copy.local_dof_indices[0], copy.vectors[0]);
-    };
-    MeshWorker::mesh_loop(cell_dof_handler.active_cell_iterators() |
-                            IteratorFilters::LocallyOwnedCell(),
-                          cell_worker,
-                          copier,
-                          CellVectors(),
-                          CopyData(0),
-                          MeshWorker::assemble_own_cells);
-    dX.compress(VectorOperation::insert);
+    gather_cell_vectors(cell_dof_handler,
+                        cell_worker,
+                        CellVectors(),
+                        VectorOperation::insert,
+                        dX);
 
     double *faces = dX.begin() + n_fields * owned_nodes.n_elements();
     for (std::size_t k = 0; k < owned_faces.n_elements(); ++k)
