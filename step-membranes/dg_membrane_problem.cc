@@ -195,18 +195,7 @@ namespace StepMembranes
 
     DynamicSparsityPattern scalar_pattern(relevant_nodes);
     DoFTools::make_flux_sparsity_pattern(dof_handler, scalar_pattern);
-    SparsityTools::distribute_sparsity_pattern(scalar_pattern,
-                                               owned_nodes,
-                                               comm,
-                                               relevant_nodes);
-    DynamicSparsityPattern system_pattern(relevant_system);
-    VI::NodalFields::make_system_sparsity(scalar_pattern,
-                                          owned_nodes,
-                                          system_pattern);
-    contact_system.matrix.reinit(owned_system,
-                                 owned_system,
-                                 system_pattern,
-                                 comm);
+    contact_system.reinit_matrix(scalar_pattern, relevant_nodes);
     solution.reinit(owned_system, comm);
     for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
       field->reinit(owned_nodes, relevant_nodes, comm);

@@ -1,6 +1,8 @@
 #include <deal.II/base/conditional_ostream.h>
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/timer.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/sparsity_tools.h>
 #include <deal.II/lac/trilinos_precondition.h>
 
 #include <vi/complementarity.h>
@@ -56,6 +58,24 @@ namespace VI
     for (const types::global_dof_index i : condensed_nodes)
       if (owned_nodes.is_element(i))
         condensed_positions.push_back(owned_nodes.index_within_set(i));
+  }
+
+
+  void
+  ContactSystem::reinit_matrix(DynamicSparsityPattern &node_pattern,
+                               const IndexSet         &relevant_nodes)
+  {
+    SparsityTools::distribute_sparsity_pattern(node_pattern,
+                                               owned_nodes,
+                                               comm,
+                                               relevant_nodes);
+    const IndexSet owned_system = NodalFields::system_index_set(owned_nodes);
+    DynamicSparsityPattern system_pattern(
+      NodalFields::system_index_set(relevant_nodes));
+    NodalFields::make_system_sparsity(node_pattern,
+                                      owned_nodes,
+                                      system_pattern);
+    matrix.reinit(owned_system, owned_system, system_pattern, comm);
   }
 
 

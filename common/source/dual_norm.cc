@@ -14,6 +14,7 @@
 #include <vi/dual_norm.h>
 #include <vi/errors.h>
 #include <vi/linear_solvers.h>
+#include <vi/nodal_fields.h>
 #include <vi/piola_divergence.h>
 #include <vi/same_cell.h>
 
@@ -101,11 +102,7 @@ namespace VI
 
     amg.initialize(laplacian, elliptic_amg_settings(false));
 
-    vertex_dofs.assign(triangulation.n_vertices(), numbers::invalid_dof_index);
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      if (!cell->is_artificial())
-        for (const unsigned int v : cell->vertex_indices())
-          vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+    vertex_dofs = NodalFields::vertex_nodes(dof_handler);
   }
 
 

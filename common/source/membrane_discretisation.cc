@@ -111,18 +111,7 @@ namespace VI
                                     scalar_pattern,
                                     u1_constraints,
                                     /*keep_constrained_dofs=*/false);
-    SparsityTools::distribute_sparsity_pattern(scalar_pattern,
-                                               owned_nodes,
-                                               comm,
-                                               relevant_nodes);
-    DynamicSparsityPattern system_pattern(relevant_system);
-    NodalFields::make_system_sparsity(scalar_pattern,
-                                      owned_nodes,
-                                      system_pattern);
-    contact_system.matrix.reinit(owned_system,
-                                 owned_system,
-                                 system_pattern,
-                                 comm);
+    contact_system.reinit_matrix(scalar_pattern, relevant_nodes);
     stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
 
     if (fe.degree > 1)
@@ -145,11 +134,7 @@ namespace VI
   void
   MembraneDiscretisation<dim>::make_vertex_dofs()
   {
-    vertex_dofs.assign(triangulation.n_vertices(), numbers::invalid_dof_index);
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      if (!cell->is_artificial())
-        for (const unsigned int v : cell->vertex_indices())
-          vertex_dofs[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+    vertex_dofs = NodalFields::vertex_nodes(dof_handler);
   }
 
 

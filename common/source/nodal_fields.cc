@@ -1,3 +1,6 @@
+#include <deal.II/dofs/dof_accessor.h>
+#include <deal.II/dofs/dof_handler.h>
+
 #include <vi/nodal_fields.h>
 
 #include <algorithm>
@@ -141,5 +144,24 @@ namespace VI
       for (std::size_t k = 0; k < n; ++k)
         x[n_fields * k + field] = value[k];
     }
+
+
+    template <int dim>
+    std::vector<dealii::types::global_dof_index>
+    vertex_nodes(const dealii::DoFHandler<dim, dim> &dof_handler)
+    {
+      std::vector<dealii::types::global_dof_index> nodes(
+        dof_handler.get_triangulation().n_vertices(),
+        dealii::numbers::invalid_dof_index);
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        if (!cell->is_artificial())
+          for (const unsigned int v : cell->vertex_indices())
+            nodes[cell->vertex_index(v)] = cell->vertex_dof_index(v, 0);
+      return nodes;
+    }
+
+
+    template std::vector<dealii::types::global_dof_index>
+    vertex_nodes(const dealii::DoFHandler<2, 2> &);
   } // namespace NodalFields
 } // namespace VI

@@ -16,6 +16,7 @@
 namespace dealii
 {
   class ConditionalOStream;
+  class DynamicSparsityPattern;
   class TimerOutput;
   namespace TrilinosWrappers
   {
@@ -74,6 +75,16 @@ namespace VI
            const dealii::AffineConstraints<double> &u1_constraints,
            const MPI_Comm                           comm,
            const dealii::IndexSet &condensed_nodes = dealii::IndexSet());
+
+    /**
+     * After reinit(): give `matrix` the sparsity of A, the node couplings
+     * `node_pattern` (of S, or of the dG face terms; on the relevant nodes)
+     * in each of A's 3 x 3 node blocks. The pattern is first completed on
+     * the owned rows with the entries of other processes' cells.
+     */
+    void
+    reinit_matrix(dealii::DynamicSparsityPattern &node_pattern,
+                  const dealii::IndexSet         &relevant_nodes);
 
     /**
      * After the balance rows of `matrix` and F are assembled: write the

@@ -5,6 +5,14 @@
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <vector>
+
+namespace dealii
+{
+  template <int dim, int spacedim>
+  class DoFHandler;
+} // namespace dealii
+
 namespace VI
 {
   /**
@@ -54,6 +62,15 @@ namespace VI
       const dealii::AffineConstraints<double> &u2_constraints,
       const dealii::IndexSet                  &relevant_system_indices,
       dealii::AffineConstraints<double>       &system_constraints);
+
+    /**
+     * The node at each vertex of the mesh (a Q_p node of the first field
+     * component), invalid at vertices no cell of this process sees: the
+     * centres of the vertex patches of the flux reconstruction.
+     */
+    template <int dim>
+    std::vector<dealii::types::global_dof_index>
+    vertex_nodes(const dealii::DoFHandler<dim, dim> &dof_handler);
 
     /**
      * Sparsity of the saddle-point matrix from the scalar pattern of the
