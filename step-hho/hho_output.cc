@@ -3,6 +3,8 @@
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/field_output.h>
+#include <vi/membrane_errors.h>
+#include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
 
 #include "hho_problem.h"
@@ -92,23 +94,17 @@ namespace StepHHO
   {
     if (!data.has_exact_solution())
       return;
-    TimerOutput::Scope t(timer, "errors");
-
-    const QGauss<dim> quadrature(degree + 3);
-    Vector<float>     cellwise(triangulation.n_active_cells());
-    const auto        error = [&](const TrilinosWrappers::MPI::Vector &uh,
-                           const Function<dim>                 &exact,
-                           const VectorTools::NormType          norm) {
-      VectorTools::integrate_difference(
-        *mapping, cell_dof_handler, uh, exact, cellwise, quadrature, norm);
-      return VectorTools::compute_global_error(triangulation, cellwise, norm);
-    };
-    const double e1 = error(u1_h, *data.exact_u1, VectorTools::H1_seminorm);
-    const double e2 = error(u2_h, *data.exact_u2, VectorTools::H1_seminorm);
-    error_energy    = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
-    if (data.exact_lambda)
-      error_multiplier =
-        error(lambda_h, *data.exact_lambda, VectorTools::L2_norm);
+    TimerOutput::Scope       t(timer, "errors");
+    const VI::MembraneErrors errors =
+      VI::membrane_errors(*mapping,
+                          cell_dof_handler,
+                          QGauss<dim>(degree + 3),
+                          data,
+                          u1_h,
+                          u2_h,
+                          lambda_h);
+    error_energy     = errors.energy;
+    error_multiplier = errors.multiplier;
   }
 
 
@@ -139,23 +135,38 @@ namespace StepHHO
   HHOProblem<dim>::refine_mesh()
   {
     TimerOutput::Scope t(timer, "refinement");
-    for (const auto &cell : triangulation.active_cell_iterators())
-      if (cell->is_locally_owned())
-        cell->set_refine_flag();
-    triangulation.prepare_coarsening_and_refinement();
+    VI::flag_all_cells(triangulation);
+    solution_transfer =
+      VI::refine_flagged_cells(triangulation,
+                               cell_dof_handler,
+                               {&u1_h, &u2_h, &lambda_h},
+                               parameters.nonlinear_solver.nested_iteration);
+  }
 
-    if (parameters.nonlinear_solver.nested_iteration)
-      {
-        solution_transfer =
-          std::make_unique<parallel::distributed::SolutionTransfer<
-            dim,
-            TrilinosWrappers::MPI::Vector>>(cell_dof_handler);
-        solution_transfer->prepare_for_coarsening_and_refinement(
-          std::vector<const TrilinosWrappers::MPI::Vector *>{&u1_h,
-                                                             &u2_h,
-                                                             &lambda_h});
-      }
-    triangulation.execute_coarsening_and_refinement();
+
+  // Unknowns as counted in the seed: 2 (cells dim P_p + interior faces dim
+  // P_{p-1}) + cells dim P_p (the multiplier) without static condensation,
+  // 2 (interior faces) dim P_{p-1} with it; the fixed boundary face values
+  // are not unknowns.
+  template <int dim>
+  VI::CycleNumbers
+  HHOProblem<dim>::cycle_numbers(const unsigned int cycle) const
+  {
+    VI::CycleNumbers numbers;
+    numbers.cycle = cycle;
+    numbers.cells = triangulation.n_global_active_cells();
+    numbers.dofs_condensed =
+      2 * (face_dof_handler.n_dofs() - n_boundary_face_dofs);
+    numbers.dofs =
+      n_fields * cell_dof_handler.n_dofs() + *numbers.dofs_condensed;
+    numbers.set_solve("Newton-" + C.name(),
+                      newton_report,
+                      newton_report.linear_iterations > 0 ? "CG" : "",
+                      n_contact_nodes);
+    numbers.error_energy     = error_energy;
+    numbers.error_multiplier = error_multiplier;
+    numbers.seconds          = run_record.cycle_seconds();
+    return numbers;
   }
 
 
@@ -163,68 +174,24 @@ namespace StepHHO
   void
   HHOProblem<dim>::record_cycle(const unsigned int cycle)
   {
-    const double wall = run_record.cycle_seconds();
+    const VI::CycleNumbers numbers = cycle_numbers(cycle);
+    VI::add_columns(table, numbers);
 
-    // Unknowns as counted in the seed: 2 (cells dim P_p + interior faces
-    // dim P_{p-1}) + cells dim P_p (the multiplier) without static
-    // condensation, 2 (interior faces) dim P_{p-1} with it; the fixed
-    // boundary face values are not unknowns.
-    const types::global_dof_index dofs_condensed =
-      2 * (face_dof_handler.n_dofs() - n_boundary_face_dofs);
-    const types::global_dof_index dofs =
-      n_fields * cell_dof_handler.n_dofs() + dofs_condensed;
-
-    table.add_value("cycle", cycle);
-    table.add_value("cells", triangulation.n_global_active_cells());
-    table.add_value("dofs", dofs);
-    table.add_value("dofs_condensed", dofs_condensed);
-    table.add_value("newton", newton_report.iterations);
-    table.add_value("linear", newton_report.linear_iterations);
-    table.add_value("contact", n_contact_nodes);
-    if (data.has_exact_solution())
-      {
-        table.add_value("error_energy", error_energy);
-        table.set_scientific("error_energy", true);
-        table.set_precision("error_energy", 4);
-        if (data.exact_lambda)
-          {
-            table.add_value("error_lambda", error_multiplier);
-            table.set_scientific("error_lambda", true);
-            table.set_precision("error_lambda", 4);
-          }
-      }
-    table.add_value("wall_s", wall);
-    table.set_precision("wall_s", 3);
-
-    VI::Json record             = VI::Json::object();
-    record["cycle"]             = cycle;
-    record["cells"]             = triangulation.n_global_active_cells();
-    record["dofs"]              = dofs;
-    record["dofs_condensed"]    = dofs_condensed;
-    record["dofs_cell"]         = n_fields * cell_dof_handler.n_dofs();
-    record["newton_iterations"] = newton_report.iterations;
-    record["linear_iterations"] = newton_report.linear_iterations;
-    record["contact_nodes"]     = n_contact_nodes;
-    if (data.has_exact_solution())
-      record["error_energy"] = error_energy;
-    if (data.exact_lambda)
-      record["error_lambda_l2"] = error_multiplier;
-    record["wall_seconds"] = wall;
-
+    VI::Json record          = VI::to_json(numbers);
+    record["dofs"]           = numbers.dofs;
+    record["dofs_condensed"] = *numbers.dofs_condensed;
+    record["dofs_cell"]      = n_fields * cell_dof_handler.n_dofs();
     // The TimerOutput sections of this cycle.
     record["timing"] = run_record.cycle_timing();
 
     VI::Json iterations = VI::Json::array();
     for (const VI::NewtonStep &step : newton_report.steps)
-      {
-        VI::Json it                    = VI::Json::object();
-        it["k"]                        = step.iteration;
-        it["i"]                        = step.linear_iterations;
-        it["residual_equations"]       = step.residual.equations;
-        it["residual_complementarity"] = step.residual.complementarity;
-        it["step_length"]              = step.step_length;
-        iterations.push_back(it);
-      }
+      iterations.push_back(VI::Json::object(
+        {{"k", step.iteration},
+         {"i", step.linear_iterations},
+         {"residual_equations", step.residual.equations},
+         {"residual_complementarity", step.residual.complementarity},
+         {"step_length", step.step_length}}));
     record["iterations"] = iterations;
     run_record.add(record);
   }
@@ -239,15 +206,12 @@ namespace StepHHO
   void
   HHOProblem<dim>::write_tables() const
   {
-    std::vector<std::string> errors;
-    if (data.has_exact_solution())
-      errors.push_back("error_energy");
-    if (data.exact_lambda)
-      errors.push_back("error_lambda");
-    std::vector<std::string> columns = {
-      "cycle", "cells", "dofs", "dofs_condensed", "newton", "contact"};
-    columns.insert(columns.end(), errors.begin(), errors.end());
-    run_record.write_tables(table, errors, columns, dim);
+    run_record.write_tables(
+      table,
+      {"cycle", "cells", "dofs", "dofs_condensed", "newton", "contact"},
+      {data.has_exact_solution(), data.exact_lambda != nullptr, false},
+      {},
+      dim);
   }
 
 
@@ -259,6 +223,8 @@ namespace StepHHO
   HHOProblem<2>::output_results(const unsigned int) const;
   template void
   HHOProblem<2>::refine_mesh();
+  template VI::CycleNumbers
+  HHOProblem<2>::cycle_numbers(const unsigned int) const;
   template void
   HHOProblem<2>::record_cycle(const unsigned int);
   template void

@@ -610,7 +610,6 @@ namespace StepHHO
     run_record.start(prm, description());
     make_grid();
     check_data();
-    VI::prepare_output_directory(parameters.output.directory, comm);
 
     for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
       {
@@ -621,32 +620,17 @@ namespace StepHHO
         assemble_system();
         initialize_iterate();
 
-        const types::global_dof_index dofs_condensed =
-          2 * (face_dof_handler.n_dofs() - n_boundary_face_dofs);
-        pcout << "Cycle " << cycle << ": "
-              << triangulation.n_global_active_cells() << " cells, "
-              << n_fields * cell_dof_handler.n_dofs() + dofs_condensed
-              << " unknowns, " << dofs_condensed << " after condensation"
-              << std::endl;
+        const VI::CycleNumbers numbers = cycle_numbers(cycle);
+        pcout << "Cycle " << cycle << ": " << numbers.cells << " cells, "
+              << numbers.dofs << " unknowns, " << *numbers.dofs_condensed
+              << " after condensation" << std::endl;
         run_record.guard([&] { solve(); });
         postprocess();
         compute_errors();
         output_results(cycle);
         run_record.stop_cycle();
 
-        VI::CycleLine line;
-        line.solver            = "Newton-" + C.name();
-        line.newton_iterations = newton_report.iterations;
-        if (newton_report.linear_iterations > 0)
-          {
-            line.linear_iterations = newton_report.linear_iterations;
-            line.linear_solver     = "CG";
-          }
-        line.contact_nodes = n_contact_nodes;
-        if (data.has_exact_solution())
-          line.error = error_energy;
-        line.seconds = run_record.cycle_seconds();
-        pcout << VI::to_string(line) << std::endl;
+        pcout << VI::to_string(cycle_numbers(cycle)) << std::endl;
         record_cycle(cycle);
       }
 

@@ -144,6 +144,9 @@ namespace StepHHO
     /// The line that says what this run solves, and how.
     std::string
     description() const;
+    /// What the cycle measured: its progress line, columns and record.
+    VI::CycleNumbers
+    cycle_numbers(const unsigned int cycle) const;
     void
     record_cycle(const unsigned int cycle);
     void
@@ -285,9 +288,9 @@ namespace StepHHO
 
     // What each cycle measured.
     VI::NewtonReport        newton_report;
-    types::global_dof_index n_contact_nodes  = 0;
-    double                  error_energy     = 0;
-    double                  error_multiplier = 0;
+    types::global_dof_index n_contact_nodes = 0;
+    /// Where the exact solution (and multiplier) is known.
+    std::optional<double> error_energy, error_multiplier;
 
     ConvergenceTable table;
     /// Header, summary.json, failure guard, timing and closing line.

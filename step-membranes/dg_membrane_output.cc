@@ -17,6 +17,8 @@
 #include <vi/errors.h>
 #include <vi/estimators.h>
 #include <vi/field_output.h>
+#include <vi/membrane_errors.h>
+#include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
 
@@ -350,20 +352,17 @@ namespace StepMembranes
   {
     if (!data.has_exact_solution())
       return;
-    TimerOutput::Scope     t(timer, "errors");
-    const QGauss<dim>      error_quadrature(fe.degree + 3);
-    dealii::Vector<double> cellwise(triangulation.n_active_cells());
-    const auto             error = [&](const Vector               &uh,
-                           const Function<dim>        &exact,
-                           const VectorTools::NormType norm) {
-      VectorTools::integrate_difference(
-        *mapping, dof_handler, uh, exact, cellwise, error_quadrature, norm);
-      return VectorTools::compute_global_error(triangulation, cellwise, norm);
-    };
-    const double e1 = error(u1_h, *data.exact_u1, VectorTools::H1_seminorm);
-    const double e2 = error(u2_h, *data.exact_u2, VectorTools::H1_seminorm);
-    error_broken    = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
-    error_jump      = VI::jump_seminorm(*mapping,
+    TimerOutput::Scope       t(timer, "errors");
+    const VI::MembraneErrors errors =
+      VI::membrane_errors(*mapping,
+                          dof_handler,
+                          QGauss<dim>(fe.degree + 3),
+                          data,
+                          u1_h,
+                          u2_h,
+                          lambda_h);
+    error_broken = errors.energy;
+    error_jump   = VI::jump_seminorm(*mapping,
                                    dof_handler,
                                    face_quadrature,
                                    penalty,
@@ -375,9 +374,7 @@ namespace StepMembranes
                                    *data.g2);
     error_energy =
       std::sqrt(error_broken * error_broken + error_jump * error_jump);
-    if (data.exact_lambda)
-      error_multiplier =
-        error(lambda_h, *data.exact_lambda, VectorTools::L2_norm);
+    error_multiplier = errors.multiplier;
   }
 
 
@@ -404,101 +401,64 @@ namespace StepMembranes
   DGMembraneProblem<dim>::refine_mesh()
   {
     TimerOutput::Scope t(timer, "refinement");
-    for (const auto &cell : triangulation.active_cell_iterators())
-      if (cell->is_locally_owned())
-        cell->set_refine_flag();
-    triangulation.prepare_coarsening_and_refinement();
-    if (parameters.nonlinear_solver.nested_iteration)
-      {
-        solution_transfer = std::make_unique<
-          parallel::distributed::SolutionTransfer<dim, Vector>>(dof_handler);
-        solution_transfer->prepare_for_coarsening_and_refinement(
-          std::vector<const Vector *>{&u1_h, &u2_h, &lambda_h});
-      }
-    triangulation.execute_coarsening_and_refinement();
+    VI::flag_all_cells(triangulation);
+    solution_transfer =
+      VI::refine_flagged_cells(triangulation,
+                               dof_handler,
+                               {&u1_h, &u2_h, &lambda_h},
+                               parameters.nonlinear_solver.nested_iteration);
   }
+
+
+  namespace
+  {
+    // The terms of the estimate under their keys in summary.json.
+    VI::Json
+    to_json(const VI::DGContactEstimate &e)
+    {
+      return VI::Json::object({{"eta", e.eta},
+                               {"eta_broken", e.broken},
+                               {"jump", e.jump},
+                               {"flux", e.flux_disc},
+                               {"residual", e.residual},
+                               {"remainder", e.remainder},
+                               {"nonc_1", e.nonc_1},
+                               {"oswald", e.oswald},
+                               {"nonc_2", e.nonc_2},
+                               {"nonc_3", e.nonc_3},
+                               {"contact_pos", e.contact_pos},
+                               {"contact_cone", e.contact_cone},
+                               {"contact_lin", e.contact_lin},
+                               {"dirichlet", e.dirichlet}});
+    }
+  } // namespace
 
 
   template <int dim>
   void
   DGMembraneProblem<dim>::record_cycle(const unsigned int cycle)
   {
-    const double wall = run_record.cycle_seconds();
-    table.add_value("cycle", cycle);
-    table.add_value("cells", triangulation.n_global_active_cells());
-    table.add_value("dofs", dof_handler.n_dofs());
-    table.add_value("newton", newton_report.iterations);
-    table.add_value("linear", newton_report.linear_iterations);
-    table.add_value("contact", n_contact_nodes);
-    const auto scientific = [&](const std::string &key, const double value) {
-      table.add_value(key, value);
-      table.set_scientific(key, true);
-      table.set_precision(key, 4);
-    };
-    if (data.has_exact_solution())
-      {
-        scientific("error_energy", error_energy);
-        if (data.exact_lambda)
-          scientific("error_lambda", error_multiplier);
-      }
-    if (final_estimate)
-      {
-        scientific("eta", final_estimate->eta);
-        if (data.has_exact_solution())
-          {
-            table.add_value("effectivity", final_estimate->eta / error_energy);
-            table.set_precision("effectivity", 3);
-          }
-      }
-    table.add_value("wall_s", wall);
-    table.set_precision("wall_s", 3);
+    const VI::CycleNumbers numbers = cycle_numbers(cycle);
+    VI::add_columns(table, numbers);
 
-    VI::Json record             = VI::Json::object();
-    record["cycle"]             = cycle;
-    record["cells"]             = triangulation.n_global_active_cells();
-    record["dofs"]              = n_fields * dof_handler.n_dofs();
-    record["dofs_per_field"]    = dof_handler.n_dofs();
-    record["newton_iterations"] = newton_report.iterations;
-    record["linear_iterations"] = newton_report.linear_iterations;
-    record["contact_nodes"]     = n_contact_nodes;
+    VI::Json record          = VI::to_json(numbers);
+    record["dofs"]           = n_fields * dof_handler.n_dofs();
+    record["dofs_per_field"] = dof_handler.n_dofs();
     if (data.has_exact_solution())
       {
-        record["error_energy"] = error_energy;
         record["error_broken"] = error_broken;
         record["error_jump"]   = error_jump;
       }
-    if (data.exact_lambda)
-      record["error_lambda_l2"] = error_multiplier;
     if (final_estimate)
       {
         const VI::DGContactEstimate &e = *final_estimate;
-        record["eta"]                  = e.eta;
         record["eta_disc"]             = e.eta_disc;
         record["eta_lin"]              = e.eta_lin;
         record["eta_alg"]              = e.eta_alg;
         if (data.has_exact_solution())
-          {
-            record["effectivity"]        = e.eta / error_energy;
-            record["effectivity_broken"] = e.broken / error_broken;
-          }
-        VI::Json json        = VI::Json::object();
-        json["eta"]          = e.eta;
-        json["eta_broken"]   = e.broken;
-        json["jump"]         = e.jump;
-        json["flux"]         = e.flux_disc;
-        json["residual"]     = e.residual;
-        json["remainder"]    = e.remainder;
-        json["nonc_1"]       = e.nonc_1;
-        json["oswald"]       = e.oswald;
-        json["nonc_2"]       = e.nonc_2;
-        json["nonc_3"]       = e.nonc_3;
-        json["contact_pos"]  = e.contact_pos;
-        json["contact_cone"] = e.contact_cone;
-        json["contact_lin"]  = e.contact_lin;
-        json["dirichlet"]    = e.dirichlet;
-        record["estimate"]   = json;
+          record["effectivity_broken"] = e.broken / error_broken;
+        record["estimate"] = to_json(e);
       }
-    record["wall_seconds"] = wall;
     record["newton_steps"] = VI::newton_steps(newton_report);
     run_record.add(record);
   }
@@ -510,19 +470,14 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::write_tables() const
   {
-    std::vector<std::string> errors;
-    if (data.has_exact_solution())
-      errors.push_back("error_energy");
-    if (data.exact_lambda)
-      errors.push_back("error_lambda");
-    if (parameters.estimators.enabled)
-      errors.push_back("eta");
-    std::vector<std::string> columns = {
-      "cycle", "cells", "dofs", "newton", "linear", "contact"};
-    columns.insert(columns.end(), errors.begin(), errors.end());
-    if (parameters.estimators.enabled && data.has_exact_solution())
-      columns.push_back("effectivity");
-    run_record.write_tables(table, errors, columns, dim);
+    run_record.write_tables(
+      table,
+      {"cycle", "cells", "dofs", "newton", "linear", "contact"},
+      {data.has_exact_solution(),
+       data.exact_lambda != nullptr,
+       parameters.estimators.enabled},
+      {},
+      dim);
   }
 
 

@@ -469,42 +469,39 @@ namespace StepMembranes
   std::string
   DGMembraneProblem<dim>::description() const
   {
-    const auto        &nonlinear = parameters.nonlinear_solver;
-    const auto        &linear    = parameters.linear_solver;
     std::ostringstream line;
     line << "Test case " << data.name << " on the " << parameters.mesh.geometry
          << ", " << penalty.label() << " Q" << fe.degree << " (penalty "
          << penalty.penalty_constant() << " p (p + 1) / h_F), Newton-"
-         << C.name() << " (" << VI::to_string(nonlinear.strategy) << ")"
-         << (nonlinear.nested_iteration ? " with" : " without")
-         << " nested iteration, "
-         << (linear.solver == VI::LinearSolverType::direct ?
-               "direct solver " + linear.direct_package :
-               "GMRES + " + VI::to_string(linear.preconditioner))
+         << C.name() << " "
+         << VI::describe_solvers(parameters.nonlinear_solver,
+                                 parameters.linear_solver)
          << (parameters.estimators.enabled ? ", estimators on" : "");
     return line.str();
   }
 
 
   template <int dim>
-  VI::CycleLine
-  DGMembraneProblem<dim>::cycle_line() const
+  VI::CycleNumbers
+  DGMembraneProblem<dim>::cycle_numbers(const unsigned int cycle) const
   {
-    VI::CycleLine line;
-    line.solver            = "Newton-" + C.name();
-    line.newton_iterations = newton_report.iterations;
-    if (parameters.linear_solver.solver == VI::LinearSolverType::gmres)
-      {
-        line.linear_iterations = newton_report.linear_iterations;
-        line.linear_solver     = "GMRES";
-      }
-    line.contact_nodes = n_contact_nodes;
-    if (data.has_exact_solution())
-      line.error = error_energy;
+    VI::CycleNumbers numbers;
+    numbers.cycle = cycle;
+    numbers.cells = triangulation.n_global_active_cells();
+    numbers.dofs  = dof_handler.n_dofs();
+    numbers.set_solve("Newton-" + C.name(),
+                      newton_report,
+                      parameters.linear_solver.solver ==
+                          VI::LinearSolverType::gmres ?
+                        "GMRES" :
+                        "",
+                      n_contact_nodes);
+    numbers.seconds          = run_record.cycle_seconds();
+    numbers.error_energy     = error_energy;
+    numbers.error_multiplier = error_multiplier;
     if (final_estimate)
-      line.estimate = final_estimate->eta;
-    line.seconds = run_record.cycle_seconds();
-    return line;
+      numbers.estimate = final_estimate->eta;
+    return numbers;
   }
 
 
@@ -517,7 +514,6 @@ namespace StepMembranes
     run_record.start(prm, description());
     make_grid();
     check_data();
-    VI::prepare_output_directory(parameters.output.directory, comm);
 
     for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
       {
@@ -539,7 +535,7 @@ namespace StepMembranes
         compute_errors();
         output_results(cycle);
         run_record.stop_cycle();
-        pcout << VI::to_string(cycle_line()) << std::endl;
+        pcout << VI::to_string(cycle_numbers(cycle)) << std::endl;
         record_cycle(cycle);
       }
 
@@ -571,8 +567,8 @@ namespace StepMembranes
   DGMembraneProblem<2>::solve();
   template std::string
   DGMembraneProblem<2>::description() const;
-  template VI::CycleLine
-  DGMembraneProblem<2>::cycle_line() const;
+  template VI::CycleNumbers
+  DGMembraneProblem<2>::cycle_numbers(const unsigned int cycle) const;
   template void
   DGMembraneProblem<2>::run();
 } // namespace StepMembranes

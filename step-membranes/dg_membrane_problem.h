@@ -129,9 +129,9 @@ namespace StepMembranes
     /// The line that says what this run solves, and how.
     std::string
     description() const;
-    /// The progress line of a cycle.
-    VI::CycleLine
-    cycle_line() const;
+    /// What the cycle measured: its progress line, columns and record.
+    VI::CycleNumbers
+    cycle_numbers(const unsigned int cycle) const;
     void
     record_cycle(const unsigned int cycle);
     void
@@ -215,11 +215,11 @@ namespace StepMembranes
 
     VI::NewtonReport                     newton_report;
     std::optional<VI::DGContactEstimate> final_estimate;
-    types::global_dof_index              n_contact_nodes  = 0;
-    double                               error_broken     = 0;
-    double                               error_jump       = 0;
-    double                               error_energy     = 0;
-    double                               error_multiplier = 0;
+    types::global_dof_index              n_contact_nodes = 0;
+    double                               error_broken    = 0;
+    double                               error_jump      = 0;
+    /// Where the exact solution (and multiplier) is known.
+    std::optional<double> error_energy, error_multiplier;
 
     ConvergenceTable table;
     /// Header, summary.json, failure guard, timing and closing line.

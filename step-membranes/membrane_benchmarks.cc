@@ -197,8 +197,8 @@ namespace StepMembranes
   MembraneProblem<dim>::compare_with_petsc_vi(const Vector &initial)
   {
     const Vector ours        = solution;
-    const double ours_error  = error_energy;
-    const double ours_lambda = error_multiplier;
+    const auto   ours_error  = error_energy;
+    const auto   ours_lambda = error_multiplier;
 
     Timer            wall;
     std::string      reason;
@@ -247,7 +247,7 @@ namespace StepMembranes
       {
         postprocess();
         compute_errors();
-        run.error_energy = error_energy;
+        run.error_energy = *error_energy;
       }
     pcout << "   PETSc SNES VI (vinewton" << parameters.petsc_vi_type
           << "): " << report.iterations << " iterations, "

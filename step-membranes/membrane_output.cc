@@ -9,6 +9,8 @@
 
 #include <vi/cell_function_values.h>
 #include <vi/field_output.h>
+#include <vi/membrane_errors.h>
+#include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
 
 #include "membrane_problem.h"
@@ -58,72 +60,18 @@ namespace StepMembranes
   {
     if (!data.has_exact_solution())
       return;
-    TimerOutput::Scope t(timer, "errors");
-
-    // On the cells of all threads (VectorTools::integrate_difference runs on
-    // one), with the data's own gradients: for a parsed expression these
-    // are fourth-order differences, eight evaluations per point, which make
-    // this the longest part of a run after the solve.
-    const QGauss<dim>      error_quadrature(fe.degree + 3);
-    const unsigned int     n_cells = triangulation.n_active_cells();
-    dealii::Vector<double> cell_u1(n_cells), cell_u2(n_cells),
-      cell_lambda(n_cells);
-    on_owned_cells_in_parallel(
-      [&](const auto &cells, const std::size_t begin, const std::size_t end) {
-        FEValues<dim>       values(*mapping,
-                             fe,
-                             error_quadrature,
-                             update_values | update_gradients |
-                               update_quadrature_points | update_JxW_values);
-        const unsigned int  n_q = error_quadrature.size();
-        std::vector<double> coefficients, lambda(n_q), exact_lambda(n_q);
-        std::vector<Tensor<1, dim>> gradient(n_q), exact_gradient(n_q);
-        const Vector               *u[2]      = {&u1_h, &u2_h};
-        const Function<dim>        *exact[2]  = {data.exact_u1.get(),
-                                                 data.exact_u2.get()};
-        dealii::Vector<double>     *cell_u[2] = {&cell_u1, &cell_u2};
-        for (std::size_t c = begin; c < end; ++c)
-          {
-            const auto &cell = cells[c];
-            values.reinit(cell);
-            const auto &points = values.get_quadrature_points();
-            for (unsigned int a = 0; a < 2; ++a)
-              {
-                VI::cell_function_values(
-                  values, cell, *u[a], coefficients, nullptr, &gradient);
-                exact[a]->gradient_list(points, exact_gradient);
-                double sum = 0;
-                for (unsigned int q = 0; q < n_q; ++q)
-                  sum += (exact_gradient[q] - gradient[q]).norm_square() *
-                         values.JxW(q);
-                (*cell_u[a])[cell->active_cell_index()] = std::sqrt(sum);
-              }
-            if (data.exact_lambda)
-              {
-                VI::cell_function_values(
-                  values, cell, lambda_h, coefficients, &lambda);
-                data.exact_lambda->value_list(points, exact_lambda);
-                double sum = 0;
-                for (unsigned int q = 0; q < n_q; ++q)
-                  sum +=
-                    std::pow(exact_lambda[q] - lambda[q], 2) * values.JxW(q);
-                cell_lambda[cell->active_cell_index()] = std::sqrt(sum);
-              }
-          }
-      });
-    const auto global = [&](const dealii::Vector<double> &cellwise) {
-      return VectorTools::compute_global_error(triangulation,
-                                               cellwise,
-                                               VectorTools::L2_norm);
-    };
-    cell_error.reinit(n_cells);
-    for (unsigned int K = 0; K < n_cells; ++K)
-      cell_error[K] = std::sqrt(data.mu1 * cell_u1[K] * cell_u1[K] +
-                                data.mu2 * cell_u2[K] * cell_u2[K]);
-    const double e1 = global(cell_u1), e2 = global(cell_u2);
-    error_energy = std::sqrt(data.mu1 * e1 * e1 + data.mu2 * e2 * e2);
-    if (data.exact_lambda)
-      error_multiplier = global(cell_lambda);
+    TimerOutput::Scope       t(timer, "errors");
+    const VI::MembraneErrors errors =
+      VI::membrane_errors(*mapping,
+                          dof_handler,
+                          QGauss<dim>(fe.degree + 3),
+                          data,
+                          u1_h,
+                          u2_h,
+                          lambda_h);
+    error_energy     = errors.energy;
+    error_multiplier = errors.multiplier;
+    cell_error       = errors.cellwise;
   }
 
 
@@ -165,46 +113,38 @@ namespace StepMembranes
                                       mesh.refinement_fraction);
       }
     else
-      for (const auto &cell : triangulation.active_cell_iterators())
-        if (cell->is_locally_owned())
-          cell->set_refine_flag();
-    triangulation.prepare_coarsening_and_refinement();
-
-    if (parameters.nonlinear_solver.nested_iteration)
-      {
-        solution_transfer = std::make_unique<
-          parallel::distributed::SolutionTransfer<dim, Vector>>(dof_handler);
-        solution_transfer->prepare_for_coarsening_and_refinement(
-          std::vector<const Vector *>{&u1_h, &u2_h, &lambda_h});
-      }
-    triangulation.execute_coarsening_and_refinement();
+      VI::flag_all_cells(triangulation);
+    solution_transfer =
+      VI::refine_flagged_cells(triangulation,
+                               dof_handler,
+                               {&u1_h, &u2_h, &lambda_h},
+                               parameters.nonlinear_solver.nested_iteration);
   }
 
 
   namespace
   {
+    // The terms of the estimate under their keys in summary.json.
     VI::Json
     to_json(const VI::ContactEstimate &e)
     {
-      VI::Json json        = VI::Json::object();
-      json["eta"]          = e.eta;
-      json["eta_disc"]     = e.eta_disc;
-      json["eta_lin"]      = e.eta_lin;
-      json["eta_alg"]      = e.eta_alg;
-      json["eta_1"]        = e.eta_1;
-      json["flux_disc"]    = e.flux_disc;
-      json["residual"]     = e.residual;
-      json["flux_alg"]     = e.flux_alg;
-      json["remainder"]    = e.remainder;
-      json["nonc_1"]       = e.nonc_1;
-      json["nonc_1_disc"]  = e.nonc_1_disc;
-      json["nonc_1_lin"]   = e.nonc_1_lin;
-      json["nonc_2"]       = e.nonc_2;
-      json["nonc_3"]       = e.nonc_3;
-      json["contact_pos"]  = e.contact_pos;
-      json["contact_cone"] = e.contact_cone;
-      json["dirichlet"]    = e.dirichlet;
-      return json;
+      return VI::Json::object({{"eta", e.eta},
+                               {"eta_disc", e.eta_disc},
+                               {"eta_lin", e.eta_lin},
+                               {"eta_alg", e.eta_alg},
+                               {"eta_1", e.eta_1},
+                               {"flux_disc", e.flux_disc},
+                               {"residual", e.residual},
+                               {"flux_alg", e.flux_alg},
+                               {"remainder", e.remainder},
+                               {"nonc_1", e.nonc_1},
+                               {"nonc_1_disc", e.nonc_1_disc},
+                               {"nonc_1_lin", e.nonc_1_lin},
+                               {"nonc_2", e.nonc_2},
+                               {"nonc_3", e.nonc_3},
+                               {"contact_pos", e.contact_pos},
+                               {"contact_cone", e.contact_cone},
+                               {"dirichlet", e.dirichlet}});
     }
   } // namespace
 
@@ -213,66 +153,22 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::record_cycle(const unsigned int cycle)
   {
-    const double wall = run_record.cycle_seconds();
+    const VI::CycleNumbers numbers = cycle_numbers(cycle);
+    VI::add_columns(table, numbers);
 
-    table.add_value("cycle", cycle);
-    table.add_value("cells", triangulation.n_global_active_cells());
-    table.add_value("dofs", dof_handler.n_dofs());
-    table.add_value("newton", newton_report.iterations);
-    table.add_value("linear", newton_report.linear_iterations);
-    table.add_value("contact", n_contact_nodes);
-    if (data.has_exact_solution())
-      {
-        table.add_value("error_energy", error_energy);
-        table.set_scientific("error_energy", true);
-        table.set_precision("error_energy", 4);
-        if (data.exact_lambda)
-          {
-            table.add_value("error_lambda", error_multiplier);
-            table.set_scientific("error_lambda", true);
-            table.set_precision("error_lambda", 4);
-          }
-      }
+    VI::Json record          = VI::to_json(numbers);
+    record["dofs"]           = n_fields * dof_handler.n_dofs();
+    record["dofs_per_field"] = dof_handler.n_dofs();
     if (final_estimate)
       {
-        table.add_value("eta", final_estimate->eta);
-        table.set_scientific("eta", true);
-        table.set_precision("eta", 4);
-        if (data.has_exact_solution())
-          {
-            table.add_value("effectivity", final_estimate->eta / error_energy);
-            table.set_precision("effectivity", 3);
-          }
-      }
-    table.add_value("wall_s", wall);
-    table.set_precision("wall_s", 3);
-
-    VI::Json record             = VI::Json::object();
-    record["cycle"]             = cycle;
-    record["cells"]             = triangulation.n_global_active_cells();
-    record["dofs"]              = n_fields * dof_handler.n_dofs();
-    record["dofs_per_field"]    = dof_handler.n_dofs();
-    record["newton_iterations"] = newton_report.iterations;
-    record["linear_iterations"] = newton_report.linear_iterations;
-    record["contact_nodes"]     = n_contact_nodes;
-    if (data.has_exact_solution())
-      record["error_energy"] = error_energy;
-    if (data.exact_lambda)
-      record["error_lambda_l2"] = error_multiplier;
-    if (final_estimate)
-      {
-        record["eta"]      = final_estimate->eta;
         record["eta_disc"] = final_estimate->eta_disc;
         record["eta_lin"]  = final_estimate->eta_lin;
         record["eta_alg"]  = final_estimate->eta_alg;
-        if (data.has_exact_solution())
-          record["effectivity"] = final_estimate->eta / error_energy;
         record["estimate"] = to_json(*final_estimate);
         if (parameters.estimators.sharpen_final)
           // whether the equilibrated estimate was the smaller one
           record["estimate"]["sharpened"] = final_estimate_sharpened;
       }
-    record["wall_seconds"]  = wall;
     record["solve_seconds"] = solve_timer.wall_time();
     record["solve_usage"]   = VI::to_json(solve_usage);
     // This cycle's share of every TimerOutput section.
@@ -292,26 +188,21 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::write_tables() const
   {
-    std::vector<std::string> errors;
-    if (data.has_exact_solution())
-      errors.push_back("error_energy");
-    if (data.exact_lambda)
-      errors.push_back("error_lambda");
-    if (parameters.estimators.enabled)
-      errors.push_back("eta");
-    std::vector<std::string> columns = {
-      "cycle", "cells", "dofs", "newton", "linear", "contact"};
-    columns.insert(columns.end(), errors.begin(), errors.end());
-    if (parameters.estimators.enabled && data.has_exact_solution())
-      columns.push_back("effectivity");
+    std::vector<std::string> petsc;
     if (parameters.compare_with_petsc_vi)
       {
-        columns.insert(columns.end(),
-                       {"petsc_newton", "petsc_linear", "petsc_distance"});
+        petsc = {"petsc_newton", "petsc_linear", "petsc_distance"};
         if (data.has_exact_solution())
-          columns.push_back("petsc_error");
+          petsc.push_back("petsc_error");
       }
-    run_record.write_tables(table, errors, columns, dim);
+    run_record.write_tables(
+      table,
+      {"cycle", "cells", "dofs", "newton", "linear", "contact"},
+      {data.has_exact_solution(),
+       data.exact_lambda != nullptr,
+       parameters.estimators.enabled},
+      petsc,
+      dim);
   }
 
 

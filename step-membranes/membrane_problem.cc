@@ -71,17 +71,11 @@ namespace StepMembranes
   std::string
   MembraneProblem<dim>::description() const
   {
-    const auto        &nonlinear = parameters.nonlinear_solver;
-    const auto        &linear    = parameters.linear_solver;
     std::ostringstream line;
     line << "Test case " << data.name << " on the " << parameters.mesh.geometry
-         << ", Q" << fe.degree << " elements, " << solver_name() << " ("
-         << VI::to_string(nonlinear.strategy) << ")"
-         << (nonlinear.nested_iteration ? " with" : " without")
-         << " nested iteration, "
-         << (linear.solver == VI::LinearSolverType::direct ?
-               "direct solver " + linear.direct_package :
-               "GMRES + " + VI::to_string(linear.preconditioner))
+         << ", Q" << fe.degree << " elements, " << solver_name() << " "
+         << VI::describe_solvers(parameters.nonlinear_solver,
+                                 parameters.linear_solver)
          << (parameters.estimators.enabled ? ", estimators on" : "");
     return line.str();
   }
@@ -109,24 +103,26 @@ namespace StepMembranes
 
 
   template <int dim>
-  VI::CycleLine
-  MembraneProblem<dim>::cycle_line() const
+  VI::CycleNumbers
+  MembraneProblem<dim>::cycle_numbers(const unsigned int cycle) const
   {
-    VI::CycleLine line;
-    line.solver            = solver_name();
-    line.newton_iterations = newton_report.iterations;
-    if (parameters.linear_solver.solver == VI::LinearSolverType::gmres)
-      {
-        line.linear_iterations = newton_report.linear_iterations;
-        line.linear_solver     = "GMRES";
-      }
-    line.contact_nodes = n_contact_nodes;
-    if (data.has_exact_solution())
-      line.error = error_energy;
+    VI::CycleNumbers numbers;
+    numbers.cycle = cycle;
+    numbers.cells = triangulation.n_global_active_cells();
+    numbers.dofs  = dof_handler.n_dofs();
+    numbers.set_solve(solver_name(),
+                      newton_report,
+                      parameters.linear_solver.solver ==
+                          VI::LinearSolverType::gmres ?
+                        "GMRES" :
+                        "",
+                      n_contact_nodes);
+    numbers.error_energy     = error_energy;
+    numbers.error_multiplier = error_multiplier;
     if (final_estimate)
-      line.estimate = final_estimate->eta;
-    line.seconds = run_record.cycle_seconds();
-    return line;
+      numbers.estimate = final_estimate->eta;
+    numbers.seconds = run_record.cycle_seconds();
+    return numbers;
   }
 
 
@@ -141,7 +137,6 @@ namespace StepMembranes
     run_record.start(prm, description());
     make_grid(parameters.mesh.initial_refinements);
     check_data();
-    VI::prepare_output_directory(parameters.output.directory, comm);
 
     for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
       {
@@ -166,7 +161,7 @@ namespace StepMembranes
         compute_errors();
         output_results(cycle);
         run_record.stop_cycle();
-        pcout << VI::to_string(cycle_line()) << std::endl;
+        pcout << VI::to_string(cycle_numbers(cycle)) << std::endl;
 
         petsc_vi_run.reset();
         if (initial_iterate)
@@ -192,8 +187,8 @@ namespace StepMembranes
   MembraneProblem<2>::solver_name() const;
   template void
   MembraneProblem<2>::print_cycle_header(const unsigned int cycle) const;
-  template VI::CycleLine
-  MembraneProblem<2>::cycle_line() const;
+  template VI::CycleNumbers
+  MembraneProblem<2>::cycle_numbers(const unsigned int cycle) const;
   template void
   MembraneProblem<2>::run();
 } // namespace StepMembranes

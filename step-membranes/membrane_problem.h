@@ -233,9 +233,9 @@ namespace StepMembranes
     /// "Newton-<C>" or the PETSc solver.
     std::string
     solver_name() const;
-    /// The progress line of a cycle.
-    VI::CycleLine
-    cycle_line() const;
+    /// What the cycle measured: its progress line, columns and record.
+    VI::CycleNumbers
+    cycle_numbers(const unsigned int cycle) const;
     /// The mesh of a cycle, after its system is set up.
     void
     print_cycle_header(const unsigned int cycle) const;
@@ -305,9 +305,9 @@ namespace StepMembranes
     // What each cycle measured.
     VI::NewtonReport                   newton_report;
     std::optional<VI::ContactEstimate> final_estimate;
-    types::global_dof_index            n_contact_nodes  = 0;
-    double                             error_energy     = 0;
-    double                             error_multiplier = 0;
+    types::global_dof_index            n_contact_nodes = 0;
+    /// Where the exact solution (and multiplier) is known.
+    std::optional<double> error_energy, error_multiplier;
     /// |||u - u_h|||_K per active cell (where the exact solution is known):
     /// beside the estimators in the VTU, the local effectivity.
     dealii::Vector<float> cell_error;

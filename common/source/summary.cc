@@ -80,6 +80,15 @@ namespace VI
 
 
   Json
+  Json::object(std::initializer_list<std::pair<std::string, Json>> members)
+  {
+    Json json  = object();
+    json.value = Object(members);
+    return json;
+  }
+
+
+  Json
   Json::array()
   {
     Json json;
@@ -274,11 +283,9 @@ namespace VI
   Json
   to_json(const ProcessUsage &usage)
   {
-    Json json                 = Json::object();
-    json["user_seconds"]      = usage.user_seconds;
-    json["system_seconds"]    = usage.system_seconds;
-    json["minor_page_faults"] = usage.minor_faults;
-    return json;
+    return Json::object({{"user_seconds", usage.user_seconds},
+                         {"system_seconds", usage.system_seconds},
+                         {"minor_page_faults", usage.minor_faults}});
   }
 
 

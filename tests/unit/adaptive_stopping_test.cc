@@ -167,9 +167,9 @@ TEST_F(AdaptiveStoppingTest, AFluxFreeDecisionDoesNotEndNewton)
 }
 
 
-TEST(CycleLine, NamesTheKnownParts)
+TEST(CycleNumbers, LineNamesTheKnownParts)
 {
-  VI::CycleLine line;
+  VI::CycleNumbers line;
   line.solver            = "Newton-min";
   line.newton_iterations = 3;
   line.contact_nodes     = 12;
@@ -178,10 +178,34 @@ TEST(CycleLine, NamesTheKnownParts)
             "   Newton-min: 3 iterations, 12 nodes in contact, 0.5 s");
   line.linear_iterations = 40;
   line.linear_solver     = "GMRES";
-  line.error             = 0.01;
+  line.error_energy      = 0.01;
   line.estimate          = 0.011;
   EXPECT_EQ(VI::to_string(line),
             "   Newton-min: 3 iterations, 40 GMRES, 12 nodes in contact, "
             "energy error 1.000e-02, estimate 1.100e-02 (effectivity 1.1), "
             "0.5 s");
+}
+
+
+TEST(CycleNumbers, RecordKeepsWhatWasMeasured)
+{
+  VI::CycleNumbers numbers;
+  numbers.cycle = 2;
+  const auto text = [&]() {
+    std::ostringstream out;
+    VI::to_json(numbers).write(out);
+    return out.str();
+  };
+  EXPECT_EQ(text().find("error_energy"), std::string::npos);
+  EXPECT_EQ(text().find("effectivity"), std::string::npos);
+  numbers.error_energy = 0.5;
+  numbers.estimate     = 0.75;
+  EXPECT_NE(text().find("\"effectivity\": 1.5"), std::string::npos);
+
+  const VI::ErrorColumns errors{true, true, true};
+  EXPECT_EQ(errors.rate_keys(),
+            (std::vector<std::string>{"error_energy", "error_lambda", "eta"}));
+  // A multiplier error is tabulated only beside the energy error.
+  EXPECT_EQ((VI::ErrorColumns{false, true, false}.rate_keys()),
+            std::vector<std::string>{});
 }

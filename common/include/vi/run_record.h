@@ -19,6 +19,37 @@ namespace dealii
 
 namespace VI
 {
+  struct NonlinearSolverParameters;
+  struct LinearSolverParameters;
+
+  /**
+   * How a membrane program solves its contact system, for the line that
+   * says what a run does: "(<strategy>) with[out] nested iteration, direct
+   * solver <package>" or "..., GMRES + <preconditioner>".
+   */
+  std::string
+  describe_solvers(const NonlinearSolverParameters &nonlinear,
+                   const LinearSolverParameters    &linear);
+
+  /**
+   * The errors and the estimate a run tabulates, known before it starts:
+   * their columns in convergence.txt and the rates shown on the screen.
+   */
+  struct ErrorColumns
+  {
+    /// "error_energy": the exact solution is known.
+    bool energy = false;
+    /// "error_lambda": the exact multiplier is known as well.
+    bool multiplier = false;
+    /// "eta", and "effectivity" with the energy error.
+    bool estimate = false;
+
+    /// The columns whose rates are shown.
+    std::vector<std::string>
+    rate_keys() const;
+  };
+
+
   /**
    * What every run of a program records around its algorithm, so that the
    * programs' run() read like the algorithm:
@@ -26,7 +57,8 @@ namespace VI
    * - start(): the run header (program, version, deal.II, ranks, threads)
    *   and the line that says what is solved; summary.json begun with the
    *   program, its versions and parameters, and an empty list of cycles
-   *   (or time steps);
+   *   (or time steps); the output directory made (or the run stopped
+   *   with one line if it cannot be written);
    * - guard(): a solve whose failure writes summary.json as it stands,
    *   marked "status": "failed" with the reason, before it propagates
    *   (run_program() turns it into one line and exit status 2);
@@ -75,18 +107,18 @@ namespace VI
     add(const Json &record);
 
     /**
-     * The convergence table with the rates of the columns `rate_keys` in h
-     * (from the column "dofs", in `dim` dimensions): on the screen with
-     * every column (wall times too), and in convergence.txt with
-     * `file_columns` only, so that the file is reproducible and diffable
-     * (the tests compare it). An error key names the supercolumn of the
-     * error and its rate.
+     * The convergence table: on the screen with every column (wall times
+     * too) and the rates of `errors` in h (from the column "dofs", in `dim`
+     * dimensions); in convergence.txt with the columns `counts`, the errors
+     * and `more` only, so that the file is reproducible and diffable (the
+     * tests compare it).
      */
     void
     write_tables(const dealii::ConvergenceTable &table,
-                 const std::vector<std::string> &rate_keys,
-                 const std::vector<std::string> &file_columns,
-                 const unsigned int              dim = 2) const;
+                 const std::vector<std::string> &counts,
+                 const ErrorColumns             &errors,
+                 const std::vector<std::string> &more = {},
+                 const unsigned int              dim  = 2) const;
 
     /// `files`: what the output directory holds, for the closing line.
     void
@@ -107,24 +139,58 @@ namespace VI
 
 
   /**
-   * The line a program prints after each cycle:
+   * What a cycle of a stationary program measures, and the three places it
+   * goes: the line printed after the cycle (to_string()), the columns of
+   * the convergence table (add_columns()) and the keys of the cycle's
+   * record in summary.json (to_json()). The programs add what is their own.
+   */
+  struct CycleNumbers
+  {
+    unsigned int       cycle = 0;
+    unsigned long long cells = 0;
+    /// The column "dofs" of the table, from which rates in h are computed.
+    unsigned long long dofs = 0;
+    /// The unknowns after static condensation (HHO), a column beside it.
+    std::optional<unsigned long long> dofs_condensed;
+    /// The nonlinear solver ("Newton-min").
+    std::string  solver;
+    unsigned int newton_iterations = 0;
+    /// Iterations of the linear solver and its name ("GMRES"); the progress
+    /// line names them only if the name is given.
+    unsigned int          linear_iterations = 0;
+    std::string           linear_solver;
+    unsigned long long    contact_nodes = 0;
+    std::optional<double> error_energy, error_multiplier, estimate;
+    double                seconds = 0;
+
+    /// The outcome of the nonlinear solve `solver`: its iterations, those
+    /// of the linear solver (named in the line only if `linear_solver` is
+    /// given) and the size of the contact set.
+    void
+    set_solve(const std::string  &solver,
+              const NewtonReport &report,
+              const std::string  &linear_solver,
+              unsigned long long  contact_nodes);
+  };
+
+  /**
+   * The progress line:
    *   "   <solver>: <n> iterations, <m> <linear solver>, <c> nodes in
    *    contact, energy error <e>, estimate <eta> (effectivity <eta/e>), <t> s"
    * with the parts that are known.
    */
-  struct CycleLine
-  {
-    std::string  solver;
-    unsigned int newton_iterations = 0;
-    /// Iterations of the linear solver and its name ("GMRES"); no part if
-    /// the name is empty.
-    unsigned int          linear_iterations = 0;
-    std::string           linear_solver;
-    unsigned long long    contact_nodes = 0;
-    std::optional<double> error, estimate;
-    double                seconds = 0;
-  };
-
   std::string
-  to_string(const CycleLine &line);
+  to_string(const CycleNumbers &numbers);
+
+  /// The columns cycle, cells, dofs, [dofs_condensed,] newton, linear,
+  /// contact, [error_energy, error_lambda, eta, effectivity,] wall_s.
+  void
+  add_columns(dealii::ConvergenceTable &table, const CycleNumbers &numbers);
+
+  /// The keys cycle, cells, newton_iterations, linear_iterations,
+  /// contact_nodes, [error_energy, error_lambda_l2, eta, effectivity,]
+  /// wall_seconds; the unknowns are the program's to count.
+  Json
+  to_json(const CycleNumbers &numbers);
+
 } // namespace VI

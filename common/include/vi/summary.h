@@ -6,6 +6,7 @@
 #include <vi/semismooth_newton.h>
 
 #include <cstdint>
+#include <initializer_list>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -39,6 +40,9 @@ namespace VI
 
     static Json
     object();
+    /// An object with these members, in this order.
+    static Json
+    object(std::initializer_list<std::pair<std::string, Json>> members);
     static Json
     array();
     /// Text that is already JSON (e.g. ParameterHandler's output).
