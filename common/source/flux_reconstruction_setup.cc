@@ -970,5 +970,8 @@ namespace VI
   }
 
 
-  template class FluxReconstruction<2>;
+  // The class itself is instantiated in flux_reconstruction.cc (before this
+  // file in a unity build): here only what this file defines.
+  template void
+  FluxReconstruction<2>::reinit(const DoFHandler<2> &);
 } // namespace VI
