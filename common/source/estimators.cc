@@ -216,7 +216,7 @@ namespace VI
         double flux_total[2] = {};
         add_flux_residual_terms(index, h_K, scratch, flux_total, cell);
 
-        const MultiplierSplit split = add_multiplier_sums(
+        const MultiplierSplit split = add_multiplier_terms(
           scratch.potential_values.get_JxW_values(), h_K, index, scratch, cell);
         add_nonconformity_contact_terms(scratch, split, cell);
 
@@ -233,17 +233,16 @@ namespace VI
           cell[ContactSum::contact_cone] + cell[ContactSum::dirichlet_squared];
       }
 
-      // The multiplier's sums of a cell: lambda_h = c_K lambda_h^pos + delta
-      // (and the same for the multiplier lambda~ of the nonnegative
-      // coefficients).
+      // The multiplier's sums of a cell (add_multiplier_sums()), and for the
+      // dual norm bound the cell means of its undershoots.
       MultiplierSplit
-      add_multiplier_sums(const std::vector<double> &JxW,
-                          const double               h_K,
-                          const unsigned int         index,
-                          ContactScratch<dim>       &scratch,
-                          ContactSums               &cell)
+      add_multiplier_terms(const std::vector<double> &JxW,
+                           const double               h_K,
+                           const unsigned int         index,
+                           ContactScratch<dim>       &scratch,
+                           ContactSums               &cell)
       {
-        const auto [split, split_disc] = VI::add_multiplier_sums(
+        const auto [split, split_disc] = add_multiplier_sums(
           scratch.lambda, scratch.lambda_nonnegative, JxW, h_K, cell);
         if (undershoots)
           {
@@ -330,11 +329,11 @@ namespace VI
             values(*in.lambda, scratch.lambda);
             values(*in.lambda_nonnegative, scratch.lambda_nonnegative);
           }
-        add_multiplier_sums(lean.get_JxW_values(),
-                            potential_cell->diameter(),
-                            index,
-                            scratch,
-                            cell);
+        add_multiplier_terms(lean.get_JxW_values(),
+                             potential_cell->diameter(),
+                             index,
+                             scratch,
+                             cell);
       }
 
       // u_h, s_h, the look-ahead residual, the fluxes (and their divergences),
