@@ -7,48 +7,28 @@
 namespace VI
 {
   ComplementarityFunction::ComplementarityFunction(const Type type)
-      : type_(type)
+      : SpeltChoice(type)
   {
   }
 
 
-  namespace
+  const Spellings<ComplementarityType> &
+  ComplementarityFunction::spellings()
   {
-    using Type                        = ComplementarityFunction::Type;
-    const Spellings<Type> c_functions = {{Type::min, "min"},
-                                         {Type::fischer_burmeister,
-                                          "fischer-burmeister"}};
-  } // namespace
+    static const Spellings<Type> c_functions = {{Type::min, "min"},
+                                                {Type::fischer_burmeister,
+                                                 "fischer-burmeister"}};
+    return c_functions;
+  }
 
 
   ComplementarityFunction
   ComplementarityFunction::from_name(const std::string &name)
   {
-    if (const auto type = value_spelt(c_functions, name))
+    if (const auto type = value_spelt(spellings(), name))
       return ComplementarityFunction(*type);
     throw InputError("Unknown C-function <" + name +
                      ">; accepted values: " + names());
-  }
-
-
-  std::string
-  ComplementarityFunction::names()
-  {
-    return all_spellings(c_functions);
-  }
-
-
-  ComplementarityFunction::Type
-  ComplementarityFunction::type() const
-  {
-    return type_;
-  }
-
-
-  std::string
-  ComplementarityFunction::name() const
-  {
-    return spelling_of(c_functions, type_);
   }
 
 

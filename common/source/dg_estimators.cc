@@ -7,6 +7,8 @@
 #include <vi/piola_divergence.h>
 #include <vi/same_cell.h>
 
+#include "contact_estimator_internal.h"
+
 #include <array>
 #include <cmath>
 #include <memory>
@@ -102,21 +104,22 @@ namespace VI
 
   namespace
   {
-    // The global sums of the estimate, reduced over processes in one call.
-    enum Sum : unsigned int
+    // The global sums of the estimate (EstimateSums).
+    enum class DGSum : unsigned int
     {
-      flux_residual,         // sum (eta_F + eta_R)^2
-      flux_squared,          // sum eta_F^2
-      residual_squared,      // sum eta_R^2
-      remainder_1,           // |r1|^2
-      remainder_2,           // |r2|^2
-      nonc_total,            // |||s~ - u_h|||_h^2
-      nonc_cone,             // |||s~ - (s + G)|||^2
-      oswald_squared,        // |||s - u_h|||_h^2
-      multiplier_local,      // sum (h_K / pi)^2 |delta - m_K|^2 (lambda)
-      multiplier_mean,       // sum m_K^2 |K| (lambda)
-      multiplier_local_disc, // the same for lambda~
+      flux_residual,    // sum (eta_F + eta_R)^2
+      flux_squared,     // sum eta_F^2
+      residual_squared, // sum eta_R^2
+      remainder_1,      // |r1|^2
+      remainder_2,      // |r2|^2
+      // the multiplier's sums (add_multiplier_sums())
+      multiplier_local,
+      multiplier_mean,
+      multiplier_local_disc,
       multiplier_mean_disc,
+      nonc_total,        // |||s~ - u_h|||_h^2
+      nonc_cone,         // |||s~ - (s + G)|||^2
+      oswald_squared,    // |||s - u_h|||_h^2
       positive,          // |lambda^pos|^2
       contact_total,     // 2 (lambda^pos, u1h - u2h)
       contact_cone,      // 2 (c_K lambda^pos, s~1 - s~2)
@@ -124,18 +127,19 @@ namespace VI
       dirichlet_squared, // |||G|||^2
       n_sums
     };
+    using DGSums = EstimateSums<DGSum>;
 
     // The cell terms of the DG contact estimate, the per-cell quadrature
     // work: the values of u_h, s_h, the fluxes and the multipliers at the
     // quadrature points of a cell, the lifting G of the boundary data, and
     // the terms of the cell.
     template <int dim>
-    struct DGCellTerms
+    struct DGCellTerms : MembraneConstants
     {
       explicit DGCellTerms(const DGContactEstimatorInput<dim> &in)
-          : in(in)
-          , mu{in.mu1, in.mu2}
-          , theta(in.mu2 / (in.mu1 + in.mu2))
+          : MembraneConstants(in.mu1, in.mu2, in.friedrichs_constant)
+          , in(in)
+          , pairs(in)
           , n_q(in.quadrature->size())
           , broken_values(*in.mapping,
                           in.broken->get_fe(),
@@ -156,14 +160,8 @@ namespace VI
           , f(n_q)
           , lambda(n_q)
           , lambda_nonnegative(n_q)
-          , u_vectors{in.u1, in.u2}
-          , s_vectors{in.s1, in.s2}
           , r_vectors{in.r1, in.r2}
           , flux_vectors{in.sigma1, in.sigma2}
-          , forces{in.f1, in.f2}
-          , g{in.g1, in.g2}
-          , c_mu(std::sqrt(1. / in.mu1 + 1. / in.mu2))
-          , C(in.friedrichs_constant * c_mu)
       {
         for (unsigned int a = 0; a < 2; ++a)
           {
@@ -208,11 +206,11 @@ namespace VI
         divergence.reinit(flux_values);
         for (unsigned int a = 0; a < 2; ++a)
           {
-            broken_values.get_function_values(*u_vectors[a], u[a]);
-            broken_values.get_function_gradients(*u_vectors[a], grad_u[a]);
+            broken_values.get_function_values(*pairs.u[a], u[a]);
+            broken_values.get_function_gradients(*pairs.u[a], grad_u[a]);
             broken_values.get_function_values(*r_vectors[a], r[a]);
-            continuous_values.get_function_values(*s_vectors[a], s[a]);
-            continuous_values.get_function_gradients(*s_vectors[a], grad_s[a]);
+            continuous_values.get_function_values(*pairs.s[a], s[a]);
+            continuous_values.get_function_gradients(*pairs.s[a], grad_s[a]);
             divergence.function_values_and_divergences(flux_values,
                                                        flux_cell,
                                                        *flux_vectors[a],
@@ -227,8 +225,8 @@ namespace VI
         lift_boundary_data(continuous_cell,
                            continuous_values,
                            face_values,
-                           s_vectors,
-                           g,
+                           pairs.s,
+                           pairs.g,
                            G,
                            grad_G);
       }
@@ -237,7 +235,7 @@ namespace VI
       // flux_norm = eta_F of each.
       void
       add_flux_residual_terms(const double h_K,
-                              double       cell[n_sums],
+                              DGSums      &cell,
                               double       flux_norm[2])
       {
         double residual[2] = {};
@@ -246,7 +244,7 @@ namespace VI
             // (-1)^alpha for alpha = a + 1.
             const double sign    = (a == 0) ? -1. : 1.;
             const double sqrt_mu = std::sqrt(mu[a]);
-            forces[a]->value_list(broken_values.get_quadrature_points(), f);
+            pairs.f[a]->value_list(broken_values.get_quadrature_points(), f);
             for (unsigned int q = 0; q < n_q; ++q)
               {
                 const double dx = broken_values.JxW(q);
@@ -257,37 +255,31 @@ namespace VI
                   std::pow(f[q] - sign * lambda[q] - r[a][q] - div_flux[a][q],
                            2) *
                   dx;
-                cell[remainder_1 + a] += r[a][q] * r[a][q] * dx;
+                cell.of_membrane(DGSum::remainder_1, a) +=
+                  r[a][q] * r[a][q] * dx;
               }
             flux_norm[a] = std::sqrt(flux_norm[a]);
             residual[a]  = h_K / numbers::PI / sqrt_mu * std::sqrt(residual[a]);
-            cell[flux_residual] += std::pow(flux_norm[a] + residual[a], 2);
-            cell[flux_squared] += std::pow(flux_norm[a], 2);
-            cell[residual_squared] += std::pow(residual[a], 2);
+            cell[DGSum::flux_residual] +=
+              std::pow(flux_norm[a] + residual[a], 2);
+            cell[DGSum::flux_squared] += std::pow(flux_norm[a], 2);
+            cell[DGSum::residual_squared] += std::pow(residual[a], 2);
           }
       }
 
       MultiplierSplit
-      add_multiplier_terms(const double h_K, double cell[n_sums]) const
+      add_multiplier_terms(const double h_K, DGSums &cell) const
       {
-        // The multiplier: lambda_h = c_K lambda_h^pos + delta (and the same
-        // for the multiplier lambda~ of the nonnegative coefficients).
-        const std::vector<double> &JxW   = broken_values.get_JxW_values();
-        const MultiplierSplit      split = split_multiplier(lambda, JxW),
-                              split_disc =
-                                split_multiplier(lambda_nonnegative, JxW);
-        const double poincare_squared = std::pow(h_K / numbers::PI, 2);
-        cell[multiplier_local] = poincare_squared * split.oscillation_squared;
-        cell[multiplier_mean]  = split.mean_squared;
-        cell[multiplier_local_disc] =
-          poincare_squared * split_disc.oscillation_squared;
-        cell[multiplier_mean_disc] = split_disc.mean_squared;
-
-        return split;
+        return add_multiplier_sums(lambda,
+                                   lambda_nonnegative,
+                                   broken_values.get_JxW_values(),
+                                   h_K,
+                                   cell)
+          .first;
       }
 
       void
-      add_cone_terms(const MultiplierSplit &split, double cell[n_sums]) const
+      add_cone_terms(const MultiplierSplit &split, DGSums &cell) const
       {
         // The cone reconstruction s~ = (s + G) + (theta w, -(1 - theta) w),
         // w = ((s2 + G2) - (s1 + G1))^+: s~1 - s~2 = ((s1 + G1) - (s2 +
@@ -303,32 +295,33 @@ namespace VI
             const Tensor<1, dim> d1 = grad_S1 + theta * grad_w - grad_u[0][q],
                                  d2 = grad_S2 - (1 - theta) * grad_w -
                                       grad_u[1][q];
-            cell[nonc_total] +=
+            cell[DGSum::nonc_total] +=
               (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
-            cell[nonc_cone] +=
+            cell[DGSum::nonc_cone] +=
               (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
               grad_w.norm_square() * dx;
-            cell[oswald_squared] +=
+            cell[DGSum::oswald_squared] +=
               (mu[0] * (grad_s[0][q] - grad_u[0][q]).norm_square() +
                mu[1] * (grad_s[1][q] - grad_u[1][q]).norm_square()) *
               dx;
 
             const double positive_part = std::max(lambda[q], 0.);
             const double gap           = u[0][q] - u[1][q];
-            cell[positive] += positive_part * positive_part * dx;
-            cell[contact_total] += 2. * positive_part * gap * dx;
-            cell[contact_cone] += 2. * split.cone_factor * positive_part *
-                                  std::max(S1 - S2, 0.) * dx;
-            cell[contact_discrete] += 2. * lambda[q] * gap * dx;
-            cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
-                                        mu[1] * grad_G[1][q].norm_square()) *
-                                       dx;
+            cell[DGSum::positive] += positive_part * positive_part * dx;
+            cell[DGSum::contact_total] += 2. * positive_part * gap * dx;
+            cell[DGSum::contact_cone] += 2. * split.cone_factor *
+                                         positive_part * std::max(S1 - S2, 0.) *
+                                         dx;
+            cell[DGSum::contact_discrete] += 2. * lambda[q] * gap * dx;
+            cell[DGSum::dirichlet_squared] +=
+              (mu[0] * grad_G[0][q].norm_square() +
+               mu[1] * grad_G[1][q].norm_square()) *
+              dx;
           }
       }
 
       const DGContactEstimatorInput<dim> &in;
-      const double                        mu[2];
-      const double                        theta;
+      const MembranePairs<dim>            pairs;
       const unsigned int                  n_q;
       FEValues<dim>               broken_values, continuous_values, flux_values;
       PiolaDivergence<dim>        divergence;
@@ -336,15 +329,10 @@ namespace VI
       std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], flux[2];
       std::vector<double>         u[2], s[2], r[2], div_flux[2], f, lambda,
         lambda_nonnegative;
-      const TrilinosWrappers::MPI::Vector *u_vectors[2], *s_vectors[2],
-        *r_vectors[2], *flux_vectors[2];
-      const Function<dim>                        *forces[2];
-      const Function<dim>                        *g[2];
+      const TrilinosWrappers::MPI::Vector *r_vectors[2], *flux_vectors[2];
       std::vector<std::unique_ptr<FEValues<dim>>> face_values;
       std::vector<double>                         G[2];
       std::vector<Tensor<1, dim>>                 grad_G[2];
-      const double                                c_mu;
-      const double                                C;
     };
 
 
@@ -353,7 +341,7 @@ namespace VI
     template <int dim>
     void
     combine_dg_terms(const DGContactEstimatorInput<dim> &in,
-                     const std::array<double, n_sums>   &total,
+                     const DGSums                       &total,
                      const double                        c_mu,
                      const double                        C,
                      DGContactEstimate                  &e)
@@ -375,32 +363,32 @@ namespace VI
         e.cell_total(c) += cell_jumps(c);
 
       e.remainder =
-        in.friedrichs_constant *
-        std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
-      const double eta_flux = std::sqrt(total[flux_residual]);
+        in.friedrichs_constant * std::sqrt(total[DGSum::remainder_1] / in.mu1 +
+                                           total[DGSum::remainder_2] / in.mu2);
+      const double eta_flux = std::sqrt(total[DGSum::flux_residual]);
       e.eta_1               = eta_flux + e.remainder;
-      e.flux_disc           = std::sqrt(total[flux_squared]);
-      e.residual            = std::sqrt(total[residual_squared]);
+      e.flux_disc           = std::sqrt(total[DGSum::flux_squared]);
+      e.residual            = std::sqrt(total[DGSum::residual_squared]);
       e.flux_alg            = 0;
-      e.nonc_1              = std::sqrt(total[nonc_total]);
+      e.nonc_1              = std::sqrt(total[DGSum::nonc_total]);
       e.nonc_1_disc         = e.nonc_1;
       e.nonc_1_lin          = 0;
-      e.oswald              = std::sqrt(total[oswald_squared]);
+      e.oswald              = std::sqrt(total[DGSum::oswald_squared]);
       // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w||| (w in
       // H^1_0).
-      e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
-                 C * std::sqrt(total[multiplier_mean]);
-      e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
-                      C * std::sqrt(total[multiplier_mean_disc]);
+      e.nonc_2 = c_mu * std::sqrt(total[DGSum::multiplier_local]) +
+                 C * std::sqrt(total[DGSum::multiplier_mean]);
+      e.nonc_2_disc = c_mu * std::sqrt(total[DGSum::multiplier_local_disc]) +
+                      C * std::sqrt(total[DGSum::multiplier_mean_disc]);
       e.nonc_2_lin   = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
-      e.nonc_3       = 2. * C * std::sqrt(total[positive]) * e.nonc_1;
-      e.contact_pos  = total[contact_total];
-      e.contact_cone = total[contact_cone];
+      e.nonc_3       = 2. * C * std::sqrt(total[DGSum::positive]) * e.nonc_1;
+      e.contact_pos  = total[DGSum::contact_total];
+      e.contact_cone = total[DGSum::contact_cone];
       // 2 (lambda_h, u1h - u2h) = 2 sum_i X3_i (X1_i - X2_i) vanishes with the
       // discrete complementarity (the dual basis); the rest is discretisation.
-      e.contact_lin  = in.mass_lumped ? 0. : total[contact_discrete];
+      e.contact_lin  = in.mass_lumped ? 0. : total[DGSum::contact_discrete];
       e.contact_disc = e.contact_cone - e.contact_lin;
-      e.dirichlet    = std::sqrt(total[dirichlet_squared]);
+      e.dirichlet    = std::sqrt(total[DGSum::dirichlet_squared]);
 
       // |||e|||_h^2 <= a |||e|||_h + b (the proof of the conforming case with
       // broken gradients), hence |||e|||_h <= a/2 + (a^2/4 + b)^(1/2), and the
@@ -431,10 +419,10 @@ namespace VI
 
     DGContactEstimate estimate;
     estimate.reinit_cell_indicators(tria.n_active_cells());
-    DGCellTerms<dim>           terms(in);
-    const double               c_mu = terms.c_mu;
-    const double               C    = terms.C;
-    std::array<double, n_sums> sums{};
+    DGCellTerms<dim> terms(in);
+    const double     c_mu = terms.c_mu;
+    const double     C    = terms.C;
+    DGSums           sums;
 
     for (const auto &broken_cell : in.broken->active_cell_iterators())
       {
@@ -442,34 +430,29 @@ namespace VI
           continue;
         terms.read_values(broken_cell);
 
-        const double h_K          = broken_cell->diameter();
-        const auto   index        = broken_cell->active_cell_index();
-        double       cell[n_sums] = {};
+        const double h_K   = broken_cell->diameter();
+        const auto   index = broken_cell->active_cell_index();
+        DGSums       cell;
         double       flux_norm[2] = {};
         terms.add_flux_residual_terms(h_K, cell, flux_norm);
         const MultiplierSplit split = terms.add_multiplier_terms(h_K, cell);
         terms.add_cone_terms(split, cell);
 
-        for (unsigned int k = 0; k < n_sums; ++k)
-          sums[k] += cell[k];
+        sums += cell;
         estimate.cell_flux(index) =
           std::pow(flux_norm[0], 2) + std::pow(flux_norm[1], 2);
-        estimate.cell_residual(index)      = cell[residual_squared];
+        estimate.cell_residual(index)      = cell[DGSum::residual_squared];
         estimate.cell_algebraic(index)     = 0;
-        estimate.cell_nonconformity(index) = cell[nonc_total];
-        estimate.cell_contact(index)       = cell[contact_cone];
-        estimate.cell_total(index) = cell[flux_residual] + cell[nonc_total] +
-                                     c_mu * c_mu * cell[multiplier_local] +
-                                     C * C * cell[multiplier_mean] +
-                                     cell[contact_cone];
+        estimate.cell_nonconformity(index) = cell[DGSum::nonc_total];
+        estimate.cell_contact(index)       = cell[DGSum::contact_cone];
+        estimate.cell_total(index) =
+          cell[DGSum::flux_residual] + cell[DGSum::nonc_total] +
+          c_mu * c_mu * cell[DGSum::multiplier_local] +
+          C * C * cell[DGSum::multiplier_mean] + cell[DGSum::contact_cone];
       }
 
-    const MPI_Comm             comm = tria.get_communicator();
-    std::array<double, n_sums> total{};
-    Utilities::MPI::sum(ArrayView<const double>(sums.data(), n_sums),
-                        comm,
-                        ArrayView<double>(total.data(), n_sums));
-    combine_dg_terms(in, total, c_mu, C, estimate);
+    combine_dg_terms(
+      in, sums.sum_over_processes(tria.get_communicator()), c_mu, C, estimate);
     return estimate;
   }
 

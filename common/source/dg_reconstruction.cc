@@ -30,13 +30,6 @@ namespace VI
 
 
   template <int dim>
-  JumpLifting<dim>::~JumpLifting()
-  {
-    dof_handler.clear();
-  }
-
-
-  template <int dim>
   void
   JumpLifting<dim>::reinit(const Triangulation<dim> &triangulation)
   {

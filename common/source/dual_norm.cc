@@ -41,13 +41,6 @@ namespace VI
 
 
   template <int dim>
-  DualNormBound<dim>::~DualNormBound()
-  {
-    dof_handler.clear();
-  }
-
-
-  template <int dim>
   void
   DualNormBound<dim>::reinit(const Triangulation<dim> &triangulation)
   {

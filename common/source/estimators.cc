@@ -12,6 +12,8 @@
 #include <vi/piola_divergence.h>
 #include <vi/same_cell.h>
 
+#include "contact_estimator_internal.h"
+
 #include <array>
 #include <cmath>
 #include <limits>
@@ -23,8 +25,8 @@ namespace VI
 
   namespace
   {
-    // The global sums of the estimate, reduced over processes in one call.
-    enum Sum : unsigned int
+    // The global sums of the estimate (EstimateSums).
+    enum class ContactSum : unsigned int
     {
       flux_residual_total, // sum (eta_F + eta_R)^2 with the look-ahead flux
       flux_residual_disc,  // sum (eta_F,disc + eta_R)^2
@@ -35,13 +37,14 @@ namespace VI
                    // dt_u1|^2
       remainder_2, // |r2_ahead + (lambda_ahead - lambda) + dt_u2_ahead -
                    // dt_u2|^2
+      // the multiplier's sums (add_multiplier_sums())
+      multiplier_local,
+      multiplier_mean,
+      multiplier_local_disc,
+      multiplier_mean_disc,
       nonc_total,
       nonc_disc,
       nonc_lin,
-      multiplier_local,      // sum (h_K / pi)^2 |delta - m_K|^2 (lambda)
-      multiplier_mean,       // sum m_K^2 |K| (lambda)
-      multiplier_local_disc, // the same for lambda~
-      multiplier_mean_disc,
       positive,           // |lambda^pos|^2
       contact_total,      // 2 (lambda^pos, u1 - u2)
       contact_cone,       // 2 (c_K lambda^pos, (s1 - s2)^+)
@@ -49,6 +52,7 @@ namespace VI
       dirichlet_squared,  // |||G|||^2
       n_sums
     };
+    using ContactSums = EstimateSums<ContactSum>;
 
 
     // What one thread needs on a cell: FEValues and the values at the
@@ -127,7 +131,7 @@ namespace VI
     // estimate does not depend on the number of threads).
     struct CellShare
     {
-      std::array<double, n_sums> cell;
+      ContactSums cell;
     };
 
     // The cell terms of the contact estimate, the per-cell quadrature work:
@@ -137,38 +141,32 @@ namespace VI
     // they read and the cell means and remainders they keep for the dual norm
     // bounds.
     template <int dim>
-    struct ContactCellTerms
+    struct ContactCellTerms : MembraneConstants
     {
       using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
 
       ContactCellTerms(const ContactEstimatorInput<dim> &in,
                        ContactEstimate                  &estimate)
-          : in(in)
+          : MembraneConstants(in.mu1, in.mu2, in.friedrichs_constant)
+          , in(in)
           , estimate(estimate)
           , tria(in.potential->get_triangulation())
-          , mu{in.mu1, in.mu2}
-          , theta(in.mu2 / (in.mu1 + in.mu2))
+          , pairs(in)
           , n_q(in.quadrature->size())
           , n_tau(in.flux->get_fe().n_dofs_per_cell())
-          , u_vectors{in.u1, in.u2}
-          , s_vectors{in.s1, in.s2}
           , r_vectors{in.r1_ahead, in.r2_ahead}
           , disc_vectors{in.sigma1_disc, in.sigma2_disc}
           , ahead_vectors{in.sigma1_ahead, in.sigma2_ahead}
-          , forces{in.f1, in.f2}
           , load_values{in.f1_values, in.f2_values}
           , dt_vectors{in.dt_u1, in.dt_u2}
           , dt_ahead_vectors{in.dt_u1_ahead, in.dt_u2_ahead}
           , lifting(in.g1 && in.g2)
-          , g_functions{in.g1, in.g2}
           , own_look_ahead(in.sigma1_ahead == in.sigma1_disc &&
                            in.sigma2_ahead == in.sigma2_disc &&
                            (in.cell_multiplier ?
                               in.lambda_ahead_cells == in.lambda_cells :
                               in.lambda_ahead == in.lambda))
           , with_fluxes(!in.without_fluxes)
-          , c_mu(std::sqrt(1. / in.mu1 + 1. / in.mu2))
-          , C(in.friedrichs_constant * c_mu)
           , undershoots(in.dual_norm && in.dual_norm_undershoots)
           , remainder(in.dual_norm && in.dual_norm_remainder)
           , contact_linearised_needed(!in.mass_lumped && !in.cell_multiplier)
@@ -214,46 +212,38 @@ namespace VI
         const double h_K   = potential_cell->diameter();
         const auto   index = potential_cell->active_cell_index();
         auto        &cell  = share.cell;
-        cell.fill(0.);
+        cell.clear();
         double flux_total[2] = {};
         add_flux_residual_terms(index, h_K, scratch, flux_total, cell);
 
-        const MultiplierSplit split = add_multiplier_sums(
+        const MultiplierSplit split = add_multiplier_terms(
           scratch.potential_values.get_JxW_values(), h_K, index, scratch, cell);
         add_nonconformity_contact_terms(scratch, split, cell);
 
         estimate.cell_flux(index) =
           std::pow(flux_total[0], 2) + std::pow(flux_total[1], 2);
-        estimate.cell_residual(index)      = cell[residual_squared];
-        estimate.cell_algebraic(index)     = cell[algebraic_squared];
-        estimate.cell_nonconformity(index) = cell[nonc_total];
-        estimate.cell_contact(index)       = cell[contact_cone];
+        estimate.cell_residual(index)  = cell[ContactSum::residual_squared];
+        estimate.cell_algebraic(index) = cell[ContactSum::algebraic_squared];
+        estimate.cell_nonconformity(index) = cell[ContactSum::nonc_total];
+        estimate.cell_contact(index)       = cell[ContactSum::contact_cone];
         estimate.cell_total(index) =
-          cell[flux_residual_total] + cell[nonc_total] +
-          c_mu * c_mu * cell[multiplier_local] + C * C * cell[multiplier_mean] +
-          cell[contact_cone] + cell[dirichlet_squared];
+          cell[ContactSum::flux_residual_total] + cell[ContactSum::nonc_total] +
+          c_mu * c_mu * cell[ContactSum::multiplier_local] +
+          C * C * cell[ContactSum::multiplier_mean] +
+          cell[ContactSum::contact_cone] + cell[ContactSum::dirichlet_squared];
       }
 
-      // The multiplier's sums of a cell: lambda_h = c_K lambda_h^pos + delta
-      // (and the same for the multiplier lambda~ of the nonnegative
-      // coefficients).
+      // The multiplier's sums of a cell (add_multiplier_sums()), and for the
+      // dual norm bound the cell means of its undershoots.
       MultiplierSplit
-      add_multiplier_sums(const std::vector<double>  &JxW,
-                          const double                h_K,
-                          const unsigned int          index,
-                          ContactScratch<dim>        &scratch,
-                          std::array<double, n_sums> &cell)
+      add_multiplier_terms(const std::vector<double> &JxW,
+                           const double               h_K,
+                           const unsigned int         index,
+                           ContactScratch<dim>       &scratch,
+                           ContactSums               &cell)
       {
-        const MultiplierSplit split = split_multiplier(scratch.lambda, JxW),
-                              split_disc =
-                                split_multiplier(scratch.lambda_nonnegative,
-                                                 JxW);
-        const double poincare_squared = std::pow(h_K / numbers::PI, 2);
-        cell[multiplier_local] = poincare_squared * split.oscillation_squared;
-        cell[multiplier_mean]  = split.mean_squared;
-        cell[multiplier_local_disc] =
-          poincare_squared * split_disc.oscillation_squared;
-        cell[multiplier_mean_disc] = split_disc.mean_squared;
+        const auto [split, split_disc] = add_multiplier_sums(
+          scratch.lambda, scratch.lambda_nonnegative, JxW, h_K, cell);
         if (undershoots)
           {
             means[index]      = split.mean;
@@ -282,8 +272,8 @@ namespace VI
         d.resize(c.size());
         for (unsigned int a = 0; a < 2; ++a)
           {
-            cell->get_dof_values(*u_vectors[a], c.begin(), c.end());
-            cell->get_dof_values(*s_vectors[a], d.begin(), d.end());
+            cell->get_dof_values(*pairs.u[a], c.begin(), c.end());
+            cell->get_dof_values(*pairs.s[a], d.begin(), d.end());
             if (c != d)
               return false;
           }
@@ -299,9 +289,9 @@ namespace VI
 
       // The terms of a lean cell: the remainder and the multiplier's sums.
       void
-      add_lean_terms(const CellIterator         &potential_cell,
-                     ContactScratch<dim>        &scratch,
-                     std::array<double, n_sums> &cell)
+      add_lean_terms(const CellIterator  &potential_cell,
+                     ContactScratch<dim> &scratch,
+                     ContactSums         &cell)
       {
         FEValues<dim> &lean = scratch.lean_values;
         lean.reinit(potential_cell);
@@ -314,14 +304,15 @@ namespace VI
                                scratch.potential_coefficients,
                                &at_points);
         };
-        cell.fill(0.);
+        cell.clear();
         for (unsigned int a = 0; a < 2; ++a)
           {
             std::vector<double> &r = scratch.r_ahead[a];
             values(*r_vectors[a], r);
             for (unsigned int q = 0; q < n_q; ++q)
               {
-                cell[remainder_1 + a] += r[q] * r[q] * lean.JxW(q);
+                cell.of_membrane(ContactSum::remainder_1, a) +=
+                  r[q] * r[q] * lean.JxW(q);
                 if (remainder)
                   remainders[a][index * n_q + q] = r[q];
               }
@@ -338,11 +329,11 @@ namespace VI
             values(*in.lambda, scratch.lambda);
             values(*in.lambda_nonnegative, scratch.lambda_nonnegative);
           }
-        add_multiplier_sums(lean.get_JxW_values(),
-                            potential_cell->diameter(),
-                            index,
-                            scratch,
-                            cell);
+        add_multiplier_terms(lean.get_JxW_values(),
+                             potential_cell->diameter(),
+                             index,
+                             scratch,
+                             cell);
       }
 
       // u_h, s_h, the look-ahead residual, the fluxes (and their divergences),
@@ -389,13 +380,13 @@ namespace VI
           {
             cell_function_values(potential_values,
                                  potential_cell,
-                                 *u_vectors[a],
+                                 *pairs.u[a],
                                  potential_coefficients,
                                  &u[a],
                                  &grad_u[a]);
             cell_function_values(potential_values,
                                  potential_cell,
-                                 *s_vectors[a],
+                                 *pairs.s[a],
                                  potential_coefficients,
                                  &s[a],
                                  &grad_s[a]);
@@ -485,8 +476,8 @@ namespace VI
         lift_boundary_data(potential_cell,
                            potential_values,
                            scratch.face_values,
-                           u_vectors,
-                           g_functions,
+                           pairs.u,
+                           pairs.g,
                            G,
                            grad_G);
         // From here on u_h stands for u_h + G, and s for s + G (s - u_h is
@@ -504,11 +495,11 @@ namespace VI
       // The flux, residual and algebraic terms of both membranes and the
       // remainder; flux_total = eta_F of each.
       void
-      add_flux_residual_terms(const unsigned int          index,
-                              const double                h_K,
-                              ContactScratch<dim>        &scratch,
-                              double                      flux_total[2],
-                              std::array<double, n_sums> &cell)
+      add_flux_residual_terms(const unsigned int   index,
+                              const double         h_K,
+                              ContactScratch<dim> &scratch,
+                              double               flux_total[2],
+                              ContactSums         &cell)
       {
         const FEValues<dim> &potential_values = scratch.potential_values;
         const auto &grad_u = scratch.grad_u, &sigma_disc = scratch.sigma_disc,
@@ -530,8 +521,8 @@ namespace VI
                           n_q,
                           f.begin());
             else
-              forces[a]->value_list(potential_values.get_quadrature_points(),
-                                    f);
+              pairs.f[a]->value_list(potential_values.get_quadrature_points(),
+                                     f);
             for (unsigned int q = 0; q < n_q; ++q)
               {
                 const double dx      = potential_values.JxW(q);
@@ -555,7 +546,7 @@ namespace VI
                 const double rho = r_ahead[a][q] +
                                    sign * (lambda_ahead[q] - lambda[q]) +
                                    dt_u_ahead[a][q] - dt_u[a][q];
-                cell[remainder_1 + a] += rho * rho * dx;
+                cell.of_membrane(ContactSum::remainder_1, a) += rho * rho * dx;
                 if (remainder)
                   remainders[a][index * n_q + q] = rho;
               }
@@ -563,20 +554,21 @@ namespace VI
             flux_disc[a]  = std::sqrt(flux_disc[a]);
             residual[a] =
               h_K / numbers::PI / std::sqrt(mu[a]) * std::sqrt(residual[a]);
-            cell[flux_residual_total] +=
+            cell[ContactSum::flux_residual_total] +=
               std::pow(flux_total[a] + residual[a], 2);
-            cell[flux_residual_disc] += std::pow(flux_disc[a] + residual[a], 2);
-            cell[flux_disc_squared] += std::pow(flux_disc[a], 2);
-            cell[residual_squared] += std::pow(residual[a], 2);
+            cell[ContactSum::flux_residual_disc] +=
+              std::pow(flux_disc[a] + residual[a], 2);
+            cell[ContactSum::flux_disc_squared] += std::pow(flux_disc[a], 2);
+            cell[ContactSum::residual_squared] += std::pow(residual[a], 2);
           }
-        cell[algebraic_squared] = algebraic;
+        cell[ContactSum::algebraic_squared] = algebraic;
       }
 
       // The non-conformity, contact and Dirichlet terms.
       void
-      add_nonconformity_contact_terms(const ContactScratch<dim>  &scratch,
-                                      const MultiplierSplit      &split,
-                                      std::array<double, n_sums> &cell) const
+      add_nonconformity_contact_terms(const ContactScratch<dim> &scratch,
+                                      const MultiplierSplit     &split,
+                                      ContactSums               &cell) const
       {
         const FEValues<dim> &potential_values = scratch.potential_values;
         const auto          &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
@@ -593,38 +585,38 @@ namespace VI
                                             Tensor<1, dim>();
             const Tensor<1, dim> d1     = grad_s[0][q] - grad_u[0][q],
                                  d2     = grad_s[1][q] - grad_u[1][q];
-            cell[nonc_total] +=
+            cell[ContactSum::nonc_total] +=
               (mu[0] * (d1 + theta * grad_w).norm_square() +
                mu[1] * (d2 - (1 - theta) * grad_w).norm_square()) *
               dx;
-            cell[nonc_lin] +=
+            cell[ContactSum::nonc_lin] +=
               (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
-            cell[nonc_disc] +=
+            cell[ContactSum::nonc_disc] +=
               (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
               grad_w.norm_square() * dx;
 
             const double positive_part = std::max(lambda[q], 0.);
             const double gap           = u[0][q] - u[1][q];
-            cell[positive] += positive_part * positive_part * dx;
-            cell[contact_total] += 2. * positive_part * gap * dx;
-            cell[contact_cone] += 2. * split.cone_factor * positive_part *
-                                  std::max(s[0][q] - s[1][q], 0.) * dx;
-            cell[dirichlet_squared] += (mu[0] * grad_G[0][q].norm_square() +
-                                        mu[1] * grad_G[1][q].norm_square()) *
-                                       dx;
-            cell[contact_linearised] += 2. * lambda[q] * gap * dx;
+            cell[ContactSum::positive] += positive_part * positive_part * dx;
+            cell[ContactSum::contact_total] += 2. * positive_part * gap * dx;
+            cell[ContactSum::contact_cone] +=
+              2. * split.cone_factor * positive_part *
+              std::max(s[0][q] - s[1][q], 0.) * dx;
+            cell[ContactSum::dirichlet_squared] +=
+              (mu[0] * grad_G[0][q].norm_square() +
+               mu[1] * grad_G[1][q].norm_square()) *
+              dx;
+            cell[ContactSum::contact_linearised] += 2. * lambda[q] * gap * dx;
           }
       }
 
       const ContactEstimatorInput<dim>    &in;
       ContactEstimate                     &estimate;
       const Triangulation<dim>            &tria;
-      const double                         mu[2];
-      const double                         theta;
+      const MembranePairs<dim>             pairs;
       const unsigned int                   n_q, n_tau;
-      const TrilinosWrappers::MPI::Vector *u_vectors[2], *s_vectors[2],
-        *r_vectors[2], *disc_vectors[2], *ahead_vectors[2];
-      const Function<dim>                 *forces[2];
+      const TrilinosWrappers::MPI::Vector *r_vectors[2], *disc_vectors[2],
+        *ahead_vectors[2];
       const std::vector<double>           *load_values[2];
       const TrilinosWrappers::MPI::Vector *dt_vectors[2], *dt_ahead_vectors[2];
       // The lifting G of g - I_h g on the cells at the boundary (see
@@ -632,14 +624,11 @@ namespace VI
       // the boundary faces, at the points that share the tangential
       // coordinate of the (tensor-product Gauss) cell quadrature points
       // (lifting_face_points()).
-      const bool           lifting;
-      const Function<dim> *g_functions[2];
+      const bool lifting;
       // An iterate estimated with itself as look-ahead (sigma_alg = 0): its
       // fluxes and multiplier are read once.
-      const bool   own_look_ahead;
-      const bool   with_fluxes;
-      const double c_mu;
-      const double C;
+      const bool own_look_ahead;
+      const bool with_fluxes;
       // The cell means m_K of the multiplier's undershoots (of lambda_h and of
       // lambda~), for the dual norm bound.
       const bool          undershoots;
@@ -654,13 +643,14 @@ namespace VI
     // The bound and its split for a bound of the remainder, which enters
     // eta_1, the cross terms and eta_alg: all of them grow with it.
     inline void
-    bound_with_remainder(const std::array<double, n_sums> &total,
-                         const bool                        with_fluxes,
-                         const double                      remainder_bound,
-                         ContactEstimate                  &e)
+    bound_with_remainder(const ContactSums &total,
+                         const bool         with_fluxes,
+                         const double       remainder_bound,
+                         ContactEstimate   &e)
     {
       e.remainder = remainder_bound;
-      e.eta_1     = std::sqrt(total[flux_residual_total]) + remainder_bound;
+      e.eta_1 =
+        std::sqrt(total[ContactSum::flux_residual_total]) + remainder_bound;
       // |||e|||^2 <= a |||e||| + b, hence |||e||| <= a/2 + (a^2/4 + b)^(1/2).
       const double a = e.eta_1 + e.nonc_1 + e.nonc_2;
       const double b = (e.eta_1 + e.nonc_2) * e.nonc_1 + 0.5 * e.contact_cone;
@@ -722,9 +712,9 @@ namespace VI
     // and the final formula.
     template <int dim>
     void
-    combine_contact_terms(const ContactCellTerms<dim>      &terms,
-                          const std::array<double, n_sums> &total,
-                          ContactEstimate                  &e)
+    combine_contact_terms(const ContactCellTerms<dim> &terms,
+                          const ContactSums           &total,
+                          ContactEstimate             &e)
     {
       const ContactEstimatorInput<dim> &in          = terms.in;
       const double                      c_mu        = terms.c_mu;
@@ -737,16 +727,18 @@ namespace VI
       const std::vector<double>        *remainders  = terms.remainders;
       // (Below 1 % of the discretisation flux and residual estimator, the
       // sharper bound of a dual norm changes eta by less than 1 %.)
-      const double negligible = 1e-2 * std::sqrt(total[flux_residual_disc]);
+      const double negligible =
+        1e-2 * std::sqrt(total[ContactSum::flux_residual_disc]);
       const double friedrichs_remainder =
         in.friedrichs_constant *
-        std::sqrt(total[remainder_1] / in.mu1 + total[remainder_2] / in.mu2);
-      e.flux_disc   = std::sqrt(total[flux_disc_squared]);
-      e.residual    = std::sqrt(total[residual_squared]);
-      e.flux_alg    = std::sqrt(total[algebraic_squared]);
-      e.nonc_1      = std::sqrt(total[nonc_total]);
-      e.nonc_1_disc = std::sqrt(total[nonc_disc]);
-      e.nonc_1_lin  = std::sqrt(total[nonc_lin]);
+        std::sqrt(total[ContactSum::remainder_1] / in.mu1 +
+                  total[ContactSum::remainder_2] / in.mu2);
+      e.flux_disc   = std::sqrt(total[ContactSum::flux_disc_squared]);
+      e.residual    = std::sqrt(total[ContactSum::residual_squared]);
+      e.flux_alg    = std::sqrt(total[ContactSum::algebraic_squared]);
+      e.nonc_1      = std::sqrt(total[ContactSum::nonc_total]);
+      e.nonc_1_disc = std::sqrt(total[ContactSum::nonc_disc]);
+      e.nonc_1_lin  = std::sqrt(total[ContactSum::nonc_lin]);
       // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w|||, or
       // (m, w1 - w2) <= ||m||_{-1} c_mu |||w||| with the equilibrated bound.
       const auto mean_term = [&](const double               mean_squared,
@@ -755,16 +747,17 @@ namespace VI
           return c_mu * in.dual_norm->bound(cell_means);
         return C * std::sqrt(mean_squared);
       };
-      e.nonc_2 = c_mu * std::sqrt(total[multiplier_local]) +
-                 mean_term(total[multiplier_mean], means);
-      e.nonc_2_disc = c_mu * std::sqrt(total[multiplier_local_disc]) +
-                      mean_term(total[multiplier_mean_disc], means_disc);
+      e.nonc_2 = c_mu * std::sqrt(total[ContactSum::multiplier_local]) +
+                 mean_term(total[ContactSum::multiplier_mean], means);
+      e.nonc_2_disc =
+        c_mu * std::sqrt(total[ContactSum::multiplier_local_disc]) +
+        mean_term(total[ContactSum::multiplier_mean_disc], means_disc);
       // lambda_h = lambda~ once Newton has converged.
       e.nonc_2_lin                 = std::max(e.nonc_2 - e.nonc_2_disc, 0.);
-      const double lambda_positive = std::sqrt(total[positive]);
+      const double lambda_positive = std::sqrt(total[ContactSum::positive]);
       e.nonc_3                     = 2. * C * lambda_positive * e.nonc_1;
-      e.contact_pos                = total[contact_total];
-      e.contact_cone               = total[contact_cone];
+      e.contact_pos                = total[ContactSum::contact_total];
+      e.contact_cone               = total[ContactSum::contact_cone];
       if (in.cell_multiplier)
         {
           e.contact_lin  = in.complementarity;
@@ -779,11 +772,11 @@ namespace VI
         {
           // 2 (lambda, u1 - u2) vanishes with the discrete complementarity of
           // p >= 2; the rest is a discretisation term.
-          e.contact_lin  = total[contact_linearised];
+          e.contact_lin  = total[ContactSum::contact_linearised];
           e.contact_disc = e.contact_cone - e.contact_lin;
         }
-      e.dirichlet  = std::sqrt(total[dirichlet_squared]);
-      e.eta_1_disc = std::sqrt(total[flux_residual_disc]);
+      e.dirichlet  = std::sqrt(total[ContactSum::dirichlet_squared]);
+      e.eta_1_disc = std::sqrt(total[ContactSum::flux_residual_disc]);
 
       bound_with_remainder(total, with_fluxes, friedrichs_remainder, e);
       // The dual norm bounds cost a Poisson solve and a reconstruction each
@@ -819,17 +812,14 @@ namespace VI
       in.potential->get_triangulation().n_active_cells());
     ContactCellTerms<dim> terms(in, estimate);
 
-    std::array<double, n_sums> sums{};
-    const auto                 worker =
+    ContactSums sums;
+    const auto  worker =
       [&](const typename DoFHandler<dim>::active_cell_iterator &potential_cell,
           ContactScratch<dim>                                  &scratch,
           CellShare                                            &share) {
         terms.cell_terms(potential_cell, scratch, share);
       };
-    const auto copier = [&](const CellShare &share) {
-      for (unsigned int k = 0; k < n_sums; ++k)
-        sums[k] += share.cell[k];
-    };
+    const auto copier = [&](const CellShare &share) { sums += share.cell; };
     WorkStream::run(filter_iterators(in.potential->active_cell_iterators(),
                                      IteratorFilters::LocallyOwnedCell()),
                     worker,
@@ -839,12 +829,10 @@ namespace VI
                     /*queue_length=*/2 * MultithreadInfo::n_threads(),
                     /*chunk_size=*/32);
 
-    const MPI_Comm             comm = in.potential->get_communicator();
-    std::array<double, n_sums> total{};
-    Utilities::MPI::sum(ArrayView<const double>(sums.data(), n_sums),
-                        comm,
-                        ArrayView<double>(total.data(), n_sums));
-    combine_contact_terms(terms, total, estimate);
+    combine_contact_terms(terms,
+                          sums.sum_over_processes(
+                            in.potential->get_communicator()),
+                          estimate);
     return estimate;
   }
 

@@ -278,21 +278,17 @@ namespace VI
     for (std::size_t s = 0; s < local_solvers.size(); ++s)
       start[s + 1] = start[s] + local_solvers[s]->layout->n_products();
     product_storage.reset(new double[start.back()]);
-    parallel::apply_to_subranges(
-      std::size_t(0),
+    parallel_for_each(
       local_solvers.size(),
-      [&](const std::size_t begin, const std::size_t end) {
-        for (std::size_t s = begin; s < end; ++s)
-          {
-            LocalSolver       &solver = *local_solvers[s];
-            const PatchLayout &layout = *solver.layout;
-            double *const      C      = &product_storage[start[s]];
-            layout.combine(solver.metrics,
-                           layout.n_packed(),
-                           layout.n_products(),
-                           C);
-            solver.products = C;
-          }
+      [&](const std::size_t s) {
+        LocalSolver       &solver = *local_solvers[s];
+        const PatchLayout &layout = *solver.layout;
+        double *const      C      = &product_storage[start[s]];
+        layout.combine(solver.metrics,
+                       layout.n_packed(),
+                       layout.n_products(),
+                       C);
+        solver.products = C;
       },
       /*grainsize=*/256);
   }
@@ -643,23 +639,19 @@ namespace VI
     std::vector<LinearAlgebra::distributed::Vector<double>> sums(n_fields);
     for (auto &sum : sums)
       sum.reinit(flux_partitioner);
-    parallel::apply_to_subranges(
-      0u,
+    parallel_for_each(
       n_fields,
-      [&](const unsigned int first_field, const unsigned int end_field) {
-        for (unsigned int f = first_field; f < end_field; ++f)
+      [&](const unsigned int f) {
+        double *const values = sums[f].get_values();
+        for (unsigned int p = 0; p < patches.size(); ++p)
           {
-            double *const values = sums[f].get_values();
-            for (unsigned int p = 0; p < patches.size(); ++p)
-              {
-                const LocalSolver &solver = *patches[p].solver;
-                const double      *column =
-                  rhs + rhs_start[p] + std::size_t(f) * solver.n();
-                const unsigned int *positions =
-                  &patch_positions[patches[p].dofs_start];
-                for (unsigned int i = 0; i < solver.layout->n_sigma; ++i)
-                  values[positions[i]] += column[i];
-              }
+            const LocalSolver &solver = *patches[p].solver;
+            const double      *column =
+              rhs + rhs_start[p] + std::size_t(f) * solver.n();
+            const unsigned int *positions =
+              &patch_positions[patches[p].dofs_start];
+            for (unsigned int i = 0; i < solver.layout->n_sigma; ++i)
+              values[positions[i]] += column[i];
           }
       },
       /*grainsize=*/1);

@@ -4,6 +4,7 @@
 // (flux_reconstruction_setup.cc: reinit()) and its reconstruction
 // (flux_reconstruction.cc): a private header of vi_common.
 
+#include <deal.II/base/parallel.h>
 #include <deal.II/lac/lapack_full_matrix.h>
 
 #include <vi/flux_reconstruction.h>
@@ -18,6 +19,25 @@
 namespace VI
 {
   using namespace dealii;
+
+  // body(i) for every i in [0, n), on the threads of MultithreadInfo in
+  // ranges of at least `grainsize` indices: the loops of the set-up and the
+  // reconstruction whose iterations are independent.
+  template <typename Index, typename Body>
+  void
+  parallel_for_each(const Index        n,
+                    const Body        &body,
+                    const unsigned int grainsize)
+  {
+    parallel::apply_to_subranges(
+      Index(0),
+      n,
+      [&](const Index begin, const Index end) {
+        for (Index i = begin; i < end; ++i)
+          body(i);
+      },
+      grainsize);
+  }
 
   // The mixed patch problem, A sigma + B^T gamma = b, B sigma = g, in its
   // divergence-free form. B_{k,i} = (div tau_i, q_k) does not depend on the

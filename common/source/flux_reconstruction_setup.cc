@@ -816,30 +816,26 @@ namespace VI
         }
       r.solver_storage.reset(new double[storage_size]);
       r.local_solvers.resize(new_solvers.size());
-      parallel::apply_to_subranges(
-        std::size_t(0),
+      parallel_for_each(
         new_solvers.size(),
-        [&](const std::size_t begin, const std::size_t end) {
-          for (std::size_t i = begin; i < end; ++i)
+        [&](const std::size_t i) {
+          const NewSolver             &job    = new_solvers[i];
+          LocalSolver                 *solver = job.shared;
+          std::shared_ptr<LocalSolver> created;
+          if (!solver)
             {
-              const NewSolver             &job    = new_solvers[i];
-              LocalSolver                 *solver = job.shared;
-              std::shared_ptr<LocalSolver> created;
-              if (!solver)
-                {
-                  created         = std::make_shared<LocalSolver>();
-                  created->layout = *job.layout;
-                  solver          = created.get();
-                }
-              solver->metrics = &r.solver_storage[job.storage_start];
-              std::copy_n(job.metrics,
-                          solver->layout->n_cells * n_metric,
-                          solver->metrics);
-              r.factorise(*solver);
-              r.local_solvers[i] = solver;
-              if (created)
-                r.patches[job.patch].solver = std::move(created);
+              created         = std::make_shared<LocalSolver>();
+              created->layout = *job.layout;
+              solver          = created.get();
             }
+          solver->metrics = &r.solver_storage[job.storage_start];
+          std::copy_n(job.metrics,
+                      solver->layout->n_cells * n_metric,
+                      solver->metrics);
+          r.factorise(*solver);
+          r.local_solvers[i] = solver;
+          if (created)
+            r.patches[job.patch].solver = std::move(created);
         },
         /*grainsize=*/256);
       for (PatchChunk &chunk : chunks)
@@ -879,20 +875,16 @@ namespace VI
       r.flux_partitioner = partitioner;
       r.patch_positions.resize(dofs_offset.back());
       r.hat_masses.resize(chunks.size());
-      parallel::apply_to_subranges(
-        std::size_t(0),
+      parallel_for_each(
         chunks.size(),
-        [&](const std::size_t first_chunk, const std::size_t end_chunk) {
-          for (std::size_t ch = first_chunk; ch < end_chunk; ++ch)
-            {
-              PatchChunk &chunk = chunks[ch];
-              for (std::size_t i = 0; i < chunk.dofs.size(); ++i)
-                r.patch_positions[dofs_offset[ch] + i] =
-                  partitioner->global_to_local(chunk.dofs[i]);
-              // (moved: the patches point into them)
-              r.hat_masses[ch] = std::move(chunk.hat_masses);
-              chunk            = PatchChunk();
-            }
+        [&](const std::size_t ch) {
+          PatchChunk &chunk = chunks[ch];
+          for (std::size_t i = 0; i < chunk.dofs.size(); ++i)
+            r.patch_positions[dofs_offset[ch] + i] =
+              partitioner->global_to_local(chunk.dofs[i]);
+          // (moved: the patches point into them)
+          r.hat_masses[ch] = std::move(chunk.hat_masses);
+          chunk            = PatchChunk();
         },
         /*grainsize=*/1);
       // The constraints of the owned dofs (the others are the owners'); their
@@ -978,5 +970,8 @@ namespace VI
   }
 
 
-  template class FluxReconstruction<2>;
+  // The class itself is instantiated in flux_reconstruction.cc (before this
+  // file in a unity build): here only what this file defines.
+  template void
+  FluxReconstruction<2>::reinit(const DoFHandler<2> &);
 } // namespace VI

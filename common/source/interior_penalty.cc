@@ -10,7 +10,7 @@ namespace VI
   InteriorPenalty::InteriorPenalty(const Type         type,
                                    const double       penalty_constant,
                                    const unsigned int degree)
-      : type_(type)
+      : SpeltChoice(type)
       , penalty_constant_(penalty_constant)
       , degree_(degree)
   {
@@ -27,13 +27,14 @@ namespace VI
   }
 
 
-  namespace
+  const Spellings<InteriorPenaltyMethod> &
+  InteriorPenalty::spellings()
   {
-    const Spellings<InteriorPenalty::Type> interior_penalty_methods = {
-      {InteriorPenalty::Type::sipg, "sipg"},
-      {InteriorPenalty::Type::nipg, "nipg"},
-      {InteriorPenalty::Type::iipg, "iipg"}};
-  } // namespace
+    static const Spellings<Type> methods = {{Type::sipg, "sipg"},
+                                            {Type::nipg, "nipg"},
+                                            {Type::iipg, "iipg"}};
+    return methods;
+  }
 
 
   InteriorPenalty
@@ -41,31 +42,10 @@ namespace VI
                              const double       penalty_constant,
                              const unsigned int degree)
   {
-    if (const auto type = value_spelt(interior_penalty_methods, name))
+    if (const auto type = value_spelt(spellings(), name))
       return InteriorPenalty(*type, penalty_constant, degree);
     throw InputError("Discretization/Method = " + name +
                      " is not an interior penalty method (" + names() + ")");
-  }
-
-
-  std::string
-  InteriorPenalty::names()
-  {
-    return all_spellings(interior_penalty_methods);
-  }
-
-
-  InteriorPenalty::Type
-  InteriorPenalty::type() const
-  {
-    return type_;
-  }
-
-
-  std::string
-  InteriorPenalty::name() const
-  {
-    return spelling_of(interior_penalty_methods, type_);
   }
 
 

@@ -111,22 +111,41 @@ namespace VI
     }
 
 
+    namespace
+    {
+      // Both vectors store their locally owned entries in increasing index
+      // order, and system_index_set() keeps the node order: the k-th owned
+      // node's values are the owned entries 3 k, 3 k + 1, 3 k + 2 of X.
+      // Calls visit(k, 3 k) for every owned node.
+      template <typename Visit>
+      void
+      for_each_owned_node(const TrilinosWrappers::MPI::Vector &X,
+                          const TrilinosWrappers::MPI::Vector &field_values,
+                          const Visit                         &visit)
+      {
+        Assert(!X.has_ghost_elements() && !field_values.has_ghost_elements(),
+               ExcMessage("extract() and insert() work on vectors without "
+                          "ghost entries."));
+        const auto n = field_values.locally_owned_size();
+        AssertDimension(X.locally_owned_size(), n_fields * n);
+        for (std::size_t k = 0; k < n; ++k)
+          visit(k, n_fields * k);
+      }
+    } // namespace
+
+
     void
     extract(const TrilinosWrappers::MPI::Vector &X,
             const unsigned int                   field,
             TrilinosWrappers::MPI::Vector       &field_values)
     {
-      // Both vectors store their locally owned entries in increasing index
-      // order, and system_index_set() keeps the node order: the k-th owned
-      // node's field value is the (3 k + field)-th owned entry of X.
-      Assert(!X.has_ghost_elements() && !field_values.has_ghost_elements(),
-             ExcMessage("extract() works on vectors without ghost entries."));
       const double *x     = X.begin();
       double       *value = field_values.begin();
-      const auto    n     = field_values.locally_owned_size();
-      AssertDimension(X.locally_owned_size(), n_fields * n);
-      for (std::size_t k = 0; k < n; ++k)
-        value[k] = x[n_fields * k + field];
+      for_each_owned_node(X,
+                          field_values,
+                          [&](const std::size_t k, const std::size_t first) {
+                            value[k] = x[first + field];
+                          });
     }
 
 
@@ -135,14 +154,13 @@ namespace VI
            const unsigned int                   field,
            TrilinosWrappers::MPI::Vector       &X)
     {
-      Assert(!X.has_ghost_elements() && !field_values.has_ghost_elements(),
-             ExcMessage("insert() works on vectors without ghost entries."));
       double       *x     = X.begin();
       const double *value = field_values.begin();
-      const auto    n     = field_values.locally_owned_size();
-      AssertDimension(X.locally_owned_size(), n_fields * n);
-      for (std::size_t k = 0; k < n; ++k)
-        x[n_fields * k + field] = value[k];
+      for_each_owned_node(X,
+                          field_values,
+                          [&](const std::size_t k, const std::size_t first) {
+                            x[first + field] = value[k];
+                          });
     }
 
 

@@ -11,6 +11,20 @@ namespace VI
   // The patterns of the declarations: Double(), Selection("a|b"), ...
   using namespace dealii::Patterns;
 
+  ParameterSubsection::ParameterSubsection(ParameterHandler  &prm,
+                                           const std::string &name)
+      : prm(prm)
+  {
+    prm.enter_subsection(name);
+  }
+
+
+  ParameterSubsection::~ParameterSubsection()
+  {
+    prm.leave_subsection();
+  }
+
+
   namespace
   {
     // The .prm spelling of each choice.
@@ -137,59 +151,51 @@ namespace VI
                              const std::string &default_test_case,
                              const std::string &variable_names)
   {
-    prm.enter_subsection("Problem");
+    const ParameterSubsection section(prm, "Problem");
+    prm.declare_entry("Test case",
+                      default_test_case,
+                      Selection(test_cases),
+                      "Data and (where known) exact solution: the seed's "
+                      "tests, or 'expression' for the formulas of the "
+                      "subsection Expression.");
+    prm.declare_entry("mu1",
+                      "1",
+                      Double(),
+                      "Tension of the first membrane (> 0).");
+    prm.declare_entry("mu2",
+                      "1",
+                      Double(),
+                      "Tension of the second membrane (> 0).");
     {
-      prm.declare_entry("Test case",
-                        default_test_case,
-                        Selection(test_cases),
-                        "Data and (where known) exact solution: the seed's "
-                        "tests, or 'expression' for the formulas of the "
-                        "subsection Expression.");
-      prm.declare_entry("mu1",
-                        "1",
-                        Double(),
-                        "Tension of the first membrane (> 0).");
-      prm.declare_entry("mu2",
-                        "1",
-                        Double(),
-                        "Tension of the second membrane (> 0).");
-      prm.enter_subsection("Expression");
-      {
-        const std::string variables =
-          " Variables " + variable_names +
-          "; pi and the constants of 'Constants'; muparser "
-          "syntax (with atan2 and 'c ? a : b').";
-        for (const ExpressionEntry &entry : expression_entries)
-          prm.declare_entry(entry.name,
-                            entry.default_value,
-                            Anything(),
-                            std::string(entry.documentation) +
-                              (entry.is_formula ? variables : ""));
-      }
-      prm.leave_subsection();
+      const ParameterSubsection expression_section(prm, "Expression");
+      const std::string         variables =
+        " Variables " + variable_names +
+        "; pi and the constants of 'Constants'; muparser "
+        "syntax (with atan2 and 'c ? a : b').";
+      for (const ExpressionEntry &entry : expression_entries)
+        prm.declare_entry(entry.name,
+                          entry.default_value,
+                          Anything(),
+                          std::string(entry.documentation) +
+                            (entry.is_formula ? variables : ""));
     }
-    prm.leave_subsection();
   }
 
 
   void
   ProblemParameters::parse(ParameterHandler &prm)
   {
-    prm.enter_subsection("Problem");
+    const ParameterSubsection section(prm, "Problem");
+    test_case = prm.get("Test case");
+    mu1       = prm.get_double("mu1");
+    mu2       = prm.get_double("mu2");
+    require_positive(mu1, "Problem/mu1");
+    require_positive(mu2, "Problem/mu2");
     {
-      test_case = prm.get("Test case");
-      mu1       = prm.get_double("mu1");
-      mu2       = prm.get_double("mu2");
-      require_positive(mu1, "Problem/mu1");
-      require_positive(mu2, "Problem/mu2");
-      prm.enter_subsection("Expression");
-      {
-        for (const ExpressionEntry &entry : expression_entries)
-          expression.*entry.field = prm.get(entry.name);
-      }
-      prm.leave_subsection();
+      const ParameterSubsection expression_section(prm, "Expression");
+      for (const ExpressionEntry &entry : expression_entries)
+        expression.*entry.field = prm.get(entry.name);
     }
-    prm.leave_subsection();
   }
 
 
@@ -199,35 +205,29 @@ namespace VI
                             const std::string &default_refinements,
                             const std::string &refinements_doc)
   {
-    prm.enter_subsection("Mesh");
-    {
-      prm.declare_entry("Geometry",
-                        default_geometry,
-                        Selection("square|disk|L-shape|square-circle"),
-                        "square: (0,1)^2; disk: unit disk centred at the "
-                        "origin (curved boundary); L-shape: (-1,1)^2 without "
-                        "(0,1)^2; square-circle: (0,1)^2 with the circle of "
-                        "radius 1/3 about (0.5, 0.5), where the seed tests' "
-                        "contact set ends, as a line of the mesh (curved "
-                        "cells).");
-      prm.declare_entry("Initial refinements",
-                        default_refinements,
-                        Integer(0, 20),
-                        refinements_doc);
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Mesh");
+    prm.declare_entry("Geometry",
+                      default_geometry,
+                      Selection("square|disk|L-shape|square-circle"),
+                      "square: (0,1)^2; disk: unit disk centred at the "
+                      "origin (curved boundary); L-shape: (-1,1)^2 without "
+                      "(0,1)^2; square-circle: (0,1)^2 with the circle of "
+                      "radius 1/3 about (0.5, 0.5), where the seed tests' "
+                      "contact set ends, as a line of the mesh (curved "
+                      "cells).");
+    prm.declare_entry("Initial refinements",
+                      default_refinements,
+                      Integer(0, 20),
+                      refinements_doc);
   }
 
 
   void
   DomainParameters::parse(ParameterHandler &prm)
   {
-    prm.enter_subsection("Mesh");
-    {
-      geometry            = prm.get("Geometry");
-      initial_refinements = prm.get_integer("Initial refinements");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Mesh");
+    geometry            = prm.get("Geometry");
+    initial_refinements = prm.get_integer("Initial refinements");
   }
 
 
@@ -239,34 +239,31 @@ namespace VI
                               "3",
                               "Global refinements of the coarse mesh before "
                               "the first cycle.");
-    prm.enter_subsection("Mesh");
-    {
-      prm.declare_entry("Refinement",
-                        "global",
-                        Selection(refinements),
-                        "How the mesh is refined between cycles: every "
-                        "cell (global), or the cells marked by the "
-                        "estimators (adaptive).");
-      prm.declare_entry("Marking",
-                        "dorfler",
-                        Selection("dorfler|fixed-fraction"),
-                        "Adaptive refinement: dorfler refines the fewest "
-                        "cells that carry the Refinement fraction of the "
-                        "squared estimate; fixed-fraction refines the "
-                        "Refinement fraction of the cells with the largest "
-                        "indicators. Both also refine the cells whose "
-                        "indicators equal that of a refined cell to "
-                        "round-off.");
-      prm.declare_entry("Refinement fraction",
-                        "0.5",
-                        Double(0., 1.),
-                        "theta of the marking (see Marking), in (0, 1].");
-      prm.declare_entry("Cycles",
-                        "5",
-                        Integer(1, 30),
-                        "Number of meshes (solve, estimate, refine) to run.");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Mesh");
+    prm.declare_entry("Refinement",
+                      "global",
+                      Selection(refinements),
+                      "How the mesh is refined between cycles: every "
+                      "cell (global), or the cells marked by the "
+                      "estimators (adaptive).");
+    prm.declare_entry("Marking",
+                      "dorfler",
+                      Selection("dorfler|fixed-fraction"),
+                      "Adaptive refinement: dorfler refines the fewest "
+                      "cells that carry the Refinement fraction of the "
+                      "squared estimate; fixed-fraction refines the "
+                      "Refinement fraction of the cells with the largest "
+                      "indicators. Both also refine the cells whose "
+                      "indicators equal that of a refined cell to "
+                      "round-off.");
+    prm.declare_entry("Refinement fraction",
+                      "0.5",
+                      Double(0., 1.),
+                      "theta of the marking (see Marking), in (0, 1].");
+    prm.declare_entry("Cycles",
+                      "5",
+                      Integer(1, 30),
+                      "Number of meshes (solve, estimate, refine) to run.");
   }
 
 
@@ -274,17 +271,14 @@ namespace VI
   MeshParameters::parse(ParameterHandler &prm)
   {
     DomainParameters::parse(prm);
-    prm.enter_subsection("Mesh");
-    {
-      refinement          = prm.get("Refinement");
-      marking             = prm.get("Marking");
-      refinement_fraction = prm.get_double("Refinement fraction");
-      if (refinement_fraction <= 0.)
-        throw InputError("Mesh/Refinement fraction must be in (0, 1]; got " +
-                         prm.get("Refinement fraction"));
-      cycles = prm.get_integer("Cycles");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Mesh");
+    refinement          = prm.get("Refinement");
+    marking             = prm.get("Marking");
+    refinement_fraction = prm.get_double("Refinement fraction");
+    if (refinement_fraction <= 0.)
+      throw InputError("Mesh/Refinement fraction must be in (0, 1]; got " +
+                       prm.get("Refinement fraction"));
+    cycles = prm.get_integer("Cycles");
   }
 
 
@@ -292,30 +286,24 @@ namespace VI
   DiscretizationParameters::declare(ParameterHandler  &prm,
                                     const std::string &methods)
   {
-    prm.enter_subsection("Discretization");
-    {
-      prm.declare_entry("Method",
-                        "fem",
-                        Selection(methods),
-                        "Discretisation of the membranes.");
-      prm.declare_entry("Polynomial degree",
-                        "1",
-                        Integer(1, 10),
-                        "Polynomial degree p of the approximation.");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Discretization");
+    prm.declare_entry("Method",
+                      "fem",
+                      Selection(methods),
+                      "Discretisation of the membranes.");
+    prm.declare_entry("Polynomial degree",
+                      "1",
+                      Integer(1, 10),
+                      "Polynomial degree p of the approximation.");
   }
 
 
   void
   DiscretizationParameters::parse(ParameterHandler &prm)
   {
-    prm.enter_subsection("Discretization");
-    {
-      method = parse_choice(method_spellings, prm.get("Method"));
-      degree = prm.get_integer("Polynomial degree");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Discretization");
+    method = parse_choice(method_spellings, prm.get("Method"));
+    degree = prm.get_integer("Polynomial degree");
   }
 
 
@@ -323,106 +311,100 @@ namespace VI
   NonlinearSolverParameters::declare(ParameterHandler  &prm,
                                      const std::string &strategies)
   {
-    prm.enter_subsection("Nonlinear solver");
-    {
-      prm.declare_entry("C-function",
-                        "min",
-                        Selection("min|fischer-burmeister"),
-                        "Complementarity function of the semismooth Newton "
-                        "method. Fischer-Burmeister comes with a backtracking "
-                        "line search on its merit function.");
-      prm.declare_entry("Strategy",
-                        "exact",
-                        Selection(strategies),
-                        "exact: Newton to the tolerance below, each linear "
-                        "system solved to 'Linear solver/Tolerance'; inexact: "
-                        "the linear solver stops at the relative residual "
-                        "'Forcing term'; adaptive: the linear solver stops "
-                        "when eta_alg <= gamma_alg max(eta_disc, eta_lin), "
-                        "Newton when eta_lin <= gamma_lin eta_disc.");
-      prm.declare_entry("gamma_lin",
-                        "0.3",
-                        Double(0, 1),
-                        "Adaptive strategy: Newton stops when the "
-                        "linearisation estimator is below gamma_lin times "
-                        "the discretisation estimator.");
-      prm.declare_entry("gamma_alg",
-                        "0.3",
-                        Double(0, 1),
-                        "Adaptive strategy: the linear solver stops when the "
-                        "algebraic estimator is below gamma_alg times the "
-                        "larger of the other two.");
-      prm.declare_entry("Forcing term",
-                        "1e-2",
-                        Double(0, 1),
-                        "Inexact strategy: relative residual at which the "
-                        "linear solver stops in every Newton step.");
-      prm.declare_entry("Maximum iterations",
-                        "50",
-                        Integer(1),
-                        "Newton iterations allowed per mesh before the run "
-                        "fails.");
-      prm.declare_entry("Tolerance",
-                        "1e-10",
-                        Double(0),
-                        "Newton stops when both dimensionless residuals "
-                        "(balance equations relative to the load, "
-                        "complementarity relative to the size of u and "
-                        "lambda) are below it.");
-      prm.declare_entry("Watchdog steps",
-                        "8",
-                        Integer(0),
-                        "With a C-function that has a line search "
-                        "(Fischer-Burmeister): up to this many full Newton "
-                        "steps are taken without the Armijo test against "
-                        "the last iterate that passed it; if the merit "
-                        "function has not fallen below that iterate's by "
-                        "then, Newton returns to it and backtracks. 0: every "
-                        "step is tested (Armijo backtracking alone, which "
-                        "cuts most steps from a transferred or a cold "
-                        "iterate; 5 was too few on the cold disk start, "
-                        "doc/performance.md).");
-      prm.declare_entry("Nested iteration",
-                        "true",
-                        Bool(),
-                        "Start Newton on each new mesh from the previous "
-                        "mesh's solution; otherwise (and on the first mesh) "
-                        "from the initial guess below.");
-      prm.declare_entry("Initial guess",
-                        "zero",
-                        Selection("zero|data"),
-                        "zero: zero interior values and multiplier (the "
-                        "boundary data imposed); data: u1h, u2h interpolate "
-                        "the formulas of g1, g2 in the whole domain and the "
-                        "multiplier is zero (for constant boundary data "
-                        "the X0 = (g, 0, 0) of [DMV20]).");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Nonlinear solver");
+    prm.declare_entry("C-function",
+                      "min",
+                      Selection("min|fischer-burmeister"),
+                      "Complementarity function of the semismooth Newton "
+                      "method. Fischer-Burmeister comes with a backtracking "
+                      "line search on its merit function.");
+    prm.declare_entry("Strategy",
+                      "exact",
+                      Selection(strategies),
+                      "exact: Newton to the tolerance below, each linear "
+                      "system solved to 'Linear solver/Tolerance'; inexact: "
+                      "the linear solver stops at the relative residual "
+                      "'Forcing term'; adaptive: the linear solver stops "
+                      "when eta_alg <= gamma_alg max(eta_disc, eta_lin), "
+                      "Newton when eta_lin <= gamma_lin eta_disc.");
+    prm.declare_entry("gamma_lin",
+                      "0.3",
+                      Double(0, 1),
+                      "Adaptive strategy: Newton stops when the "
+                      "linearisation estimator is below gamma_lin times "
+                      "the discretisation estimator.");
+    prm.declare_entry("gamma_alg",
+                      "0.3",
+                      Double(0, 1),
+                      "Adaptive strategy: the linear solver stops when the "
+                      "algebraic estimator is below gamma_alg times the "
+                      "larger of the other two.");
+    prm.declare_entry("Forcing term",
+                      "1e-2",
+                      Double(0, 1),
+                      "Inexact strategy: relative residual at which the "
+                      "linear solver stops in every Newton step.");
+    prm.declare_entry("Maximum iterations",
+                      "50",
+                      Integer(1),
+                      "Newton iterations allowed per mesh before the run "
+                      "fails.");
+    prm.declare_entry("Tolerance",
+                      "1e-10",
+                      Double(0),
+                      "Newton stops when both dimensionless residuals "
+                      "(balance equations relative to the load, "
+                      "complementarity relative to the size of u and "
+                      "lambda) are below it.");
+    prm.declare_entry("Watchdog steps",
+                      "8",
+                      Integer(0),
+                      "With a C-function that has a line search "
+                      "(Fischer-Burmeister): up to this many full Newton "
+                      "steps are taken without the Armijo test against "
+                      "the last iterate that passed it; if the merit "
+                      "function has not fallen below that iterate's by "
+                      "then, Newton returns to it and backtracks. 0: every "
+                      "step is tested (Armijo backtracking alone, which "
+                      "cuts most steps from a transferred or a cold "
+                      "iterate; 5 was too few on the cold disk start, "
+                      "doc/performance.md).");
+    prm.declare_entry("Nested iteration",
+                      "true",
+                      Bool(),
+                      "Start Newton on each new mesh from the previous "
+                      "mesh's solution; otherwise (and on the first mesh) "
+                      "from the initial guess below.");
+    prm.declare_entry("Initial guess",
+                      "zero",
+                      Selection("zero|data"),
+                      "zero: zero interior values and multiplier (the "
+                      "boundary data imposed); data: u1h, u2h interpolate "
+                      "the formulas of g1, g2 in the whole domain and the "
+                      "multiplier is zero (for constant boundary data "
+                      "the X0 = (g, 0, 0) of [DMV20]).");
   }
 
 
   void
   NonlinearSolverParameters::parse(ParameterHandler &prm)
   {
-    prm.enter_subsection("Nonlinear solver");
-    {
-      c_function =
-        ComplementarityFunction::from_name(prm.get("C-function")).type();
-      strategy         = parse_choice(strategy_spellings, prm.get("Strategy"));
-      gamma_lin        = prm.get_double("gamma_lin");
-      gamma_alg        = prm.get_double("gamma_alg");
-      forcing_term     = prm.get_double("Forcing term");
-      max_iterations   = prm.get_integer("Maximum iterations");
-      tolerance        = prm.get_double("Tolerance");
-      watchdog_steps   = prm.get_integer("Watchdog steps");
-      nested_iteration = prm.get_bool("Nested iteration");
-      initial_guess    = prm.get("Initial guess");
-      require_positive(tolerance, "Nonlinear solver/Tolerance");
-      require_positive(gamma_lin, "Nonlinear solver/gamma_lin");
-      require_positive(gamma_alg, "Nonlinear solver/gamma_alg");
-      require_positive(forcing_term, "Nonlinear solver/Forcing term");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Nonlinear solver");
+    c_function =
+      ComplementarityFunction::from_name(prm.get("C-function")).type();
+    strategy         = parse_choice(strategy_spellings, prm.get("Strategy"));
+    gamma_lin        = prm.get_double("gamma_lin");
+    gamma_alg        = prm.get_double("gamma_alg");
+    forcing_term     = prm.get_double("Forcing term");
+    max_iterations   = prm.get_integer("Maximum iterations");
+    tolerance        = prm.get_double("Tolerance");
+    watchdog_steps   = prm.get_integer("Watchdog steps");
+    nested_iteration = prm.get_bool("Nested iteration");
+    initial_guess    = prm.get("Initial guess");
+    require_positive(tolerance, "Nonlinear solver/Tolerance");
+    require_positive(gamma_lin, "Nonlinear solver/gamma_lin");
+    require_positive(gamma_alg, "Nonlinear solver/gamma_alg");
+    require_positive(forcing_term, "Nonlinear solver/Forcing term");
   }
 
 
@@ -458,221 +440,203 @@ namespace VI
                                   const std::string &solvers,
                                   const std::string &default_solver)
   {
-    prm.enter_subsection("Linear solver");
-    {
-      prm.declare_entry("Solver",
-                        default_solver,
-                        Selection(solvers),
-                        "direct: sparse LU through Trilinos Amesos; gmres: "
-                        "GMRES with the preconditioner below.");
-      prm.declare_entry("Direct solver package",
-                        "Amesos_Mumps",
-                        Selection("Amesos_Klu|Amesos_Mumps"),
-                        "Amesos_Mumps: distributed multifrontal LU; "
-                        "Amesos_Klu: serial LU on rank 0 (slow on the "
-                        "saddle-point matrices of fine meshes).");
-      prm.declare_entry("Preconditioner",
-                        "ilu",
-                        Selection("ilu|amg"),
-                        "Preconditioner of GMRES: ilu (Trilinos Ifpack, on "
-                        "the whole system) or amg (Trilinos ML on the "
-                        "system without multiplier rows).");
-      prm.declare_entry("Tolerance",
-                        "1e-12",
-                        Double(0, 1),
-                        "Relative residual of the linear solves of the "
-                        "exact strategy.");
-      prm.declare_entry("Maximum iterations",
-                        "2000",
-                        Integer(1),
-                        "GMRES iterations allowed per linear solve.");
-      prm.declare_entry("Krylov dimension",
-                        "200",
-                        Integer(1),
-                        "GMRES restart length.");
-      prm.declare_entry("Check interval",
-                        "10",
-                        Integer(1),
-                        "Every how many GMRES iterations the estimators of "
-                        "the current iterate are evaluated (adaptive "
-                        "strategy).");
-      prm.declare_entry("ILU fill",
-                        "0",
-                        Integer(0, 10),
-                        "Fill level k of ILU(k).");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Linear solver");
+    prm.declare_entry("Solver",
+                      default_solver,
+                      Selection(solvers),
+                      "direct: sparse LU through Trilinos Amesos; gmres: "
+                      "GMRES with the preconditioner below.");
+    prm.declare_entry("Direct solver package",
+                      "Amesos_Mumps",
+                      Selection("Amesos_Klu|Amesos_Mumps"),
+                      "Amesos_Mumps: distributed multifrontal LU; "
+                      "Amesos_Klu: serial LU on rank 0 (slow on the "
+                      "saddle-point matrices of fine meshes).");
+    prm.declare_entry("Preconditioner",
+                      "ilu",
+                      Selection("ilu|amg"),
+                      "Preconditioner of GMRES: ilu (Trilinos Ifpack, on "
+                      "the whole system) or amg (Trilinos ML on the "
+                      "system without multiplier rows).");
+    prm.declare_entry("Tolerance",
+                      "1e-12",
+                      Double(0, 1),
+                      "Relative residual of the linear solves of the "
+                      "exact strategy.");
+    prm.declare_entry("Maximum iterations",
+                      "2000",
+                      Integer(1),
+                      "GMRES iterations allowed per linear solve.");
+    prm.declare_entry("Krylov dimension",
+                      "200",
+                      Integer(1),
+                      "GMRES restart length.");
+    prm.declare_entry("Check interval",
+                      "10",
+                      Integer(1),
+                      "Every how many GMRES iterations the estimators of "
+                      "the current iterate are evaluated (adaptive "
+                      "strategy).");
+    prm.declare_entry("ILU fill",
+                      "0",
+                      Integer(0, 10),
+                      "Fill level k of ILU(k).");
   }
 
 
   void
   LinearSolverParameters::parse(ParameterHandler &prm)
   {
-    prm.enter_subsection("Linear solver");
-    {
-      solver         = parse_choice(linear_solver_spellings, prm.get("Solver"));
-      direct_package = prm.get("Direct solver package");
-      preconditioner =
-        parse_choice(preconditioner_spellings, prm.get("Preconditioner"));
-      tolerance        = prm.get_double("Tolerance");
-      max_iterations   = prm.get_integer("Maximum iterations");
-      krylov_dimension = prm.get_integer("Krylov dimension");
-      check_interval   = prm.get_integer("Check interval");
-      ilu_fill         = prm.get_integer("ILU fill");
-      require_positive(tolerance, "Linear solver/Tolerance");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Linear solver");
+    solver         = parse_choice(linear_solver_spellings, prm.get("Solver"));
+    direct_package = prm.get("Direct solver package");
+    preconditioner =
+      parse_choice(preconditioner_spellings, prm.get("Preconditioner"));
+    tolerance        = prm.get_double("Tolerance");
+    max_iterations   = prm.get_integer("Maximum iterations");
+    krylov_dimension = prm.get_integer("Krylov dimension");
+    check_interval   = prm.get_integer("Check interval");
+    ilu_fill         = prm.get_integer("ILU fill");
+    require_positive(tolerance, "Linear solver/Tolerance");
   }
 
 
   void
   EstimatorParameters::declare(ParameterHandler &prm)
   {
-    prm.enter_subsection("Estimators");
-    {
-      prm.declare_entry("Enabled",
-                        "true",
-                        Bool(),
-                        "Compute the a posteriori error estimate (flux "
-                        "reconstruction and estimators) of every Newton "
-                        "iterate; required by the adaptive strategy.");
-      prm.declare_entry("At every check",
-                        "true",
-                        Bool(),
-                        "Also estimate the iterates of the linear solver "
-                        "every 'Linear solver/Check interval' iterations "
-                        "(always done by the adaptive strategy; costly for "
-                        "the exact one, but it draws the estimators against "
-                        "the linear iterations).");
-      prm.declare_entry(
-        "Multiplier",
-        "contact cells",
-        Selection("contact cells|conforming"),
-        "The multiplier the estimate works with, for FEM of degree p >= 2 "
-        "(p = 1 keeps its mass-lumped nodal one, dG its cellwise one): "
-        "'contact cells' shares "
-        "each nodal moment of lambda_h among the cells at the node, on the "
-        "contact cells where there are some, as a cellwise Q1 function; "
-        "'conforming' is the finite element function M^(-1) m, which "
-        "spreads a jump of the multiplier into the cells outside the "
-        "contact set (doc/estimators.md).");
-      prm.declare_entry(
-        "Flux degree",
-        "p",
-        Selection("p|p-1"),
-        "The Raviart-Thomas space of the equilibrated fluxes for elements "
-        "of degree p: 'p', RT_p x Q_p as in "
-        "[DMV20]; 'p-1', RT_(p-1) x Q_(p-1), whose patch problems are "
-        "smaller and cheaper to set up and solve. The flux is then "
-        "equilibrated in the Q_(p-1) moments: the bound stays guaranteed, "
-        "and the residual estimator takes the projection error of the "
-        "source, which is of higher order. Meant for meshes without "
-        "hanging nodes: with Q1 on adaptive meshes the estimate was found "
-        "much less sharp, the excess at the hanging nodes "
-        "(doc/estimators.md).");
-      prm.declare_entry(
-        "Equilibrated dual norms",
-        "",
-        MultipleSelection("undershoots|remainder"),
-        "Terms of the estimate (FEM in step-membranes) whose dual norm "
-        "||m||_{-1} = sup (m, v) / |grad v| over H^1_0 is bounded by "
-        "equilibration (a Poisson solve and a flux reconstruction of one "
-        "field per term and estimate) instead of by C_F |m| (Friedrichs), "
-        "which is pessimistic for m concentrated on a band or oscillating "
-        "(doc/estimators.md): 'undershoots', the cell means of the "
-        "undershoots lambda_h < 0 of a Newton iterate; 'remainder', the "
-        "residuals rho_alpha that the look-ahead leaves (the algebraic "
-        "remainder; at GMRES checks only where it may decide the adaptive "
-        "strategy's test). Empty: Friedrichs for both.");
-      prm.declare_entry(
-        "Defer fluxes",
-        "true",
-        Bool(),
-        "Adaptive strategy (FEM in step-membranes): at a check of GMRES, "
-        "first evaluate the terms that need no equilibrated flux (eta_alg "
-        "from above with Friedrichs' bound of the residual, eta_lin from "
-        "below without its cross term). If they show that GMRES may stop "
-        "and that Newton must go on (eta_lin above gamma_lin times the "
-        "eta_disc predicted from the last complete estimate, scaled by "
-        "(N_last / N)^(p/d) with N the unknowns per field), the flux "
-        "reconstruction of that iterate is skipped. Every iterate Newton "
-        "stops at is estimated completely; a wrong prediction costs one "
-        "more Newton step, never accuracy (doc/estimators.md).");
-      prm.declare_entry(
-        "Sharpen final estimate",
-        "false",
-        Bool(),
-        "FEM in step-membranes: when the solve on a mesh has ended, "
-        "estimate its iterate once more with both dual norms of 'Equilibrated "
-        "dual norms' (undershoots, remainder) bounded by equilibration, and "
-        "report the smaller of the two guaranteed bounds (table, "
-        "summary.json, marking). The stopping tests keep their estimates; "
-        "the cost is one more reconstruction and up to three Poisson solves "
-        "per mesh, only where Friedrichs' bound of a term exceeds 1 % of the "
-        "discretisation estimator.");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Estimators");
+    prm.declare_entry("Enabled",
+                      "true",
+                      Bool(),
+                      "Compute the a posteriori error estimate (flux "
+                      "reconstruction and estimators) of every Newton "
+                      "iterate; required by the adaptive strategy.");
+    prm.declare_entry("At every check",
+                      "true",
+                      Bool(),
+                      "Also estimate the iterates of the linear solver "
+                      "every 'Linear solver/Check interval' iterations "
+                      "(always done by the adaptive strategy; costly for "
+                      "the exact one, but it draws the estimators against "
+                      "the linear iterations).");
+    prm.declare_entry(
+      "Multiplier",
+      "contact cells",
+      Selection("contact cells|conforming"),
+      "The multiplier the estimate works with, for FEM of degree p >= 2 "
+      "(p = 1 keeps its mass-lumped nodal one, dG its cellwise one): "
+      "'contact cells' shares "
+      "each nodal moment of lambda_h among the cells at the node, on the "
+      "contact cells where there are some, as a cellwise Q1 function; "
+      "'conforming' is the finite element function M^(-1) m, which "
+      "spreads a jump of the multiplier into the cells outside the "
+      "contact set (doc/estimators.md).");
+    prm.declare_entry(
+      "Flux degree",
+      "p",
+      Selection("p|p-1"),
+      "The Raviart-Thomas space of the equilibrated fluxes for elements "
+      "of degree p: 'p', RT_p x Q_p as in "
+      "[DMV20]; 'p-1', RT_(p-1) x Q_(p-1), whose patch problems are "
+      "smaller and cheaper to set up and solve. The flux is then "
+      "equilibrated in the Q_(p-1) moments: the bound stays guaranteed, "
+      "and the residual estimator takes the projection error of the "
+      "source, which is of higher order. Meant for meshes without "
+      "hanging nodes: with Q1 on adaptive meshes the estimate was found "
+      "much less sharp, the excess at the hanging nodes "
+      "(doc/estimators.md).");
+    prm.declare_entry(
+      "Equilibrated dual norms",
+      "",
+      MultipleSelection("undershoots|remainder"),
+      "Terms of the estimate (FEM in step-membranes) whose dual norm "
+      "||m||_{-1} = sup (m, v) / |grad v| over H^1_0 is bounded by "
+      "equilibration (a Poisson solve and a flux reconstruction of one "
+      "field per term and estimate) instead of by C_F |m| (Friedrichs), "
+      "which is pessimistic for m concentrated on a band or oscillating "
+      "(doc/estimators.md): 'undershoots', the cell means of the "
+      "undershoots lambda_h < 0 of a Newton iterate; 'remainder', the "
+      "residuals rho_alpha that the look-ahead leaves (the algebraic "
+      "remainder; at GMRES checks only where it may decide the adaptive "
+      "strategy's test). Empty: Friedrichs for both.");
+    prm.declare_entry(
+      "Defer fluxes",
+      "true",
+      Bool(),
+      "Adaptive strategy (FEM in step-membranes): at a check of GMRES, "
+      "first evaluate the terms that need no equilibrated flux (eta_alg "
+      "from above with Friedrichs' bound of the residual, eta_lin from "
+      "below without its cross term). If they show that GMRES may stop "
+      "and that Newton must go on (eta_lin above gamma_lin times the "
+      "eta_disc predicted from the last complete estimate, scaled by "
+      "(N_last / N)^(p/d) with N the unknowns per field), the flux "
+      "reconstruction of that iterate is skipped. Every iterate Newton "
+      "stops at is estimated completely; a wrong prediction costs one "
+      "more Newton step, never accuracy (doc/estimators.md).");
+    prm.declare_entry(
+      "Sharpen final estimate",
+      "false",
+      Bool(),
+      "FEM in step-membranes: when the solve on a mesh has ended, "
+      "estimate its iterate once more with both dual norms of 'Equilibrated "
+      "dual norms' (undershoots, remainder) bounded by equilibration, and "
+      "report the smaller of the two guaranteed bounds (table, "
+      "summary.json, marking). The stopping tests keep their estimates; "
+      "the cost is one more reconstruction and up to three Poisson solves "
+      "per mesh, only where Friedrichs' bound of a term exceeds 1 % of the "
+      "discretisation estimator.");
   }
 
 
   void
   EstimatorParameters::parse(ParameterHandler &prm)
   {
-    prm.enter_subsection("Estimators");
-    {
-      enabled               = prm.get_bool("Enabled");
-      every_check           = prm.get_bool("At every check");
-      multiplier            = prm.get("Multiplier");
-      flux_degree           = prm.get("Flux degree");
-      const auto dual_norms = dealii::Utilities::split_string_list(
-        prm.get("Equilibrated dual norms"));
-      const auto has = [&](const std::string &term) {
-        return std::find(dual_norms.begin(), dual_norms.end(), term) !=
-               dual_norms.end();
-      };
-      dual_norm_undershoots = has("undershoots");
-      dual_norm_remainder   = has("remainder");
-      defer_fluxes          = prm.get_bool("Defer fluxes");
-      sharpen_final         = prm.get_bool("Sharpen final estimate");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Estimators");
+    enabled     = prm.get_bool("Enabled");
+    every_check = prm.get_bool("At every check");
+    multiplier  = prm.get("Multiplier");
+    flux_degree = prm.get("Flux degree");
+    const auto dual_norms =
+      dealii::Utilities::split_string_list(prm.get("Equilibrated dual norms"));
+    const auto has = [&](const std::string &term) {
+      return std::find(dual_norms.begin(), dual_norms.end(), term) !=
+             dual_norms.end();
+    };
+    dual_norm_undershoots = has("undershoots");
+    dual_norm_remainder   = has("remainder");
+    defer_fluxes          = prm.get_bool("Defer fluxes");
+    sharpen_final         = prm.get_bool("Sharpen final estimate");
   }
 
 
   void
   OutputParameters::declare(ParameterHandler &prm)
   {
-    prm.enter_subsection("Output");
-    {
-      prm.declare_entry("Directory",
-                        "output",
-                        Anything(),
-                        "Where VTU/PVTU files, the convergence table and "
-                        "summary.json are written (created if needed).");
-      prm.declare_entry("Write VTU",
-                        "true",
-                        Bool(),
-                        "Write the solution of every cycle for ParaView.");
-      prm.declare_entry("Verbose",
-                        "false",
-                        Bool(),
-                        "Print every Newton iteration.");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Output");
+    prm.declare_entry("Directory",
+                      "output",
+                      Anything(),
+                      "Where VTU/PVTU files, the convergence table and "
+                      "summary.json are written (created if needed).");
+    prm.declare_entry("Write VTU",
+                      "true",
+                      Bool(),
+                      "Write the solution of every cycle for ParaView.");
+    prm.declare_entry("Verbose",
+                      "false",
+                      Bool(),
+                      "Print every Newton iteration.");
   }
 
 
   void
   OutputParameters::parse(ParameterHandler &prm)
   {
-    prm.enter_subsection("Output");
-    {
-      directory = prm.get("Directory");
-      write_vtu = prm.get_bool("Write VTU");
-      verbose   = prm.get_bool("Verbose");
-      if (directory.empty())
-        throw InputError("Output/Directory must not be empty");
-    }
-    prm.leave_subsection();
+    const ParameterSubsection section(prm, "Output");
+    directory = prm.get("Directory");
+    write_vtu = prm.get_bool("Write VTU");
+    verbose   = prm.get_bool("Verbose");
+    if (directory.empty())
+      throw InputError("Output/Directory must not be empty");
   }
 } // namespace VI

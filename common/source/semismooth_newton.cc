@@ -19,6 +19,17 @@ namespace VI
   }
 
 
+  std::string
+  ResidualNorms::describe(const std::string &equations_name,
+                          const double       tolerance) const
+  {
+    std::ostringstream out;
+    out << equations_name << ' ' << equations << ", complementarity "
+        << complementarity << ", tolerance " << tolerance;
+    return out.str();
+  }
+
+
   template <typename VectorType>
   SemismoothNewton<VectorType>::AdditionalData::AdditionalData(
     const NonlinearSolverParameters &parameters,
@@ -93,15 +104,9 @@ namespace VI
         if (converged(norms) || criterion_met)
           break;
         if (k > data.max_iterations)
-          {
-            std::ostringstream message;
-            message << "no convergence in " << data.max_iterations
-                    << " iterations (relative residuals: equations "
-                    << norms.equations << ", complementarity "
-                    << norms.complementarity << ", tolerance " << data.tolerance
-                    << ")";
-            fail(message.str());
-          }
+          fail("no convergence in " + std::to_string(data.max_iterations) +
+               " iterations (relative residuals: " +
+               norms.describe("equations", data.tolerance) + ")");
 
         setup_jacobian(X);
         NewtonStep step;

@@ -1,10 +1,19 @@
 #pragma once
 
+#include <vi/spellings.h>
+
 #include <array>
 #include <string>
 
 namespace VI
 {
+  /// The complementarity functions of ComplementarityFunction.
+  enum class ComplementarityType
+  {
+    min,
+    fischer_burmeister
+  };
+
   /**
    * A complementarity function (C-function) C : R^2 -> R, characterised by
    *
@@ -25,13 +34,10 @@ namespace VI
    *   backtracking line search on it meaningful.
    */
   class ComplementarityFunction
+      : public SpeltChoice<ComplementarityFunction, ComplementarityType>
   {
   public:
-    enum class Type
-    {
-      min,
-      fischer_burmeister
-    };
+    using Type = ComplementarityType;
 
     explicit ComplementarityFunction(const Type type = Type::min);
 
@@ -39,15 +45,9 @@ namespace VI
     static ComplementarityFunction
     from_name(const std::string &name);
 
-    /// The accepted names, separated by '|', for ParameterHandler patterns.
-    static std::string
-    names();
-
-    Type
-    type() const;
-
-    std::string
-    name() const;
+    /// "min" and "fischer-burmeister": names(), name().
+    static const Spellings<Type> &
+    spellings();
 
     double
     value(const double a, const double b) const;
@@ -67,8 +67,5 @@ namespace VI
     /// True if 1/2 |C|^2 is continuously differentiable (Fischer-Burmeister).
     bool
     has_smooth_merit_function() const;
-
-  private:
-    Type type_;
   };
 } // namespace VI

@@ -53,8 +53,6 @@ namespace VI
                 const dealii::Quadrature<dim>     &cell_quadrature,
                 const dealii::Quadrature<dim - 1> &face_quadrature);
 
-    ~JumpLifting();
-
     /// Distribute the coefficients of V on the mesh of `triangulation`.
     void
     reinit(const dealii::Triangulation<dim> &triangulation);

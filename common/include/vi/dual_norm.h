@@ -52,7 +52,6 @@ namespace VI
     DualNormBound(const dealii::Mapping<dim>    &mapping,
                   const FluxReconstruction<dim> &reconstruction,
                   const double                   friedrichs_constant);
-    ~DualNormBound();
 
     /// Set up for the mesh of the reconstruction's last reinit().
     void

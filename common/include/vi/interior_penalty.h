@@ -6,10 +6,20 @@
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/vector.h>
 
+#include <vi/spellings.h>
+
 #include <string>
 
 namespace VI
 {
+  /// The variants of InteriorPenalty.
+  enum class InteriorPenaltyMethod
+  {
+    sipg,
+    nipg,
+    iipg
+  };
+
   /**
    * The interior penalty discontinuous Galerkin forms of -div(mu grad u) on
    * broken polynomials (the seed's A_h = sum_K (grad u, grad v)_K + delta_h),
@@ -58,14 +68,10 @@ namespace VI
    * consistency term and the threshold C (p + 1) / p > 3/8.
    */
   class InteriorPenalty
+      : public SpeltChoice<InteriorPenalty, InteriorPenaltyMethod>
   {
   public:
-    enum class Type
-    {
-      sipg,
-      nipg,
-      iipg
-    };
+    using Type = InteriorPenaltyMethod;
 
     /// The default of "Discretization/Penalty": C in gamma_F = C p (p + 1).
     static constexpr double default_penalty_constant = 2.;
@@ -80,16 +86,10 @@ namespace VI
               const double       penalty_constant,
               const unsigned int degree);
 
-    /// "sipg|nipg|iipg".
-    static std::string
-    names();
-
-    Type
-    type() const;
-
-    /// "sipg", "nipg" or "iipg".
-    std::string
-    name() const;
+    /// "sipg", "nipg" and "iipg" (the .prm spelling of Method): names(),
+    /// name().
+    static const Spellings<Type> &
+    spellings();
 
     /// "SIPG", "NIPG" or "IIPG".
     std::string
@@ -156,7 +156,6 @@ namespace VI
                     dealii::FullMatrix<double>           &matrix) const;
 
   private:
-    Type         type_;
     double       penalty_constant_;
     unsigned int degree_;
   };

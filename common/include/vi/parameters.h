@@ -65,6 +65,25 @@ namespace VI
    * implements).
    */
 
+  /**
+   * The subsection `name` of `prm`, entered for the lifetime of this object:
+   * a declare() or parse() leaves it on every way out, an InputError
+   * included.
+   */
+  class ParameterSubsection
+  {
+  public:
+    ParameterSubsection(dealii::ParameterHandler &prm, const std::string &name);
+    ~ParameterSubsection();
+    ParameterSubsection(const ParameterSubsection &) = delete;
+    ParameterSubsection &
+    operator=(const ParameterSubsection &) = delete;
+
+  private:
+    dealii::ParameterHandler &prm;
+  };
+
+
   struct ExpressionParameters
   {
     std::string f1, f2, g1, g2;

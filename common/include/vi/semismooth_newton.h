@@ -22,6 +22,11 @@ namespace VI
 
     bool
     is_finite() const;
+
+    /// "<equations_name> e, complementarity c, tolerance t": the residuals
+    /// against the tolerance in the message of a solver that failed.
+    std::string
+    describe(const std::string &equations_name, const double tolerance) const;
   };
 
 

@@ -47,4 +47,42 @@ namespace VI
       names += (names.empty() ? "" : "|") + spelling;
     return names;
   }
+
+  /**
+   * A choice among the values of an enum that knows its .prm spelling: the
+   * base of the classes built on one (ComplementarityFunction,
+   * InteriorPenalty), whose static Derived::spellings() is the table.
+   */
+  template <typename Derived, typename Enum>
+  class SpeltChoice
+  {
+  public:
+    /// The accepted names, separated by '|', for ParameterHandler patterns.
+    static std::string
+    names()
+    {
+      return all_spellings(Derived::spellings());
+    }
+
+    Enum
+    type() const
+    {
+      return type_;
+    }
+
+    /// The .prm spelling of the choice.
+    std::string
+    name() const
+    {
+      return spelling_of(Derived::spellings(), type_);
+    }
+
+  protected:
+    explicit SpeltChoice(const Enum type)
+        : type_(type)
+    {
+    }
+
+    Enum type_;
+  };
 } // namespace VI
