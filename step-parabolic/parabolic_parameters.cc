@@ -1,6 +1,7 @@
 #include "parabolic_parameters.h"
 
 #include <vi/errors.h>
+#include <vi/parameter_sections.h>
 
 #include <sstream>
 
@@ -155,21 +156,13 @@ namespace StepParabolic
   void
   Parameters::parse(ParameterHandler &prm)
   {
-    problem.parse(prm);
+    VI::parse_shared_sections(*this, prm);
     prm.enter_subsection("Problem");
     prm.enter_subsection("Expression");
     problem.u1_0 = prm.get("u1_0");
     problem.u2_0 = prm.get("u2_0");
     prm.leave_subsection();
     prm.leave_subsection();
-
-    mesh.parse(prm);
-
-    discretization.parse(prm);
-    nonlinear_solver.parse(prm);
-    linear_solver.parse(prm);
-    estimators.parse(prm);
-    output.parse(prm);
     prm.enter_subsection("Output");
     compare_with = prm.get("Compare with");
     prm.leave_subsection();
