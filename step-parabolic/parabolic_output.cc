@@ -53,18 +53,11 @@ namespace StepParabolic
       return;
     TimerOutput::Scope t(timer, "errors");
 
-    const QGauss<dim>      error_quadrature(fe.degree + 3);
-    dealii::Vector<double> cellwise(triangulation.n_active_cells());
-    const auto             error = [&](const Vector               &uh,
-                           const Function<dim>        &exact,
-                           const VectorTools::NormType norm) {
-      VectorTools::integrate_difference(
-        *mapping, dof_handler, uh, exact, cellwise, error_quadrature, norm);
-      return VectorTools::compute_global_error(triangulation, cellwise, norm);
-    };
     const auto energy_error = [&](const Vector &v1, const Vector &v2) {
-      const double e1 = error(v1, *data.exact_u1, VectorTools::H1_seminorm);
-      const double e2 = error(v2, *data.exact_u2, VectorTools::H1_seminorm);
+      const double e1 =
+        global_error(v1, *data.exact_u1, VectorTools::H1_seminorm);
+      const double e2 =
+        global_error(v2, *data.exact_u2, VectorTools::H1_seminorm);
       return data.mu1 * e1 * e1 + data.mu2 * e2 * e2;
     };
 
@@ -84,9 +77,9 @@ namespace StepParabolic
       }
     data.set_time(time + time_step);
     totals.error_squared += integral;
-    step_error_energy  = std::sqrt(energy_error(u1_h, u2_h));
-    const double l1    = error(u1_h, *data.exact_u1, VectorTools::L2_norm);
-    const double l2    = error(u2_h, *data.exact_u2, VectorTools::L2_norm);
+    step_error_energy = std::sqrt(energy_error(u1_h, u2_h));
+    const double l1 = global_error(u1_h, *data.exact_u1, VectorTools::L2_norm);
+    const double l2 = global_error(u2_h, *data.exact_u2, VectorTools::L2_norm);
     totals.final_error = std::sqrt(l1 * l1 + l2 * l2);
   }
 
@@ -191,10 +184,7 @@ namespace StepParabolic
     TimerOutput::Scope t(timer, "output");
 
     // The indicators of the estimate at the end of the step, t_n.
-    VI::FieldOutput<dim> output(*mapping,
-                                geometry,
-                                dof_handler,
-                                {u1_h, u2_h, gap_h, lambda_h, &contact_set});
+    VI::FieldOutput<dim> output = solution_output();
     output.add_indicators(final_estimate ? &final_estimate->at_end : nullptr);
     vtu_files.emplace_back(
       time, output.write(parameters.output.directory, step, 5, comm, time));
