@@ -9,6 +9,7 @@
 
 #include <vi/field_output.h>
 #include <vi/nodal_fields.h>
+#include <vi/timer_summary.h>
 
 #include "parabolic_problem.h"
 
@@ -42,15 +43,13 @@ namespace StepParabolic
   }
 
 
-  // With an exact solution: int_In |||u - u_ht|||^2 dt (two Gauss points in
-  // time, u_ht linear between u_h^(n-1) and u_h^n), |u(t_n) - u_h^n| and
+  // Only with an exact solution: int_In |||u - u_ht|||^2 dt (two Gauss points
+  // in time, u_ht linear between u_h^(n-1) and u_h^n), |u(t_n) - u_h^n| and
   // |||u(t_n) - u_h^n|||.
   template <int dim>
   void
   ParabolicProblem<dim>::compute_errors()
   {
-    if (!data.has_exact_solution())
-      return;
     TimerOutput::Scope t(timer, "errors");
 
     const auto energy_error = [&](const Vector &v1, const Vector &v2) {
@@ -86,20 +85,27 @@ namespace StepParabolic
 
   namespace
   {
+    // The terms of a step estimate in summary.json, by their keys.
+    const std::pair<const char *, double StepEstimate::*> step_terms[] = {
+      {"eta", &StepEstimate::eta},
+      {"eta_disc", &StepEstimate::eta_disc},
+      {"eta_lin", &StepEstimate::eta_lin},
+      {"eta_alg", &StepEstimate::eta_alg},
+      {"eta_time", &StepEstimate::eta_time},
+      {"eta_space", &StepEstimate::eta_space},
+      {"oscillation", &StepEstimate::oscillation},
+      {"eta_dt", &StepEstimate::eta_dt},
+      {"nonc_squared", &StepEstimate::nonc_squared},
+      {"final_nonc", &StepEstimate::final_nonc},
+    };
+
     VI::Json
     to_json(const StepEstimate &e)
     {
-      VI::Json json         = VI::Json::object();
-      json["eta"]           = e.eta;
-      json["eta_disc"]      = e.eta_disc;
-      json["eta_lin"]       = e.eta_lin;
-      json["eta_alg"]       = e.eta_alg;
-      json["eta_time"]      = e.eta_time;
-      json["eta_space"]     = e.eta_space;
-      json["oscillation"]   = e.oscillation;
-      json["eta_dt"]        = e.eta_dt;
-      json["nonc_squared"]  = e.nonc_squared;
-      json["final_nonc"]    = e.final_nonc;
+      VI::Json json = VI::Json::object();
+      for (const auto &[key, term] : step_terms)
+        json[key] = e.*term;
+      // The steady estimators at t_n.
       json["flux_disc_end"] = e.at_end.flux_disc;
       json["residual_end"]  = e.at_end.residual;
       json["contact_end"]   = e.at_end.contact_cone;
@@ -300,10 +306,7 @@ namespace StepParabolic
           total["effectivity"] = totals.eta() / totals.error();
       }
     json["totals"] = total;
-    json["timing"] = VI::Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      json["timing"][section] = seconds;
+    json["timing"] = VI::section_wall_times(timer);
     VI::write_summary(json, parameters.output.directory, comm);
   }
 
