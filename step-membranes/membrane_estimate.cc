@@ -136,11 +136,7 @@ namespace StepMembranes
       };
     };
     if (lumped)
-      sources.vertex_source = [&](const unsigned int vertex,
-                                  const unsigned int a) {
-        const auto i = vertex_dofs[vertex];
-        return -sign[a] * it.lambda(i) - (*r[a])(i);
-      };
+      sources.vertex_source = lumped_sources(it.lambda, it.r1, it.r2);
     flux_reconstruction->reconstruct(sources, {&it.sigma1, &it.sigma2});
     it.has_fluxes = true;
   }
@@ -189,12 +185,8 @@ namespace StepMembranes
       equilibrated || parameters.estimators.dual_norm_undershoots;
     const bool remainder =
       equilibrated || parameters.estimators.dual_norm_remainder;
-    VI::ContactEstimatorInput<dim> in;
-    in.mapping               = mapping.get();
-    in.potential             = &dof_handler;
-    in.flux                  = &flux_reconstruction->get_dof_handler();
-    in.quadrature            = &flux_reconstruction->get_quadrature();
-    in.flux_signs            = &flux_reconstruction->get_piola_signs();
+    VI::ContactEstimatorInput<dim> in =
+      estimator_input(*flux_reconstruction, it, ahead);
     in.mu1                   = data.mu1;
     in.mu2                   = data.mu2;
     in.f1                    = data.f1.get();
@@ -204,20 +196,6 @@ namespace StepMembranes
     in.g1                    = data.g1.get();
     in.g2                    = data.g2.get();
     in.friedrichs_constant   = VI::friedrichs_constant(geometry);
-    in.mass_lumped           = fe.degree == 1;
-    in.u1                    = &it.u1;
-    in.u2                    = &it.u2;
-    in.s1                    = &it.s1;
-    in.s2                    = &it.s2;
-    in.lambda                = &it.lambda;
-    in.lambda_nonnegative    = &it.lambda_nonnegative;
-    in.sigma1_disc           = &it.sigma1;
-    in.sigma2_disc           = &it.sigma2;
-    in.lambda_ahead          = &ahead.lambda;
-    in.r1_ahead              = &ahead.r1;
-    in.r2_ahead              = &ahead.r2;
-    in.sigma1_ahead          = &ahead.sigma1;
-    in.sigma2_ahead          = &ahead.sigma2;
     in.dual_norm             = dual_norm.get();
     in.dual_norm_undershoots = undershoots;
     in.dual_norm_remainder   = remainder;

@@ -2,6 +2,7 @@
 // program's own entries (Benchmark, Nonlinear solver/Solver).
 
 #include <vi/errors.h>
+#include <vi/parameter_sections.h>
 
 #include "membrane_problem.h"
 
@@ -62,13 +63,7 @@ namespace StepMembranes
   void
   Parameters::parse(ParameterHandler &prm)
   {
-    problem.parse(prm);
-    mesh.parse(prm);
-    discretization.parse(prm);
-    nonlinear_solver.parse(prm);
-    linear_solver.parse(prm);
-    estimators.parse(prm);
-    output.parse(prm);
+    VI::parse_shared_sections(*this, prm);
     prm.enter_subsection("Benchmark");
     reference_poisson_solve = prm.get_bool("Reference Poisson solve");
     compare_with_petsc_vi   = prm.get_bool("Compare with PETSc VI");

@@ -49,66 +49,11 @@ namespace StepParabolic
                                               it.lambda_nonnegative);
 
     residual_functions(contact_system, multiplier_function, X, it.r1, it.r2);
-    const Vector *r[2] = {&it.r1, &it.r2};
 
-    // The mass term enters the source at the quadrature points, as in the
-    // assembly, so that the patch problems stay compatible; for p = 1 the
-    // multiplier and the residual enter as vertex constants (lumping).
-    const bool           lumped  = fe.degree == 1;
-    const Vector        *u[2]    = {&it.u1, &it.u2};
-    const Vector        *dt_u[2] = {&it.dt_u1, &it.dt_u2};
+    // The fluxes equilibrated with f(t_n) - d_t u_h -/+ lambda_h - r_h.
     const Function<dim> *f[2]    = {data.f1.get(), data.f2.get()};
-    const double         mu[2]   = {data.mu1, data.mu2};
-    const double         sign[2] = {-1., 1.}; // (-1)^alpha
-
-    typename VI::FluxReconstruction<dim>::Sources sources;
-    sources.n_fields         = 2;
-    sources.make_cell_values = [&]() {
-      // per thread: FEValues of the potential and value arrays
-      const unsigned int n_q = quadrature.size();
-      return [&,
-              values_of = std::make_shared<FEValues<dim>>(
-                *mapping,
-                fe,
-                flux_reconstruction->get_quadrature(),
-                update_values | update_gradients | update_quadrature_points),
-              lambda_values = std::vector<double>(n_q),
-              r_values      = std::vector<double>(n_q),
-              dt_values     = std::vector<double>(
-                n_q)](const auto &cell, auto &flux, auto &source) mutable {
-        typename DoFHandler<dim>::active_cell_iterator dof_cell(&triangulation,
-                                                                cell->level(),
-                                                                cell->index(),
-                                                                &dof_handler);
-        FEValues<dim>                                 &values = *values_of;
-        values.reinit(dof_cell);
-        if (!lumped)
-          values.get_function_values(it.lambda, lambda_values);
-        for (unsigned int a = 0; a < 2; ++a)
-          {
-            values.get_function_gradients(*u[a], flux[a]);
-            for (auto &F : flux[a])
-              F *= mu[a];
-            f[a]->value_list(values.get_quadrature_points(), source[a]);
-            values.get_function_values(*dt_u[a], dt_values);
-            if (!lumped)
-              values.get_function_values(*r[a], r_values);
-            for (unsigned int q = 0; q < source[a].size(); ++q)
-              {
-                source[a][q] -= dt_values[q];
-                if (!lumped)
-                  source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
-              }
-          }
-      };
-    };
-    if (lumped)
-      sources.vertex_source = [&](const unsigned int vertex,
-                                  const unsigned int a) {
-        const auto i = vertex_dofs[vertex];
-        return -sign[a] * it.lambda(i) - (*r[a])(i);
-      };
-    flux_reconstruction->reconstruct(sources, {&it.sigma1, &it.sigma2});
+    const Vector        *dt_u[2] = {&it.dt_u1, &it.dt_u2};
+    equilibrate_fluxes(*flux_reconstruction, data.mu1, data.mu2, f, dt_u, it);
   }
 
 
@@ -269,30 +214,17 @@ namespace StepParabolic
   {
     const ParabolicTerms terms = parabolic_terms(it);
 
-    TimerOutput::Scope             t(timer, "estimators: evaluation");
-    VI::ContactEstimatorInput<dim> in;
-    in.mapping             = mapping.get();
-    in.potential           = &dof_handler;
-    in.flux                = &flux_reconstruction->get_dof_handler();
-    in.quadrature          = &flux_reconstruction->get_quadrature();
-    in.flux_signs          = &flux_reconstruction->get_piola_signs();
+    TimerOutput::Scope t(timer, "estimators: evaluation");
+    // u_h and s_h are set at every point of time_points() below.
+    VI::ContactEstimatorInput<dim> in =
+      estimator_input(*flux_reconstruction, it, ahead);
+    in.friedrichs_constant = friedrichs_constant;
     in.mu1                 = data.mu1;
     in.mu2                 = data.mu2;
     in.f1                  = data.f1.get();
     in.f2                  = data.f2.get();
-    in.friedrichs_constant = friedrichs_constant;
-    in.mass_lumped         = fe.degree == 1;
-    in.lambda              = &it.lambda;
-    in.lambda_nonnegative  = &it.lambda_nonnegative;
-    in.sigma1_disc         = &it.sigma1;
-    in.sigma2_disc         = &it.sigma2;
     in.dt_u1               = &it.dt_u1;
     in.dt_u2               = &it.dt_u2;
-    in.lambda_ahead        = &ahead.lambda;
-    in.r1_ahead            = &ahead.r1;
-    in.r2_ahead            = &ahead.r2;
-    in.sigma1_ahead        = &ahead.sigma1;
-    in.sigma2_ahead        = &ahead.sigma2;
     in.dt_u1_ahead         = &ahead.dt_u1;
     in.dt_u2_ahead         = &ahead.dt_u2;
 

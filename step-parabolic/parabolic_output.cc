@@ -9,6 +9,7 @@
 
 #include <vi/field_output.h>
 #include <vi/nodal_fields.h>
+#include <vi/timer_summary.h>
 
 #include "parabolic_problem.h"
 
@@ -42,29 +43,20 @@ namespace StepParabolic
   }
 
 
-  // With an exact solution: int_In |||u - u_ht|||^2 dt (two Gauss points in
-  // time, u_ht linear between u_h^(n-1) and u_h^n), |u(t_n) - u_h^n| and
+  // Only with an exact solution: int_In |||u - u_ht|||^2 dt (two Gauss points
+  // in time, u_ht linear between u_h^(n-1) and u_h^n), |u(t_n) - u_h^n| and
   // |||u(t_n) - u_h^n|||.
   template <int dim>
   void
   ParabolicProblem<dim>::compute_errors()
   {
-    if (!data.has_exact_solution())
-      return;
     TimerOutput::Scope t(timer, "errors");
 
-    const QGauss<dim>      error_quadrature(fe.degree + 3);
-    dealii::Vector<double> cellwise(triangulation.n_active_cells());
-    const auto             error = [&](const Vector               &uh,
-                           const Function<dim>        &exact,
-                           const VectorTools::NormType norm) {
-      VectorTools::integrate_difference(
-        *mapping, dof_handler, uh, exact, cellwise, error_quadrature, norm);
-      return VectorTools::compute_global_error(triangulation, cellwise, norm);
-    };
     const auto energy_error = [&](const Vector &v1, const Vector &v2) {
-      const double e1 = error(v1, *data.exact_u1, VectorTools::H1_seminorm);
-      const double e2 = error(v2, *data.exact_u2, VectorTools::H1_seminorm);
+      const double e1 =
+        global_error(v1, *data.exact_u1, VectorTools::H1_seminorm);
+      const double e2 =
+        global_error(v2, *data.exact_u2, VectorTools::H1_seminorm);
       return data.mu1 * e1 * e1 + data.mu2 * e2 * e2;
     };
 
@@ -84,29 +76,36 @@ namespace StepParabolic
       }
     data.set_time(time + time_step);
     totals.error_squared += integral;
-    step_error_energy  = std::sqrt(energy_error(u1_h, u2_h));
-    const double l1    = error(u1_h, *data.exact_u1, VectorTools::L2_norm);
-    const double l2    = error(u2_h, *data.exact_u2, VectorTools::L2_norm);
+    step_error_energy = std::sqrt(energy_error(u1_h, u2_h));
+    const double l1 = global_error(u1_h, *data.exact_u1, VectorTools::L2_norm);
+    const double l2 = global_error(u2_h, *data.exact_u2, VectorTools::L2_norm);
     totals.final_error = std::sqrt(l1 * l1 + l2 * l2);
   }
 
 
   namespace
   {
+    // The terms of a step estimate in summary.json, by their keys.
+    const std::pair<const char *, double StepEstimate::*> step_terms[] = {
+      {"eta", &StepEstimate::eta},
+      {"eta_disc", &StepEstimate::eta_disc},
+      {"eta_lin", &StepEstimate::eta_lin},
+      {"eta_alg", &StepEstimate::eta_alg},
+      {"eta_time", &StepEstimate::eta_time},
+      {"eta_space", &StepEstimate::eta_space},
+      {"oscillation", &StepEstimate::oscillation},
+      {"eta_dt", &StepEstimate::eta_dt},
+      {"nonc_squared", &StepEstimate::nonc_squared},
+      {"final_nonc", &StepEstimate::final_nonc},
+    };
+
     VI::Json
     to_json(const StepEstimate &e)
     {
-      VI::Json json         = VI::Json::object();
-      json["eta"]           = e.eta;
-      json["eta_disc"]      = e.eta_disc;
-      json["eta_lin"]       = e.eta_lin;
-      json["eta_alg"]       = e.eta_alg;
-      json["eta_time"]      = e.eta_time;
-      json["eta_space"]     = e.eta_space;
-      json["oscillation"]   = e.oscillation;
-      json["eta_dt"]        = e.eta_dt;
-      json["nonc_squared"]  = e.nonc_squared;
-      json["final_nonc"]    = e.final_nonc;
+      VI::Json json = VI::Json::object();
+      for (const auto &[key, term] : step_terms)
+        json[key] = e.*term;
+      // The steady estimators at t_n.
       json["flux_disc_end"] = e.at_end.flux_disc;
       json["residual_end"]  = e.at_end.residual;
       json["contact_end"]   = e.at_end.contact_cone;
@@ -191,10 +190,7 @@ namespace StepParabolic
     TimerOutput::Scope t(timer, "output");
 
     // The indicators of the estimate at the end of the step, t_n.
-    VI::FieldOutput<dim> output(*mapping,
-                                geometry,
-                                dof_handler,
-                                {u1_h, u2_h, gap_h, lambda_h, &contact_set});
+    VI::FieldOutput<dim> output = solution_output();
     output.add_indicators(final_estimate ? &final_estimate->at_end : nullptr);
     vtu_files.emplace_back(
       time, output.write(parameters.output.directory, step, 5, comm, time));
@@ -310,10 +306,7 @@ namespace StepParabolic
           total["effectivity"] = totals.eta() / totals.error();
       }
     json["totals"] = total;
-    json["timing"] = VI::Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      json["timing"][section] = seconds;
+    json["timing"] = VI::section_wall_times(timer);
     VI::write_summary(json, parameters.output.directory, comm);
   }
 

@@ -1,6 +1,7 @@
 #include "parabolic_parameters.h"
 
 #include <vi/errors.h>
+#include <vi/parameter_sections.h>
 
 #include <sstream>
 
@@ -155,40 +156,35 @@ namespace StepParabolic
   void
   Parameters::parse(ParameterHandler &prm)
   {
-    problem.parse(prm);
+    VI::parse_shared_sections(*this, prm);
     prm.enter_subsection("Problem");
     prm.enter_subsection("Expression");
     problem.u1_0 = prm.get("u1_0");
     problem.u2_0 = prm.get("u2_0");
     prm.leave_subsection();
     prm.leave_subsection();
-
-    mesh.parse(prm);
-
-    discretization.parse(prm);
-    nonlinear_solver.parse(prm);
-    linear_solver.parse(prm);
-    estimators.parse(prm);
-    output.parse(prm);
     prm.enter_subsection("Output");
     compare_with = prm.get("Compare with");
     prm.leave_subsection();
 
     prm.enter_subsection("Time stepping");
-    {
-      time.final_time          = prm.get_double("Final time");
-      time.time_step           = prm.get_double("Time step");
-      time.adaptive            = prm.get_bool("Adaptive");
-      time.time_space_ratio    = prm.get_double("Time-space ratio");
-      time.minimal_time_step   = prm.get_double("Minimal time step");
-      time.maximal_time_step   = prm.get_double("Maximal time step");
-      time.growth_factor       = prm.get_double("Growth factor");
-      time.rejection_factor    = prm.get_double("Rejection factor");
-      time.output_interval     = prm.get_integer("Output interval");
-      time.checkpoint_interval = prm.get_integer("Checkpoint interval");
-      time.steps_per_run       = prm.get_integer("Steps per run");
-      time.resume              = prm.get_bool("Resume");
-    }
+    for (const auto &[name, value] :
+         {std::pair<const char *, double *>{"Final time", &time.final_time},
+          {"Time step", &time.time_step},
+          {"Time-space ratio", &time.time_space_ratio},
+          {"Minimal time step", &time.minimal_time_step},
+          {"Maximal time step", &time.maximal_time_step},
+          {"Growth factor", &time.growth_factor},
+          {"Rejection factor", &time.rejection_factor}})
+      *value = prm.get_double(name);
+    for (const auto &[name, value] :
+         {std::pair<const char *, unsigned int *>{"Output interval",
+                                                  &time.output_interval},
+          {"Checkpoint interval", &time.checkpoint_interval},
+          {"Steps per run", &time.steps_per_run}})
+      *value = prm.get_integer(name);
+    time.adaptive = prm.get_bool("Adaptive");
+    time.resume   = prm.get_bool("Resume");
     prm.leave_subsection();
 
     const auto &t = time;

@@ -114,24 +114,19 @@ namespace StepParabolic
     run();
 
   private:
-    using Vector = TrilinosWrappers::MPI::Vector;
     VI_MEMBRANE_DISCRETISATION_MEMBERS(dim)
+    using typename Discretisation::Vector;
 
     /**
-     * An iterate X^n = (u1h^n, u2h^n, lambda_h^n) as the estimators see it:
-     * its fields, the cone reconstruction s_h, the algebraic residual r_h,
-     * the discrete time derivative d_t u_h = (u_h^n - u_h^(n-1)) / dt_n and
-     * the equilibrated fluxes.
+     * An iterate X^n = (u1h^n, u2h^n, lambda_h^n) as the estimators see it
+     * (VI::MembraneIterate), with the discrete time derivative
+     * d_t u_h = (u_h^n - u_h^(n-1)) / dt_n.
      */
-    struct Iterate
+    struct Iterate : VI::MembraneIterate
     {
-      Vector X;
-      Vector u1, u2, s1, s2, lambda, lambda_nonnegative, r1, r2;
       Vector dt_u1, dt_u2;
-      Vector sigma1, sigma2;
       /// u1h, u2h, s1, s2 without ghosts (for interpolation in time).
-      Vector       owned[4];
-      unsigned int linear_iteration = 0;
+      Vector owned[4];
     };
 
     /// The terms of the step estimate beyond the steady estimators.

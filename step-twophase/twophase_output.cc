@@ -5,6 +5,7 @@
 #include <deal.II/numerics/data_out.h>
 
 #include <vi/summary.h>
+#include <vi/timer_summary.h>
 
 #include "twophase_problem.h"
 
@@ -125,6 +126,24 @@ namespace StepTwoPhase
   }
 
 
+  namespace
+  {
+    /// The state at x = 0 of a step: its column in convergence.txt and its
+    /// key in summary.json.
+    struct AtOrigin
+    {
+      const char *column, *key;
+      double StepRecord::*value;
+    };
+    const AtOrigin at_origin[] = {
+      {"S_g(0)", "gas_saturation_x0", &StepRecord::gas_saturation_x0},
+      {"P_l(0)", "liquid_pressure_x0", &StepRecord::liquid_pressure_x0},
+      {"P_g(0)", "gas_pressure_x0", &StepRecord::gas_pressure_x0},
+      {"chi(0)", "molar_fraction_x0", &StepRecord::molar_fraction_x0},
+    };
+  } // namespace
+
+
   /**
    * convergence.txt: one row per step with everything deterministic (no
    * timings), diffed by the tests; x0.csv: the time series at x = 0.
@@ -143,10 +162,8 @@ namespace StepTwoPhase
         table.add_value("newton", r.newton);
         table.add_value("gmres", r.linear);
         table.add_value("cuts", r.cuts);
-        table.add_value("S_g(0)", r.gas_saturation_x0);
-        table.add_value("P_l(0)", r.liquid_pressure_x0);
-        table.add_value("P_g(0)", r.gas_pressure_x0);
-        table.add_value("chi(0)", r.molar_fraction_x0);
+        for (const AtOrigin &q : at_origin)
+          table.add_value(q.column, r.*q.value);
         table.add_value("front_m", r.gas_front);
         table.add_value("eta_disc", r.eta.disc);
         if (adaptive)
@@ -216,20 +233,18 @@ namespace StepTwoPhase
         s["time_step_cuts"]             = r.cuts;
         s["rejected_newton_iterations"] = r.rejected_newton;
         s["rejected_linear_iterations"] = r.rejected_linear;
-        s["gas_saturation_x0"]          = r.gas_saturation_x0;
-        s["liquid_pressure_x0"]         = r.liquid_pressure_x0;
-        s["gas_pressure_x0"]            = r.gas_pressure_x0;
-        s["molar_fraction_x0"]          = r.molar_fraction_x0;
-        s["gas_front"]                  = r.gas_front;
-        s["eta_disc"]                   = r.eta.disc;
-        s["eta_lin"]                    = r.eta.lin;
-        s["eta_alg"]                    = r.eta.alg;
-        s["eta_flux"]                   = r.eta.flux;
-        s["eta_nonconformity"]          = r.eta.nonconformity;
-        s["eta_equilibrium"]            = r.eta.equilibrium;
-        s["eta_phase_transition"]       = years(r.eta.phase_transition);
-        s["wall_seconds"]               = r.wall_seconds;
-        VI::Json iterations             = VI::Json::array();
+        for (const AtOrigin &q : at_origin)
+          s[q.key] = r.*q.value;
+        s["gas_front"]            = r.gas_front;
+        s["eta_disc"]             = r.eta.disc;
+        s["eta_lin"]              = r.eta.lin;
+        s["eta_alg"]              = r.eta.alg;
+        s["eta_flux"]             = r.eta.flux;
+        s["eta_nonconformity"]    = r.eta.nonconformity;
+        s["eta_equilibrium"]      = r.eta.equilibrium;
+        s["eta_phase_transition"] = years(r.eta.phase_transition);
+        s["wall_seconds"]         = r.wall_seconds;
+        VI::Json iterations       = VI::Json::array();
         for (const IterationRecord &it : r.iterations)
           {
             VI::Json i                    = VI::Json::object();
@@ -272,10 +287,7 @@ namespace StepTwoPhase
     totals["wall_seconds"]               = run_timer.wall_time();
     summary["totals"]                    = totals;
 
-    summary["timing"] = VI::Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      summary["timing"][section] = seconds;
+    summary["timing"] = VI::section_wall_times(timer);
     VI::write_summary(summary, parameters.output.directory, comm);
   }
 } // namespace StepTwoPhase

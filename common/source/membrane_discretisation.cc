@@ -11,9 +11,11 @@
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/estimators.h>
+#include <vi/field_output.h>
 #include <vi/flux_reconstruction.h>
 #include <vi/membrane_discretisation.h>
 #include <vi/nodal_fields.h>
+#include <vi/parameters.h>
 
 #include <map>
 
@@ -35,6 +37,18 @@ namespace VI
       , fe(degree)
       , dof_handler(triangulation)
       , quadrature(FluxReconstruction<dim>::quadrature_points(degree))
+  {
+  }
+
+
+  template <int dim>
+  MembraneDiscretisation<dim>::MembraneDiscretisation(
+    const DomainParameters         &mesh,
+    const DiscretizationParameters &discretization,
+    const MPI_Comm                  comm)
+      : MembraneDiscretisation(geometry_from_name(mesh.geometry),
+                               discretization.degree,
+                               comm)
   {
   }
 
@@ -324,6 +338,146 @@ namespace VI
       contact_system.contact_rows().contact_set(X, field);
     contact_set = field;
     return n_contact_nodes;
+  }
+
+
+  template <int dim>
+  MultiplierFunction
+  MembraneDiscretisation<dim>::make_multiplier_function(
+    const ContactSystem &contact_system) const
+  {
+    return MultiplierFunction(fe.degree,
+                              contact_system.contact_rows(),
+                              contact_system.coupling(),
+                              mass_matrix,
+                              hanging_node_constraints,
+                              ghosted_nodes);
+  }
+
+
+  template <int dim>
+  FieldOutput<dim>
+  MembraneDiscretisation<dim>::solution_output() const
+  {
+    return FieldOutput<dim>(*mapping,
+                            geometry,
+                            dof_handler,
+                            {u1_h, u2_h, gap_h, lambda_h, &contact_set});
+  }
+
+
+  template <int dim>
+  double
+  MembraneDiscretisation<dim>::global_error(
+    const Vector               &uh,
+    const Function<dim>        &exact,
+    const VectorTools::NormType norm) const
+  {
+    dealii::Vector<double> per_cell(triangulation.n_active_cells());
+    VectorTools::integrate_difference(*mapping,
+                                      dof_handler,
+                                      uh,
+                                      exact,
+                                      per_cell,
+                                      QGauss<dim>(fe.degree + 3),
+                                      norm);
+    return VectorTools::compute_global_error(triangulation, per_cell, norm);
+  }
+
+
+  template <int dim>
+  std::function<double(const unsigned int, const unsigned int)>
+  MembraneDiscretisation<dim>::lumped_sources(const Vector &lambda,
+                                              const Vector &r1,
+                                              const Vector &r2) const
+  {
+    return [this, &lambda, r = std::array<const Vector *, 2>{{&r1, &r2}}](
+             const unsigned int vertex, const unsigned int alpha) {
+      const types::global_dof_index node = vertex_dofs[vertex];
+      const double                  sign = alpha == 0 ? -1. : 1.; // (-1)^alpha
+      return -sign * lambda(node) - (*r[alpha])(node);
+    };
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::equilibrate_fluxes(
+    const FluxReconstruction<dim> &fluxes,
+    const double                   mu1,
+    const double                   mu2,
+    const Function<dim> *const (&f)[2],
+    const Vector *const (&dt_u)[2],
+    MembraneIterate &it) const
+  {
+    const bool                          lumped = fe.degree == 1;
+    const std::array<const Vector *, 2> potential{{&it.u1, &it.u2}};
+    const std::array<const Vector *, 2> residual{{&it.r1, &it.r2}};
+    const std::array<double, 2>         mu{{mu1, mu2}};
+
+    typename FluxReconstruction<dim>::Sources sources;
+    sources.n_fields = 2;
+    // Per thread: the potential's FEValues at the fluxes' quadrature points
+    // and the values of lambda_h, r_alpha,h and d_t u_alpha,h there.
+    sources.make_cell_values = [&]() {
+      const Quadrature<dim> &points = fluxes.get_quadrature();
+      auto                   fe_values =
+        std::make_shared<FEValues<dim>>(*mapping,
+                                        fe,
+                                        points,
+                                        update_values | update_gradients |
+                                          update_quadrature_points);
+      std::vector<double> work(points.size());
+      return [&,
+              fe_values,
+              multiplier      = work,
+              residual_values = work,
+              time_derivative =
+                work](const auto &cell, auto &flux, auto &source) mutable {
+        fe_values->reinit(typename DoFHandler<dim>::active_cell_iterator(
+          &triangulation, cell->level(), cell->index(), &dof_handler));
+        if (!lumped)
+          fe_values->get_function_values(it.lambda, multiplier);
+        for (unsigned int alpha = 0; alpha < 2; ++alpha)
+          {
+            fe_values->get_function_gradients(*potential[alpha], flux[alpha]);
+            for (Tensor<1, dim> &F : flux[alpha])
+              F *= mu[alpha];
+            std::vector<double> &s = source[alpha];
+            f[alpha]->value_list(fe_values->get_quadrature_points(), s);
+            if (dt_u[alpha])
+              fe_values->get_function_values(*dt_u[alpha], time_derivative);
+            if (!lumped)
+              fe_values->get_function_values(*residual[alpha], residual_values);
+            const double sign = alpha == 0 ? -1. : 1.; // (-1)^alpha
+            for (unsigned int q = 0; q < s.size(); ++q)
+              {
+                if (dt_u[alpha])
+                  s[q] -= time_derivative[q];
+                if (!lumped)
+                  s[q] -= sign * multiplier[q] + residual_values[q];
+              }
+          }
+      };
+    };
+    if (lumped)
+      sources.vertex_source = lumped_sources(it.lambda, it.r1, it.r2);
+    fluxes.reconstruct(sources, {&it.sigma1, &it.sigma2});
+  }
+
+
+  template <int dim>
+  ContactEstimatorInput<dim>
+  MembraneDiscretisation<dim>::discretisation_input(
+    const FluxReconstruction<dim> &fluxes) const
+  {
+    ContactEstimatorInput<dim> in;
+    in.mapping    = mapping.get();
+    in.potential  = &dof_handler;
+    in.flux       = &fluxes.get_dof_handler();
+    in.quadrature = &fluxes.get_quadrature();
+    in.flux_signs = &fluxes.get_piola_signs();
+    return in;
   }
 
 

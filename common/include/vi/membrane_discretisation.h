@@ -11,8 +11,10 @@
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/meshworker/copy_data.h>
+#include <deal.II/numerics/vector_tools_common.h>
 
 #include <vi/contact_system.h>
+#include <vi/estimators.h>
 #include <vi/geometry.h>
 #include <vi/ghosted_copy.h>
 #include <vi/multiplier_function.h>
@@ -24,6 +26,31 @@
 
 namespace VI
 {
+  template <int dim>
+  class FieldOutput;
+  template <int dim>
+  class FluxReconstruction;
+  struct DomainParameters;
+  struct DiscretizationParameters;
+
+
+  /**
+   * An iterate X = (u1h, u2h, lambda_h) of the conforming membrane programs
+   * as the estimators see it (finite element functions with ghosts): u_h,
+   * its cone reconstruction s_h, lambda_h and its part from the nonnegative
+   * coefficients, the algebraic residual r_h and the fluxes sigma_h
+   * equilibrated with it.
+   */
+  struct MembraneIterate
+  {
+    using Vector = dealii::TrilinosWrappers::MPI::Vector;
+    Vector       X;
+    Vector       u1, u2, s1, s2, lambda, lambda_nonnegative, r1, r2;
+    Vector       sigma1, sigma2;
+    unsigned int linear_iteration = 0;
+  };
+
+
   /**
    * The conforming discretisation of two membranes in contact shared by
    * step-membranes and step-parabolic ([DMV20], [DMV20p]): Q_p on the mesh
@@ -50,6 +77,12 @@ namespace VI
     MembraneDiscretisation(const Geometry     geometry,
                            const unsigned int degree,
                            const MPI_Comm     comm);
+
+    /// The same from the sections Mesh (its geometry) and Discretization
+    /// (its degree) of the program's parameters.
+    MembraneDiscretisation(const DomainParameters         &mesh,
+                           const DiscretizationParameters &discretization,
+                           const MPI_Comm                  comm);
 
     /// The coarse mesh of the geometry, refined `refinements` times.
     void
@@ -143,6 +176,85 @@ namespace VI
                          const MultiplierFunction &multiplier_function,
                          const Vector             &X);
 
+    /// lambda_h from the multiplier coefficients of the contact rows of
+    /// `contact_system` on this discretisation (matrices by reference: they
+    /// follow the mesh).
+    MultiplierFunction
+    make_multiplier_function(const ContactSystem &contact_system) const;
+
+    /// The VTU output of the solution's fields u1_h, u2_h, gap_h, lambda_h
+    /// and contact_set.
+    FieldOutput<dim>
+    solution_output() const;
+
+    /// |exact - uh| in `norm` over the domain (integrated with p + 3 Gauss
+    /// points per direction).
+    double
+    global_error(const Vector                       &uh,
+                 const dealii::Function<dim>        &exact,
+                 const dealii::VectorTools::NormType norm) const;
+
+    /// For p = 1 the multiplier and the residual enter each patch of the
+    /// flux equilibration as the constants of its vertex (lumping): the
+    /// source -/+ lambda_h - r_alpha,h at the vertex (a
+    /// FluxReconstruction::Sources::vertex_source; `lambda`, `r1`, `r2` are
+    /// read when it is called).
+    std::function<double(const unsigned int vertex, const unsigned int alpha)>
+    lumped_sources(const Vector &lambda,
+                   const Vector &r1,
+                   const Vector &r2) const;
+
+    /// The fluxes sigma_alpha ~ -mu_alpha grad u_alpha,h of `it`,
+    /// equilibrated with f_alpha - d_t u_alpha,h -/+ lambda_h - r_alpha,h
+    /// into it.sigma1, it.sigma2. The loads and the discrete time
+    /// derivative (`dt_u`, null for a steady problem) enter at the
+    /// quadrature points, as in the assembly, so that the patch problems
+    /// stay compatible; for p = 1 the multiplier and the residual enter as
+    /// lumped_sources().
+    void
+    equilibrate_fluxes(const FluxReconstruction<dim> &fluxes,
+                       const double                   mu1,
+                       const double                   mu2,
+                       const dealii::Function<dim> *const (&f)[2],
+                       const Vector *const (&dt_u)[2],
+                       MembraneIterate &it) const;
+
+    /// The estimators' input (VI::estimate_contact_error) for the iterate
+    /// `it` with the look-ahead `ahead` on this discretisation, with the
+    /// fluxes of `fluxes`: the data (mu, f, g, Friedrichs' constant) and
+    /// the options are the program's. `Iterate` has the members of
+    /// MembraneIterate.
+    template <class Iterate>
+    ContactEstimatorInput<dim>
+    estimator_input(const FluxReconstruction<dim> &fluxes,
+                    const Iterate                 &it,
+                    const Iterate                 &ahead) const
+    {
+      ContactEstimatorInput<dim> in = discretisation_input(fluxes);
+      in.u1                         = &it.u1;
+      in.u2                         = &it.u2;
+      in.s1                         = &it.s1;
+      in.s2                         = &it.s2;
+      in.lambda                     = &it.lambda;
+      in.lambda_nonnegative         = &it.lambda_nonnegative;
+      in.sigma1_disc                = &it.sigma1;
+      in.sigma2_disc                = &it.sigma2;
+      // p = 1: the whole contact term is a discretisation term.
+      in.mass_lumped  = fe.degree == 1;
+      in.lambda_ahead = &ahead.lambda;
+      in.r1_ahead     = &ahead.r1;
+      in.r2_ahead     = &ahead.r2;
+      in.sigma1_ahead = &ahead.sigma1;
+      in.sigma2_ahead = &ahead.sigma2;
+      return in;
+    }
+
+  private:
+    /// What the estimators take from the discretisation: the mapping, the
+    /// potential's DoFs, the fluxes' DoFs, quadrature and Piola signs.
+    ContactEstimatorInput<dim>
+    discretisation_input(const FluxReconstruction<dim> &fluxes) const;
+
   protected:
     const MPI_Comm comm;
     const Geometry geometry;
@@ -214,4 +326,8 @@ namespace VI
     Discretisation::make_constraints, Discretisation::reinit_matrices,         \
     Discretisation::make_vertex_dofs, Discretisation::assemble_cells;          \
   using Discretisation::set_coupling, Discretisation::potentials,              \
-    Discretisation::residual_functions, Discretisation::make_solution_fields;
+    Discretisation::residual_functions, Discretisation::make_solution_fields;  \
+  using Discretisation::make_multiplier_function,                              \
+    Discretisation::solution_output, Discretisation::global_error,             \
+    Discretisation::lumped_sources, Discretisation::equilibrate_fluxes,        \
+    Discretisation::estimator_input;
