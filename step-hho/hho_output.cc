@@ -95,14 +95,8 @@ namespace StepHHO
     if (!data.has_exact_solution())
       return;
     TimerOutput::Scope       t(timer, "errors");
-    const VI::MembraneErrors errors =
-      VI::membrane_errors(*mapping,
-                          cell_dof_handler,
-                          QGauss<dim>(degree + 3),
-                          data,
-                          u1_h,
-                          u2_h,
-                          lambda_h);
+    const VI::MembraneErrors errors = VI::membrane_errors(
+      *mapping, cell_dof_handler, data, u1_h, u2_h, lambda_h);
     error_energy     = errors.energy;
     error_multiplier = errors.multiplier;
   }
@@ -152,13 +146,12 @@ namespace StepHHO
   VI::CycleNumbers
   HHOProblem<dim>::cycle_numbers(const unsigned int cycle) const
   {
-    VI::CycleNumbers numbers;
-    numbers.cycle = cycle;
-    numbers.cells = triangulation.n_global_active_cells();
-    numbers.dofs_condensed =
+    const unsigned long long condensed =
       2 * (face_dof_handler.n_dofs() - n_boundary_face_dofs);
-    numbers.dofs =
-      n_fields * cell_dof_handler.n_dofs() + *numbers.dofs_condensed;
+    VI::CycleNumbers numbers(cycle,
+                             triangulation.n_global_active_cells(),
+                             n_fields * cell_dof_handler.n_dofs() + condensed);
+    numbers.dofs_condensed = condensed;
     numbers.set_solve("Newton-" + C.name(),
                       newton_report,
                       newton_report.linear_iterations > 0 ? "CG" : "",

@@ -7,6 +7,7 @@
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/sparsity_tools.h>
 
+#include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
 
@@ -543,9 +544,7 @@ namespace StepHHO
 
     TrilinosWrappers::MPI::Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
       lambda(owned_nodes, comm);
-    std::vector<TrilinosWrappers::MPI::Vector *> fields = {&u1, &u2, &lambda};
-    solution_transfer->interpolate(fields);
-    solution_transfer.reset();
+    VI::interpolate_carried(solution_transfer, {&u1, &u2, &lambda});
     ghosted_nodes.copy(u1, u1_h);
     ghosted_nodes.copy(u2, u2_h);
     ghosted_nodes.copy(lambda, lambda_h);

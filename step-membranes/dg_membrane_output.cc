@@ -354,13 +354,7 @@ namespace StepMembranes
       return;
     TimerOutput::Scope       t(timer, "errors");
     const VI::MembraneErrors errors =
-      VI::membrane_errors(*mapping,
-                          dof_handler,
-                          QGauss<dim>(fe.degree + 3),
-                          data,
-                          u1_h,
-                          u2_h,
-                          lambda_h);
+      VI::membrane_errors(*mapping, dof_handler, data, u1_h, u2_h, lambda_h);
     error_broken = errors.energy;
     error_jump   = VI::jump_seminorm(*mapping,
                                    dof_handler,

@@ -19,6 +19,7 @@
 
 #include <vi/errors.h>
 #include <vi/estimators.h>
+#include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
 
@@ -426,9 +427,7 @@ namespace StepMembranes
       lambda(owned_nodes, comm), X3(owned_nodes, comm);
     if (solution_transfer)
       {
-        std::vector<Vector *> fields = {&u1, &u2, &lambda};
-        solution_transfer->interpolate(fields);
-        solution_transfer.reset();
+        VI::interpolate_carried(solution_transfer, {&u1, &u2, &lambda});
         // X3: the nodal values of lambda_h (p = 1), its moments (p >= 2).
         if (mass_lumped())
           X3 = lambda;
@@ -485,10 +484,9 @@ namespace StepMembranes
   VI::CycleNumbers
   DGMembraneProblem<dim>::cycle_numbers(const unsigned int cycle) const
   {
-    VI::CycleNumbers numbers;
-    numbers.cycle = cycle;
-    numbers.cells = triangulation.n_global_active_cells();
-    numbers.dofs  = dof_handler.n_dofs();
+    VI::CycleNumbers numbers(cycle,
+                             triangulation.n_global_active_cells(),
+                             dof_handler.n_dofs());
     numbers.set_solve("Newton-" + C.name(),
                       newton_report,
                       parameters.linear_solver.solver ==

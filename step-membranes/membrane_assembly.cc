@@ -9,6 +9,7 @@
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/errors.h>
+#include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
 
 #include "membrane_problem.h"
@@ -274,9 +275,7 @@ namespace StepMembranes
       lambda(owned_nodes, comm), X3(owned_nodes, comm);
     if (solution_transfer)
       {
-        std::vector<Vector *> fields = {&u1, &u2, &lambda};
-        solution_transfer->interpolate(fields);
-        solution_transfer.reset();
+        VI::interpolate_carried(solution_transfer, {&u1, &u2, &lambda});
         compute_dual_coefficients(lambda, X3);
         VI::NodalFields::insert(X3, multiplier, solution);
       }

@@ -62,13 +62,7 @@ namespace StepMembranes
       return;
     TimerOutput::Scope       t(timer, "errors");
     const VI::MembraneErrors errors =
-      VI::membrane_errors(*mapping,
-                          dof_handler,
-                          QGauss<dim>(fe.degree + 3),
-                          data,
-                          u1_h,
-                          u2_h,
-                          lambda_h);
+      VI::membrane_errors(*mapping, dof_handler, data, u1_h, u2_h, lambda_h);
     error_energy     = errors.energy;
     error_multiplier = errors.multiplier;
     cell_error       = errors.cellwise;
@@ -83,10 +77,7 @@ namespace StepMembranes
       return;
     TimerOutput::Scope t(timer, "output");
 
-    VI::FieldOutput<dim> output(*mapping,
-                                geometry,
-                                dof_handler,
-                                {u1_h, u2_h, gap_h, lambda_h, &contact_set});
+    VI::FieldOutput<dim> output = solution_output();
     output.add_indicators(final_estimate ? &*final_estimate : nullptr);
     if (data.has_exact_solution())
       output.add_cell_field(cell_error, "error_energy");

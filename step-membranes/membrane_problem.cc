@@ -20,9 +20,7 @@ namespace StepMembranes
   MembraneProblem<dim>::MembraneProblem(const Parameters &parameters,
                                         ParameterHandler &prm,
                                         const MPI_Comm    comm)
-      : Discretisation(VI::geometry_from_name(parameters.mesh.geometry),
-                       parameters.discretization.degree,
-                       comm)
+      : Discretisation(parameters.mesh, parameters.discretization, comm)
       , parameters(parameters)
       , prm(prm)
       , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
@@ -36,12 +34,7 @@ namespace StepMembranes
                        parameters.nonlinear_solver,
                        parameters.linear_solver,
                        timer)
-      , multiplier_function(fe.degree,
-                            contact_system.contact_rows(),
-                            contact_system.coupling(),
-                            mass_matrix,
-                            hanging_node_constraints,
-                            ghosted_nodes)
+      , multiplier_function(make_multiplier_function(contact_system))
       , stopping(parameters.nonlinear_solver,
                  stopping_hooks(),
                  parameters.output.verbose ? &pcout : nullptr)
@@ -106,10 +99,9 @@ namespace StepMembranes
   VI::CycleNumbers
   MembraneProblem<dim>::cycle_numbers(const unsigned int cycle) const
   {
-    VI::CycleNumbers numbers;
-    numbers.cycle = cycle;
-    numbers.cells = triangulation.n_global_active_cells();
-    numbers.dofs  = dof_handler.n_dofs();
+    VI::CycleNumbers numbers(cycle,
+                             triangulation.n_global_active_cells(),
+                             dof_handler.n_dofs());
     numbers.set_solve(solver_name(),
                       newton_report,
                       parameters.linear_solver.solver ==

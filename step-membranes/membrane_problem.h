@@ -129,12 +129,8 @@ namespace StepMembranes
      * fields as finite element functions, its algebraic residual r_h and
      * its equilibrated discretisation fluxes.
      */
-    struct Iterate
+    struct Iterate : VI::MembraneIterate
     {
-      Vector       X;
-      Vector       u1, u2, s1, s2, lambda, lambda_nonnegative, r1, r2;
-      Vector       sigma1, sigma2;
-      unsigned int linear_iteration = 0;
       /// With the cellwise multiplier (p >= 2): lambda_h and its part from
       /// the nonnegative coefficients on the cells (then `lambda` and
       /// `lambda_nonnegative` stay empty), and 2 <lambda_h, u1h - u2h>_h.

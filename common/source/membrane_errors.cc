@@ -1,3 +1,4 @@
+#include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/meshworker/mesh_loop.h>
 #include <deal.II/meshworker/scratch_data.h>
@@ -16,7 +17,6 @@ namespace VI
   MembraneErrors
   membrane_errors(const Mapping<dim>                  &mapping,
                   const DoFHandler<dim>               &dof_handler,
-                  const Quadrature<dim>               &quadrature,
                   const MembraneData<dim>             &data,
                   const TrilinosWrappers::MPI::Vector &u1_h,
                   const TrilinosWrappers::MPI::Vector &u2_h,
@@ -72,7 +72,7 @@ namespace VI
       [](const NoCopy &) {},
       MeshWorker::ScratchData<dim>(mapping,
                                    dof_handler.get_fe(),
-                                   quadrature,
+                                   QGauss<dim>(dof_handler.get_fe().degree + 3),
                                    update_values | update_gradients |
                                      update_quadrature_points |
                                      update_JxW_values),
@@ -100,7 +100,6 @@ namespace VI
   template MembraneErrors
   membrane_errors(const Mapping<2> &,
                   const DoFHandler<2> &,
-                  const Quadrature<2> &,
                   const MembraneData<2> &,
                   const TrilinosWrappers::MPI::Vector &,
                   const TrilinosWrappers::MPI::Vector &,

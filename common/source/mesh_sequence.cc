@@ -40,6 +40,19 @@ namespace VI
   }
 
 
+  template <int dim, typename VectorType>
+  void
+  interpolate_carried(
+    std::unique_ptr<parallel::distributed::SolutionTransfer<dim, VectorType>>
+                                       &transfer,
+    std::initializer_list<VectorType *> fields)
+  {
+    std::vector<VectorType *> into(fields);
+    transfer->interpolate(into);
+    transfer.reset();
+  }
+
+
   template void
   flag_all_cells(parallel::distributed::Triangulation<2> &);
   template std::unique_ptr<
@@ -49,4 +62,10 @@ namespace VI
     const DoFHandler<2> &,
     std::initializer_list<const TrilinosWrappers::MPI::Vector *>,
     const bool);
+  template void
+  interpolate_carried(
+    std::unique_ptr<
+      parallel::distributed::SolutionTransfer<2, TrilinosWrappers::MPI::Vector>>
+      &,
+    std::initializer_list<TrilinosWrappers::MPI::Vector *>);
 } // namespace VI

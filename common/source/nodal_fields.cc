@@ -119,9 +119,10 @@ namespace VI
       // Calls visit(k, 3 k) for every owned node.
       template <typename Visit>
       void
-      for_each_owned_node(const TrilinosWrappers::MPI::Vector &X,
-                          const TrilinosWrappers::MPI::Vector &field_values,
-                          const Visit                         &visit)
+      for_each_owned_node(
+        [[maybe_unused]] const TrilinosWrappers::MPI::Vector &X,
+        const TrilinosWrappers::MPI::Vector                  &field_values,
+        const Visit                                          &visit)
       {
         Assert(!X.has_ghost_elements() && !field_values.has_ghost_elements(),
                ExcMessage("extract() and insert() work on vectors without "

@@ -6,6 +6,7 @@
 #include <vi/parameters.h>
 #include <vi/program.h>
 #include <vi/run_record.h>
+#include <vi/timer_summary.h>
 
 #include <fstream>
 #include <iomanip>
@@ -170,10 +171,7 @@ namespace VI
   RunRecord::finish(const std::string &files)
   {
     summary["status"] = "converged";
-    summary["timing"] = Json::object();
-    for (const auto &[section, seconds] :
-         timer.get_summary_data(TimerOutput::total_wall_time))
-      summary["timing"][section] = seconds;
+    summary["timing"] = section_wall_times(timer);
     write_summary(summary, directory, comm);
     if (Utilities::MPI::this_mpi_process(comm) == 0)
       std::cout << "\nOutput in " << directory << "/: " << files << std::endl;

@@ -1,6 +1,5 @@
 #pragma once
 
-#include <deal.II/base/quadrature.h>
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/fe/mapping.h>
 #include <deal.II/lac/trilinos_vector.h>
@@ -29,7 +28,8 @@ namespace VI
   /**
    * The errors of the ghosted finite element functions u1_h, u2_h and
    * lambda_h (one scalar element on `dof_handler`) against the exact
-   * solution of `data`, with `quadrature` on every owned cell.
+   * solution of `data`, with p + 3 Gauss points per direction on every
+   * owned cell (p the element's degree).
    *
    * The cells are shared among the threads (MeshWorker::mesh_loop) and the
    * exact gradients are the data's own: for a parsed expression these are
@@ -40,7 +40,6 @@ namespace VI
   MembraneErrors
   membrane_errors(const dealii::Mapping<dim>                  &mapping,
                   const dealii::DoFHandler<dim>               &dof_handler,
-                  const dealii::Quadrature<dim>               &quadrature,
                   const MembraneData<dim>                     &data,
                   const dealii::TrilinosWrappers::MPI::Vector &u1_h,
                   const dealii::TrilinosWrappers::MPI::Vector &u2_h,

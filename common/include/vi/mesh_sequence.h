@@ -30,4 +30,17 @@ namespace VI
                        const dealii::DoFHandler<dim>            &dof_handler,
                        std::initializer_list<const VectorType *> fields,
                        const bool                                carry);
+
+  /**
+   * The fields that refine_flagged_cells() carried, interpolated into
+   * `fields` (vectors of the new mesh's owned unknowns, in the order they
+   * were given there); the transfer is spent.
+   */
+  template <int dim, typename VectorType>
+  void
+  interpolate_carried(
+    std::unique_ptr<
+      dealii::parallel::distributed::SolutionTransfer<dim, VectorType>>
+                                       &transfer,
+    std::initializer_list<VectorType *> fields);
 } // namespace VI

@@ -146,6 +146,17 @@ namespace VI
    */
   struct CycleNumbers
   {
+    CycleNumbers() = default;
+    /// Cycle `cycle` on a mesh of `cells` cells, `dofs` in the column "dofs".
+    CycleNumbers(const unsigned int       cycle,
+                 const unsigned long long cells,
+                 const unsigned long long dofs)
+        : cycle(cycle)
+        , cells(cells)
+        , dofs(dofs)
+    {
+    }
+
     unsigned int       cycle = 0;
     unsigned long long cells = 0;
     /// The column "dofs" of the table, from which rates in h are computed.
