@@ -150,7 +150,8 @@ namespace StepHHO
       2 * (face_dof_handler.n_dofs() - n_boundary_face_dofs);
     VI::CycleNumbers numbers(cycle,
                              triangulation.n_global_active_cells(),
-                             n_fields * cell_dof_handler.n_dofs() + condensed);
+                             n_fields * cell_dof_handler.n_dofs() + condensed,
+                             run_record.cycle_seconds());
     numbers.dofs_condensed = condensed;
     numbers.set_solve("Newton-" + C.name(),
                       newton_report,
@@ -158,7 +159,6 @@ namespace StepHHO
                       n_contact_nodes);
     numbers.error_energy     = error_energy;
     numbers.error_multiplier = error_multiplier;
-    numbers.seconds          = run_record.cycle_seconds();
     return numbers;
   }
 

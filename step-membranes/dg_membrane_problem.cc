@@ -444,8 +444,7 @@ namespace StepMembranes
         VectorTools::interpolate(*mapping, dof_handler, *data.g1, u1);
         VectorTools::interpolate(*mapping, dof_handler, *data.g2, u2);
       }
-    VI::NodalFields::insert(u1, VI::NodalFields::u1, solution);
-    VI::NodalFields::insert(u2, VI::NodalFields::u2, solution);
+    VI::NodalFields::insert_displacements(u1, u2, solution);
   }
 
 
@@ -486,7 +485,8 @@ namespace StepMembranes
   {
     VI::CycleNumbers numbers(cycle,
                              triangulation.n_global_active_cells(),
-                             dof_handler.n_dofs());
+                             dof_handler.n_dofs(),
+                             run_record.cycle_seconds());
     numbers.set_solve("Newton-" + C.name(),
                       newton_report,
                       parameters.linear_solver.solver ==
@@ -494,7 +494,6 @@ namespace StepMembranes
                         "GMRES" :
                         "",
                       n_contact_nodes);
-    numbers.seconds          = run_record.cycle_seconds();
     numbers.error_energy     = error_energy;
     numbers.error_multiplier = error_multiplier;
     if (final_estimate)

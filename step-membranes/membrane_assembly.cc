@@ -284,8 +284,7 @@ namespace StepMembranes
         VectorTools::interpolate(*mapping, dof_handler, *data.g1, u1);
         VectorTools::interpolate(*mapping, dof_handler, *data.g2, u2);
       }
-    VI::NodalFields::insert(u1, VI::NodalFields::u1, solution);
-    VI::NodalFields::insert(u2, VI::NodalFields::u2, solution);
+    VI::NodalFields::insert_displacements(u1, u2, solution);
     system_constraints.distribute(solution);
   }
 

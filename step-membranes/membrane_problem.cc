@@ -101,7 +101,8 @@ namespace StepMembranes
   {
     VI::CycleNumbers numbers(cycle,
                              triangulation.n_global_active_cells(),
-                             dof_handler.n_dofs());
+                             dof_handler.n_dofs(),
+                             run_record.cycle_seconds());
     numbers.set_solve(solver_name(),
                       newton_report,
                       parameters.linear_solver.solver ==
@@ -113,7 +114,6 @@ namespace StepMembranes
     numbers.error_multiplier = error_multiplier;
     if (final_estimate)
       numbers.estimate = final_estimate->eta;
-    numbers.seconds = run_record.cycle_seconds();
     return numbers;
   }
 

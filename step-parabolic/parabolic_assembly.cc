@@ -184,8 +184,7 @@ namespace StepParabolic
     hanging_node_constraints.distribute(u1);
     hanging_node_constraints.distribute(u2);
     solution = 0;
-    VI::NodalFields::insert(u1, VI::NodalFields::u1, solution);
-    VI::NodalFields::insert(u2, VI::NodalFields::u2, solution);
+    VI::NodalFields::insert_displacements(u1, u2, solution);
     store_previous_step();
     totals          = Accumulated();
     totals.eta_init = initial_error_estimate();

@@ -231,8 +231,7 @@ namespace StepParabolic
       transfer.deserialize(fields);
     }
     solution = 0;
-    VI::NodalFields::insert(u1, VI::NodalFields::u1, solution);
-    VI::NodalFields::insert(u2, VI::NodalFields::u2, solution);
+    VI::NodalFields::insert_displacements(u1, u2, solution);
     VI::NodalFields::insert(X3, VI::NodalFields::multiplier, solution);
     store_previous_step();
     // With fixed steps, the time step of this run's parameters.

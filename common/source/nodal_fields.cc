@@ -165,6 +165,16 @@ namespace VI
     }
 
 
+    void
+    insert_displacements(const TrilinosWrappers::MPI::Vector &u1,
+                         const TrilinosWrappers::MPI::Vector &u2,
+                         TrilinosWrappers::MPI::Vector       &X)
+    {
+      insert(u1, NodalFields::u1, X);
+      insert(u2, NodalFields::u2, X);
+    }
+
+
     template <int dim>
     std::vector<dealii::types::global_dof_index>
     vertex_nodes(const dealii::DoFHandler<dim, dim> &dof_handler)

@@ -94,5 +94,11 @@ namespace VI
     insert(const dealii::TrilinosWrappers::MPI::Vector &field_values,
            const unsigned int                           field,
            dealii::TrilinosWrappers::MPI::Vector       &X);
+
+    /// X1 = u1 and X2 = u2 on the locally owned nodes (X3 is left as is).
+    void
+    insert_displacements(const dealii::TrilinosWrappers::MPI::Vector &u1,
+                         const dealii::TrilinosWrappers::MPI::Vector &u2,
+                         dealii::TrilinosWrappers::MPI::Vector       &X);
   } // namespace NodalFields
 } // namespace VI

@@ -147,13 +147,16 @@ namespace VI
   struct CycleNumbers
   {
     CycleNumbers() = default;
-    /// Cycle `cycle` on a mesh of `cells` cells, `dofs` in the column "dofs".
+    /// Cycle `cycle` on a mesh of `cells` cells, `dofs` in the column
+    /// "dofs", that took `seconds`.
     CycleNumbers(const unsigned int       cycle,
                  const unsigned long long cells,
-                 const unsigned long long dofs)
+                 const unsigned long long dofs,
+                 const double             seconds)
         : cycle(cycle)
         , cells(cells)
         , dofs(dofs)
+        , seconds(seconds)
     {
     }
 
