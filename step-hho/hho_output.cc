@@ -1,6 +1,3 @@
-#include <deal.II/base/quadrature_lib.h>
-#include <deal.II/base/utilities.h>
-#include <deal.II/numerics/vector_tools.h>
 
 #include <vi/field_output.h>
 #include <vi/membrane_errors.h>
@@ -10,7 +7,6 @@
 #include "hho_problem.h"
 
 #include <cmath>
-#include <fstream>
 
 namespace StepHHO
 {

@@ -1,18 +1,11 @@
 // step-membranes, interior penalty dG: the multiplier and the fields of a
 // solution, its guaranteed estimate, errors, output and the cycle's record.
 
-#include <deal.II/base/utilities.h>
-#include <deal.II/dofs/dof_tools.h>
-#include <deal.II/fe/fe_interface_values.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping_q.h>
-#include <deal.II/grid/filtered_iterator.h>
-#include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/full_matrix.h>
-#include <deal.II/lac/sparsity_tools.h>
 #include <deal.II/meshworker/mesh_loop.h>
 #include <deal.II/meshworker/scratch_data.h>
-#include <deal.II/numerics/vector_tools.h>
 
 #include <vi/errors.h>
 #include <vi/estimators.h>
@@ -20,15 +13,11 @@
 #include <vi/membrane_errors.h>
 #include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
-#include <vi/program.h>
 
 #include "dg_membrane_problem.h"
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <iomanip>
-#include <sstream>
 
 namespace StepMembranes
 {

@@ -489,10 +489,7 @@ namespace StepMembranes
                              run_record.cycle_seconds());
     numbers.set_solve("Newton-" + C.name(),
                       newton_report,
-                      parameters.linear_solver.solver ==
-                          VI::LinearSolverType::gmres ?
-                        "GMRES" :
-                        "",
+                      VI::counted_linear_solver(parameters.linear_solver),
                       n_contact_nodes);
     numbers.error_energy     = error_energy;
     numbers.error_multiplier = error_multiplier;

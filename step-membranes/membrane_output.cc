@@ -1,13 +1,7 @@
 // step-membranes, conforming Q_p: what is done with a solution: its fields,
 // errors, VTU output, the next mesh, the cycle's record and the tables.
 
-#include <deal.II/base/parallel.h>
-#include <deal.II/base/quadrature_lib.h>
-#include <deal.II/fe/fe_values.h>
-#include <deal.II/grid/filtered_iterator.h>
-#include <deal.II/numerics/vector_tools.h>
 
-#include <vi/cell_function_values.h>
 #include <vi/field_output.h>
 #include <vi/membrane_errors.h>
 #include <vi/mesh_sequence.h>
@@ -15,9 +9,6 @@
 
 #include "membrane_problem.h"
 
-#include <algorithm>
-#include <cmath>
-#include <fstream>
 
 namespace StepMembranes
 {

@@ -38,9 +38,17 @@ namespace VI
     };
     const auto local =
       [&](const auto &cell, MeshWorker::ScratchData<dim> &scratch, NoCopy &) {
-        const FEValues<dim>        &values = scratch.reinit(cell);
-        const auto                 &points = values.get_quadrature_points();
-        std::vector<Tensor<1, dim>> exact_gradient(points.size());
+        const FEValues<dim> &values = scratch.reinit(cell);
+        const auto          &points = values.get_quadrature_points();
+        // Arrays of the thread, kept in its scratch from cell to cell.
+        auto &storage = scratch.get_general_data_storage();
+        auto &exact_gradient =
+          storage
+            .template get_or_add_object_with_name<std::vector<Tensor<1, dim>>>(
+              "exact gradient", points.size());
+        auto &exact_lambda =
+          storage.template get_or_add_object_with_name<std::vector<double>>(
+            "exact lambda", points.size());
         for (unsigned int a = 0; a < 2; ++a)
           {
             scratch.extract_local_dof_values(name[a], *u[a]);
@@ -55,8 +63,7 @@ namespace VI
         if (data.exact_lambda)
           {
             scratch.extract_local_dof_values("lambda", lambda_h);
-            const auto         &lambda = scratch.get_values("lambda", scalar);
-            std::vector<double> exact_lambda(points.size());
+            const auto &lambda = scratch.get_values("lambda", scalar);
             data.exact_lambda->value_list(points, exact_lambda);
             double sum = 0;
             for (const unsigned int q : values.quadrature_point_indices())

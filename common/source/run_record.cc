@@ -31,6 +31,13 @@ namespace VI
   }
 
 
+  std::string
+  counted_linear_solver(const LinearSolverParameters &linear)
+  {
+    return linear.solver == LinearSolverType::gmres ? "GMRES" : "";
+  }
+
+
   RunRecord::RunRecord(const std::string &program,
                        const std::string &output_directory,
                        TimerOutput       &timer,

@@ -31,6 +31,11 @@ namespace VI
   describe_solvers(const NonlinearSolverParameters &nonlinear,
                    const LinearSolverParameters    &linear);
 
+  /// The linear solver whose iterations the progress line counts: "GMRES",
+  /// or none for the direct solver.
+  std::string
+  counted_linear_solver(const LinearSolverParameters &linear);
+
   /**
    * The errors and the estimate a run tabulates, known before it starts:
    * their columns in convergence.txt and the rates shown on the screen.
