@@ -370,12 +370,10 @@ namespace StepParabolic
           << "Difference to the final solution of " << other_directory << ": "
           << energy << " (energy norm), " << l2 << " (L2 norm)"
           << std::defaultfloat << std::endl;
-    VI::Json json             = VI::Json::object();
-    json["directory"]         = other_directory;
-    json["time"]              = time;
-    json["difference_energy"] = energy;
-    json["difference_l2"]     = l2;
-    summary["compared_with"]  = json;
+    summary["compared_with"] = VI::Json::object({{"directory", other_directory},
+                                                 {"time", time},
+                                                 {"difference_energy", energy},
+                                                 {"difference_l2", l2}});
   }
 
 

@@ -140,14 +140,13 @@ namespace StepParabolic
       }
     records.push_back(r);
 
-    VI::Json json             = VI::Json::object();
-    json["step"]              = step;
-    json["time"]              = time;
-    json["dt"]                = time_step;
-    json["rejected"]          = rejected_this_step;
-    json["newton_iterations"] = newton_this_step;
-    json["linear_iterations"] = linear_this_step;
-    json["contact_nodes"]     = n_contact_nodes;
+    VI::Json json = VI::Json::object({{"step", step},
+                                      {"time", time},
+                                      {"dt", time_step},
+                                      {"rejected", rejected_this_step},
+                                      {"newton_iterations", newton_this_step},
+                                      {"linear_iterations", linear_this_step},
+                                      {"contact_nodes", n_contact_nodes}});
     if (!contact_per_ring.empty())
       {
         VI::Json rings = VI::Json::array();
