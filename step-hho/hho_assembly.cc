@@ -221,7 +221,7 @@ namespace StepHHO
         // E on the cell, unknowns (x1, x2, x3, y1, y2): mu_alpha a_K on
         // (x_alpha, y_alpha), the coupling -I / +I of the dual basis; the
         // complementarity rows are set in each Newton step.
-        const unsigned int n = n_fields * n_c + 2 * n_f;
+        const unsigned int n = n_local_unknowns();
         copy.matrices[0].reinit(n, n);
         const auto position = [&](const unsigned int alpha,
                                   const unsigned int i) {

@@ -144,17 +144,13 @@ namespace StepHHO
   {
     const unsigned long long condensed =
       2 * (face_dof_handler.n_dofs() - n_boundary_face_dofs);
-    VI::CycleNumbers numbers(cycle,
-                             triangulation.n_global_active_cells(),
-                             n_fields * cell_dof_handler.n_dofs() + condensed,
-                             run_record.cycle_seconds());
+    VI::CycleNumbers numbers =
+      measured(cycle,
+               triangulation.n_global_active_cells(),
+               n_fields * cell_dof_handler.n_dofs() + condensed,
+               "Newton-" + C.name(),
+               newton_report.linear_iterations > 0 ? "CG" : "");
     numbers.dofs_condensed = condensed;
-    numbers.set_solve("Newton-" + C.name(),
-                      newton_report,
-                      newton_report.linear_iterations > 0 ? "CG" : "",
-                      n_contact_nodes);
-    numbers.error_energy     = error_energy;
-    numbers.error_multiplier = error_multiplier;
     return numbers;
   }
 

@@ -35,6 +35,41 @@ namespace StepHHO
       for (unsigned int i = 0; i < indices.size(); ++i)
         values(offset + i) = X(indices[i]);
     }
+
+
+    /**
+     * The L2 projection onto the face space P_{p-1}(F) of face f: the
+     * coefficients of Pi_F v in the basis of `face_fe` on that face, from
+     * the values v(x_q) at the quadrature points of `face_values` (which
+     * holds the face element's values and JxW there).
+     */
+    template <int dim>
+    void
+    project_onto_face(const FEFaceValues<dim>   &face_values,
+                      const FiniteElement<dim>  &face_fe,
+                      const unsigned int         f,
+                      const std::vector<double> &v,
+                      dealii::Vector<double>    &coefficients)
+    {
+      const unsigned int n_F = face_fe.n_dofs_per_face(f);
+      FullMatrix<double> M_F(n_F, n_F);
+      Vector<double>     moments(n_F);
+      for (const unsigned int q : face_values.quadrature_point_indices())
+        for (unsigned int k = 0; k < n_F; ++k)
+          {
+            const double psi_k =
+              face_values.shape_value(face_fe.face_to_cell_index(k, f), q);
+            moments(k) += v[q] * psi_k * face_values.JxW(q);
+            for (unsigned int l = 0; l < n_F; ++l)
+              M_F(k, l) +=
+                psi_k *
+                face_values.shape_value(face_fe.face_to_cell_index(l, f), q) *
+                face_values.JxW(q);
+          }
+      M_F.gauss_jordan();
+      coefficients.reinit(n_F);
+      M_F.vmult(coefficients, moments);
+    }
   } // namespace
 
 
@@ -42,13 +77,9 @@ namespace StepHHO
   HHOProblem<dim>::HHOProblem(const Parameters &parameters,
                               ParameterHandler &prm,
                               const MPI_Comm    comm)
-      : parameters(parameters)
-      , prm(prm)
+      : StationaryProblem("step-hho", parameters, prm, comm)
+      , parameters(parameters)
       , comm(comm)
-      , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
-      // Wall times of rank 0: a TimerOutput without communicator needs no MPI
-      // in its destructor, which also runs when a failure unwinds the stack.
-      , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
       , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
@@ -61,7 +92,6 @@ namespace StepHHO
       , face_fe(degree - 1)
       , cell_dof_handler(triangulation)
       , face_dof_handler(triangulation)
-      , run_record("step-hho", parameters.output.directory, timer, comm)
   {
     static_assert(dim == 2,
                   "The contact nodes are those of the square "
@@ -117,6 +147,14 @@ namespace StepHHO
   }
 
 
+  template <int dim>
+  unsigned int
+  HHOProblem<dim>::n_local_unknowns() const
+  {
+    return n_fields * cell_fe.n_dofs_per_cell() + 2 * face_fe.n_dofs_per_cell();
+  }
+
+
   // Positions in X of the cell unknowns (x1, x2, x3; n_c each) and of the
   // face unknowns (y1, y2; n_f each, in FE_FaceQ's cell-local order) of a
   // locally owned cell: the local order of static_condensation.h.
@@ -124,8 +162,7 @@ namespace StepHHO
   ArrayView<const types::global_dof_index>
   HHOProblem<dim>::local_unknowns(const CellIterator &cell) const
   {
-    const unsigned int n =
-      n_fields * cell_fe.n_dofs_per_cell() + 2 * face_fe.n_dofs_per_cell();
+    const unsigned int n = n_local_unknowns();
     return ArrayView<const types::global_dof_index>(
       unknown_indices.data() + cell->active_cell_index() * n, n);
   }
@@ -244,7 +281,7 @@ namespace StepHHO
   {
     const unsigned int n_c = cell_fe.n_dofs_per_cell();
     const unsigned int n_f = face_fe.n_dofs_per_cell();
-    const unsigned int n   = n_fields * n_c + 2 * n_f;
+    const unsigned int n   = n_local_unknowns();
     unknown_indices.assign(triangulation.n_active_cells() * n,
                            numbers::invalid_dof_index);
     std::vector<types::global_dof_index> nodes(n_c), face_dofs(n_f);
@@ -285,6 +322,8 @@ namespace StepHHO
                                       update_JxW_values);
       const Function<dim> *g[2] = {data.g1.get(), data.g2.get()};
       std::vector<types::global_dof_index> face_dofs(face_fe.n_dofs_per_cell());
+      std::vector<double> g_values(face_values.n_quadrature_points);
+      Vector<double>      coefficients;
       for (const auto &cell : face_dof_handler.active_cell_iterators())
         if (cell->is_locally_owned())
           for (const unsigned int f : cell->face_indices())
@@ -292,34 +331,13 @@ namespace StepHHO
               {
                 cell->get_dof_indices(face_dofs);
                 face_values.reinit(cell, f);
-                const unsigned int n_F = face_fe.n_dofs_per_face(f);
-                FullMatrix<double> M_F(n_F, n_F);
-                Vector<double>     moments(n_F), coefficients(n_F);
                 for (unsigned int alpha = 0; alpha < 2; ++alpha)
                   {
-                    M_F     = 0;
-                    moments = 0;
-                    for (const unsigned int q :
-                         face_values.quadrature_point_indices())
-                      {
-                        const double g_q =
-                          g[alpha]->value(face_values.quadrature_point(q));
-                        for (unsigned int k = 0; k < n_F; ++k)
-                          {
-                            const double psi_k = face_values.shape_value(
-                              face_fe.face_to_cell_index(k, f), q);
-                            moments(k) += g_q * psi_k * face_values.JxW(q);
-                            for (unsigned int l = 0; l < n_F; ++l)
-                              M_F(k, l) +=
-                                psi_k *
-                                face_values.shape_value(
-                                  face_fe.face_to_cell_index(l, f), q) *
-                                face_values.JxW(q);
-                          }
-                      }
-                    M_F.gauss_jordan();
-                    M_F.vmult(coefficients, moments);
-                    for (unsigned int k = 0; k < n_F; ++k)
+                    g[alpha]->value_list(face_values.get_quadrature_points(),
+                                         g_values);
+                    project_onto_face(
+                      face_values, face_fe, f, g_values, coefficients);
+                    for (unsigned int k = 0; k < coefficients.size(); ++k)
                       {
                         const types::global_dof_index j =
                           face_dofs[face_fe.face_to_cell_index(k, f)];
@@ -376,7 +394,7 @@ namespace StepHHO
     // (x3; x1, x2, x3) at each node, (y1; x1, y1), (y2; x2, y2).
     const unsigned int n_c = cell_fe.n_dofs_per_cell();
     const unsigned int n_f = face_fe.n_dofs_per_cell();
-    const unsigned int n   = n_fields * n_c + 2 * n_f;
+    const unsigned int n   = n_local_unknowns();
     // 0, 1: x1, x2; 2: x3; 3, 4: y1, y2
     const auto block = [&](const unsigned int i) {
       return i < n_fields * n_c ? i / n_c : 3 + (i - n_fields * n_c) / n_f;
@@ -461,16 +479,18 @@ namespace StepHHO
     FEFaceValues<dim>                    trace_values(*mapping,
                                    cell_fe,
                                    QGauss<dim - 1>(degree + 2),
-                                   update_values | update_JxW_values);
+                                   update_values);
     FEFaceValues<dim>                    face_values(*mapping,
                                   face_fe,
                                   QGauss<dim - 1>(degree + 2),
-                                  update_values);
+                                  update_values | update_JxW_values);
     const unsigned int                   n_c = cell_fe.n_dofs_per_cell();
     const unsigned int                   n_f = face_fe.n_dofs_per_cell();
     std::vector<types::global_dof_index> nodes(n_c), face_dofs(n_f);
     Vector<double> coefficients[2] = {Vector<double>(n_c), Vector<double>(n_c)};
     const TrilinosWrappers::MPI::Vector *u[2] = {&u1_h, &u2_h};
+    std::vector<double> trace(trace_values.n_quadrature_points);
+    Vector<double>      projection;
 
     for (const auto &cell : cell_dof_handler.active_cell_iterators())
       if (cell->is_locally_owned())
@@ -486,36 +506,19 @@ namespace StepHHO
                 // (the face element's values need only the geometry)
                 face_values.reinit(
                   typename Triangulation<dim>::cell_iterator(cell), f);
-                const unsigned int n_F = face_fe.n_dofs_per_face(f);
-                FullMatrix<double> M_F(n_F, n_F);
-                Vector<double>     moments(n_F), projection(n_F);
                 for (unsigned int alpha = 0; alpha < 2; ++alpha)
                   {
-                    M_F     = 0;
-                    moments = 0;
                     for (const unsigned int q :
                          trace_values.quadrature_point_indices())
                       {
-                        double trace = 0;
+                        trace[q] = 0;
                         for (unsigned int j = 0; j < n_c; ++j)
-                          trace += coefficients[alpha](j) *
-                                   trace_values.shape_value(j, q);
-                        for (unsigned int k = 0; k < n_F; ++k)
-                          {
-                            const double psi_k = face_values.shape_value(
-                              face_fe.face_to_cell_index(k, f), q);
-                            moments(k) += trace * psi_k * trace_values.JxW(q);
-                            for (unsigned int l = 0; l < n_F; ++l)
-                              M_F(k, l) +=
-                                psi_k *
-                                face_values.shape_value(
-                                  face_fe.face_to_cell_index(l, f), q) *
-                                trace_values.JxW(q);
-                          }
+                          trace[q] += coefficients[alpha](j) *
+                                      trace_values.shape_value(j, q);
                       }
-                    M_F.gauss_jordan();
-                    M_F.vmult(projection, moments);
-                    for (unsigned int k = 0; k < n_F; ++k)
+                    project_onto_face(
+                      face_values, face_fe, f, trace, projection);
+                    for (unsigned int k = 0; k < projection.size(); ++k)
                       {
                         const types::global_dof_index i = face_unknown(
                           face_dofs[face_fe.face_to_cell_index(k, f)], alpha);
@@ -596,46 +599,6 @@ namespace StepHHO
                  " on the faces" :
                "no static condensation, direct solver");
     return line.str();
-  }
-
-
-  // On each mesh: set up, assemble the local HHO operators, solve by
-  // semismooth Newton with static condensation in every step, measure the
-  // error, write, refine.
-  template <int dim>
-  void
-  HHOProblem<dim>::run()
-  {
-    run_record.start(prm, description());
-    make_grid();
-    check_data();
-
-    for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
-      {
-        run_record.start_cycle();
-        if (cycle > 0)
-          refine_mesh();
-        setup_system();
-        assemble_system();
-        initialize_iterate();
-
-        const VI::CycleNumbers numbers = cycle_numbers(cycle);
-        pcout << "Cycle " << cycle << ": " << numbers.cells << " cells, "
-              << numbers.dofs << " unknowns, " << *numbers.dofs_condensed
-              << " after condensation" << std::endl;
-        run_record.guard([&] { solve(); });
-        postprocess();
-        compute_errors();
-        output_results(cycle);
-        run_record.stop_cycle();
-
-        pcout << VI::to_string(cycle_numbers(cycle)) << std::endl;
-        record_cycle(cycle);
-      }
-
-    write_tables();
-    run_record.finish(
-      "solution_*.pvtu (ParaView), convergence.txt, summary.json");
   }
 
 

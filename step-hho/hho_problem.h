@@ -1,11 +1,8 @@
 #pragma once
 
 #include <deal.II/base/array_view.h>
-#include <deal.II/base/conditional_ostream.h>
-#include <deal.II/base/convergence_table.h>
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/parameter_handler.h>
-#include <deal.II/base/timer.h>
 #include <deal.II/distributed/solution_transfer.h>
 #include <deal.II/distributed/tria.h>
 #include <deal.II/dofs/dof_handler.h>
@@ -22,8 +19,8 @@
 #include <vi/geometry.h>
 #include <vi/ghosted_copy.h>
 #include <vi/parameters.h>
-#include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
+#include <vi/stationary_problem.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
 
@@ -96,7 +93,7 @@ namespace StepHHO
    * ways give the same Newton iterates.
    */
   template <int dim>
-  class HHOProblem
+  class HHOProblem : public VI::StationaryProblem
   {
   public:
     HHOProblem(const Parameters &parameters,
@@ -104,16 +101,13 @@ namespace StepHHO
                const MPI_Comm    comm);
     ~HHOProblem();
 
-    void
-    run();
-
   private:
     void
-    check_data() const;
+    check_data() const override;
     void
-    make_grid();
+    make_grid() override;
     void
-    setup_system();
+    setup_system() override;
     // The phases of setup_system().
     void
     distribute_unknowns();
@@ -128,29 +122,27 @@ namespace StepHHO
     void
     reinit_vectors();
     void
-    assemble_system();
+    assemble_system() override;
     void
-    initialize_iterate();
+    initialize_iterate() override;
     void
-    solve();
+    solve() override;
     void
-    postprocess();
+    postprocess() override;
     void
-    compute_errors();
+    compute_errors() override;
     void
-    output_results(const unsigned int cycle) const;
+    output_results(const unsigned int cycle) const override;
     void
-    refine_mesh();
-    /// The line that says what this run solves, and how.
+    refine_mesh() override;
     std::string
-    description() const;
-    /// What the cycle measured: its progress line, columns and record.
+    description() const override;
     VI::CycleNumbers
-    cycle_numbers(const unsigned int cycle) const;
+    cycle_numbers(const unsigned int cycle) const override;
     void
-    record_cycle(const unsigned int cycle);
+    record_cycle(const unsigned int cycle) override;
     void
-    write_tables() const;
+    write_tables() const override;
 
     // The three callbacks of semismooth Newton and their parts.
     VI::ResidualNorms
@@ -186,6 +178,10 @@ namespace StepHHO
                  const unsigned int            alpha) const;
     types::global_dof_index
     face_dof(const types::global_dof_index face_unknown) const;
+    /// The unknowns of a cell: those of its nodes (n_fields per node) and
+    /// of both membranes on its faces.
+    unsigned int
+    n_local_unknowns() const;
     ArrayView<const types::global_dof_index>
     local_unknowns(const CellIterator &cell) const;
 
@@ -204,10 +200,7 @@ namespace StepHHO
     set_face_unknowns_from_traces(TrilinosWrappers::MPI::Vector &X) const;
 
     const Parameters            parameters;
-    ParameterHandler           &prm;
     const MPI_Comm              comm;
-    ConditionalOStream          pcout;
-    mutable TimerOutput         timer;
     const VI::Geometry          geometry;
     VI::MembraneData<dim>       data;
     VI::ComplementarityFunction C;
@@ -285,15 +278,5 @@ namespace StepHHO
     std::unique_ptr<parallel::distributed::
                       SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>
       solution_transfer;
-
-    // What each cycle measured.
-    VI::NewtonReport        newton_report;
-    types::global_dof_index n_contact_nodes = 0;
-    /// Where the exact solution (and multiplier) is known.
-    std::optional<double> error_energy, error_multiplier;
-
-    ConvergenceTable table;
-    /// Header, summary.json, failure guard, timing and closing line.
-    VI::RunRecord run_record;
   };
 } // namespace StepHHO

@@ -1,5 +1,5 @@
 // step-membranes, interior penalty dG: the problem, the discrete system
-// (interior penalty forms, coupling), semismooth Newton and run().
+// (interior penalty forms, coupling) and semismooth Newton.
 
 #include "dg_membrane_problem.h"
 
@@ -77,11 +77,9 @@ namespace StepMembranes
                                             const DGParameters &dg_parameters,
                                             ParameterHandler   &prm,
                                             const MPI_Comm      comm)
-      : parameters(parameters)
-      , prm(prm)
+      : StationaryProblem("step-membranes", parameters, prm, comm)
+      , parameters(parameters)
       , comm(comm)
-      , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
-      , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
       , geometry(VI::geometry_from_name(parameters.mesh.geometry))
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
@@ -107,7 +105,6 @@ namespace StepMembranes
                        timer)
       , fe_continuous(parameters.discretization.degree)
       , continuous_dof_handler(triangulation)
-      , run_record("step-membranes", parameters.output.directory, timer, comm)
   {
     check_parameters();
   }
@@ -155,12 +152,7 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::check_data() const
   {
-    VI::check_membrane_data(data,
-                            triangulation,
-                            *mapping,
-                            quadrature.get_points(),
-                            fe.get_unit_support_points(),
-                            comm);
+    VI::check_membrane_data(data, triangulation, *mapping, fe, quadrature);
   }
 
 
@@ -422,44 +414,40 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::initialize_iterate()
   {
-    solution = 0;
-    Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
-      lambda(owned_nodes, comm), X3(owned_nodes, comm);
-    if (solution_transfer)
-      {
-        VI::interpolate_carried(solution_transfer, {&u1, &u2, &lambda});
-        // X3: the nodal values of lambda_h (p = 1), its moments (p >= 2).
-        if (mass_lumped())
-          X3 = lambda;
-        else
-          {
-            Vector ghosted;
-            ghosted_nodes.copy(lambda, ghosted);
-            moments_of_function(ghosted, X3);
-          }
-        VI::NodalFields::insert(X3, multiplier, solution);
-      }
-    else if (parameters.nonlinear_solver.initial_guess == "data")
-      {
-        VectorTools::interpolate(*mapping, dof_handler, *data.g1, u1);
-        VectorTools::interpolate(*mapping, dof_handler, *data.g2, u2);
-      }
-    VI::NodalFields::insert_displacements(u1, u2, solution);
+    const bool from_data = parameters.nonlinear_solver.initial_guess == "data";
+    // X3: the nodal values of lambda_h (p = 1), its moments (p >= 2).
+    const auto dual_coefficients = [this](const Vector &lambda, Vector &X3) {
+      if (mass_lumped())
+        X3 = lambda;
+      else
+        {
+          Vector ghosted;
+          ghosted_nodes.copy(lambda, ghosted);
+          moments_of_function(ghosted, X3);
+        }
+    };
+    VI::initial_nodal_iterate(solution_transfer,
+                              dual_coefficients,
+                              *mapping,
+                              dof_handler,
+                              from_data ? data.g1.get() : nullptr,
+                              from_data ? data.g2.get() : nullptr,
+                              solution);
   }
 
 
   // Semismooth Newton on E X = F, C(X) = 0: the solver of the conforming
-  // method, with the dG matrix.
+  // method, with the dG matrix; then the estimate of the solution.
   template <int dim>
   void
   DGMembraneProblem<dim>::solve()
   {
-    VI::SemismoothNewton<Vector> newton(
-      typename VI::SemismoothNewton<Vector>::AdditionalData(
-        parameters.nonlinear_solver, C));
-    contact_system.start_newton();
-    contact_system.attach(newton, parameters.output.verbose ? &pcout : nullptr);
+    VI::SemismoothNewton<Vector> newton =
+      contact_system.make_newton(parameters.output.verbose ? &pcout : nullptr);
     newton_report = newton.solve(solution);
+    final_estimate.reset();
+    if (parameters.estimators.enabled)
+      final_estimate = estimate(solution);
   }
 
 
@@ -483,86 +471,19 @@ namespace StepMembranes
   VI::CycleNumbers
   DGMembraneProblem<dim>::cycle_numbers(const unsigned int cycle) const
   {
-    VI::CycleNumbers numbers(cycle,
-                             triangulation.n_global_active_cells(),
-                             dof_handler.n_dofs(),
-                             run_record.cycle_seconds());
-    numbers.set_solve("Newton-" + C.name(),
-                      newton_report,
-                      VI::counted_linear_solver(parameters.linear_solver),
-                      n_contact_nodes);
-    numbers.error_energy     = error_energy;
-    numbers.error_multiplier = error_multiplier;
+    VI::CycleNumbers numbers =
+      measured(cycle,
+               triangulation.n_global_active_cells(),
+               dof_handler.n_dofs(),
+               "Newton-" + C.name(),
+               VI::counted_linear_solver(parameters.linear_solver));
     if (final_estimate)
       numbers.estimate = final_estimate->eta;
     return numbers;
   }
 
 
-  // The loop of the conforming method (MembraneProblem::run) with the dG
-  // discretisation; the estimate of each solution after Newton.
-  template <int dim>
-  void
-  DGMembraneProblem<dim>::run()
-  {
-    run_record.start(prm, description());
-    make_grid();
-    check_data();
-
-    for (unsigned int cycle = 0; cycle < parameters.mesh.cycles; ++cycle)
-      {
-        run_record.start_cycle();
-        if (cycle > 0)
-          refine_mesh();
-        setup_system();
-        assemble_system();
-        initialize_iterate();
-        pcout << "Cycle " << cycle << ": "
-              << triangulation.n_global_active_cells() << " cells, "
-              << n_fields * dof_handler.n_dofs() << " unknowns ("
-              << dof_handler.n_dofs() << " per field)" << std::endl;
-        run_record.guard([&] { solve(); });
-        final_estimate.reset();
-        if (parameters.estimators.enabled)
-          final_estimate = estimate(solution);
-        postprocess();
-        compute_errors();
-        output_results(cycle);
-        run_record.stop_cycle();
-        pcout << VI::to_string(cycle_numbers(cycle)) << std::endl;
-        record_cycle(cycle);
-      }
-
-    write_tables();
-    run_record.finish(
-      "solution_*.pvtu (ParaView), convergence.txt, summary.json");
-  }
-
-
-  // Explicit instantiations of this file's members.
-  template DGMembraneProblem<2>::DGMembraneProblem(
-    const Parameters   &parameters,
-    const DGParameters &dg_parameters,
-    ParameterHandler   &prm,
-    const MPI_Comm      comm);
-  template void
-  DGMembraneProblem<2>::check_parameters() const;
-  template void
-  DGMembraneProblem<2>::check_data() const;
-  template void
-  DGMembraneProblem<2>::make_grid();
-  template void
-  DGMembraneProblem<2>::setup_system();
-  template void
-  DGMembraneProblem<2>::assemble_system();
-  template void
-  DGMembraneProblem<2>::initialize_iterate();
-  template void
-  DGMembraneProblem<2>::solve();
-  template std::string
-  DGMembraneProblem<2>::description() const;
-  template VI::CycleNumbers
-  DGMembraneProblem<2>::cycle_numbers(const unsigned int cycle) const;
-  template void
-  DGMembraneProblem<2>::run();
+  // The members defined in this file (the others are instantiated where
+  // they are defined).
+  template class DGMembraneProblem<2>;
 } // namespace StepMembranes

@@ -26,8 +26,8 @@
 #include <vi/ghosted_copy.h>
 #include <vi/interior_penalty.h>
 #include <vi/linear_solvers.h>
-#include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
+#include <vi/stationary_problem.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
 
@@ -88,7 +88,7 @@ namespace StepMembranes
    * on vertex patches from the broken gradient and the lifting of the jumps.
    */
   template <int dim>
-  class DGMembraneProblem
+  class DGMembraneProblem : public VI::StationaryProblem
   {
   public:
     DGMembraneProblem(const Parameters   &parameters,
@@ -96,46 +96,41 @@ namespace StepMembranes
                       ParameterHandler   &prm,
                       const MPI_Comm      comm);
 
-    void
-    run();
-
   private:
     using Vector = TrilinosWrappers::MPI::Vector;
 
     void
     check_parameters() const;
     void
-    check_data() const;
+    check_data() const override;
     void
-    make_grid();
+    make_grid() override;
     void
-    setup_system();
+    setup_system() override;
     void
-    assemble_system();
+    assemble_system() override;
     void
-    initialize_iterate();
+    initialize_iterate() override;
     void
-    solve();
+    solve() override;
     VI::DGContactEstimate
     estimate(const Vector &X) const;
     void
-    postprocess();
+    postprocess() override;
     void
-    compute_errors();
+    compute_errors() override;
     void
-    output_results(const unsigned int cycle) const;
+    output_results(const unsigned int cycle) const override;
     void
-    refine_mesh();
-    /// The line that says what this run solves, and how.
+    refine_mesh() override;
     std::string
-    description() const;
-    /// What the cycle measured: its progress line, columns and record.
+    description() const override;
     VI::CycleNumbers
-    cycle_numbers(const unsigned int cycle) const;
+    cycle_numbers(const unsigned int cycle) const override;
     void
-    record_cycle(const unsigned int cycle);
+    record_cycle(const unsigned int cycle) override;
     void
-    write_tables() const;
+    write_tables() const override;
 
     /**
      * The broken function v with (v, psi_I)_K = moments_I on every owned
@@ -166,10 +161,7 @@ namespace StepMembranes
         &local) const;
 
     const Parameters            parameters;
-    ParameterHandler           &prm;
     const MPI_Comm              comm;
-    ConditionalOStream          pcout;
-    mutable TimerOutput         timer;
     const VI::Geometry          geometry;
     VI::MembraneData<dim>       data;
     VI::ComplementarityFunction C;
@@ -213,16 +205,9 @@ namespace StepMembranes
     std::unique_ptr<parallel::distributed::SolutionTransfer<dim, Vector>>
       solution_transfer;
 
-    VI::NewtonReport                     newton_report;
+    // What each cycle measured (beside the members of StationaryProblem).
     std::optional<VI::DGContactEstimate> final_estimate;
-    types::global_dof_index              n_contact_nodes = 0;
-    double                               error_broken    = 0;
-    double                               error_jump      = 0;
-    /// Where the exact solution (and multiplier) is known.
-    std::optional<double> error_energy, error_multiplier;
-
-    ConvergenceTable table;
-    /// Header, summary.json, failure guard, timing and closing line.
-    VI::RunRecord run_record;
+    double                               error_broken = 0;
+    double                               error_jump   = 0;
   };
 } // namespace StepMembranes

@@ -135,6 +135,9 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::record_cycle(const unsigned int cycle)
   {
+    petsc_vi_run.reset();
+    if (parameters.compare_with_petsc_vi)
+      compare_with_petsc_vi(peer_initial_iterate);
     const VI::CycleNumbers numbers = cycle_numbers(cycle);
     VI::add_columns(table, numbers);
 

@@ -33,6 +33,7 @@
 #include <vi/process_usage.h>
 #include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
+#include <vi/stationary_problem.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
 
@@ -110,15 +111,13 @@ namespace StepMembranes
    * each Newton run starts from the previous mesh's solution.
    */
   template <int dim>
-  class MembraneProblem : private VI::MembraneDiscretisation<dim>
+  class MembraneProblem : public VI::StationaryProblem,
+                          private VI::MembraneDiscretisation<dim>
   {
   public:
     MembraneProblem(const Parameters &parameters,
                     ParameterHandler &prm,
                     const MPI_Comm    comm);
-
-    void
-    run();
 
   private:
     using Vector = TrilinosWrappers::MPI::Vector;
@@ -141,15 +140,20 @@ namespace StepMembranes
     };
 
     void
-    check_data() const;
+    make_grid() override;
     void
-    setup_system();
+    check_data() const override;
     void
-    assemble_system();
+    setup_system() override;
     void
-    initialize_iterate();
+    assemble_system() override;
     void
-    solve();
+    initialize_iterate() override;
+    void
+    solve() override;
+    /// Semismooth Newton (or the PETSc peer) from the iterate `solution`.
+    void
+    solve_contact_problem();
     /// One linearised system A dX = rhs, watched by the estimators.
     unsigned int
     solve_linearized(const Vector &rhs, Vector &dX);
@@ -207,9 +211,9 @@ namespace StepMembranes
     void
     sharpen_final_estimate();
     void
-    postprocess();
+    postprocess() override;
     void
-    compute_errors();
+    compute_errors() override;
     /// Call work(cells, begin, end) for parts [begin, end) of the locally
     /// owned cells `cells`, concurrently on the threads (the problem data
     /// may be evaluated from several threads at once).
@@ -220,38 +224,32 @@ namespace StepMembranes
         const std::size_t,
         const std::size_t)> &work) const;
     void
-    output_results(const unsigned int cycle) const;
+    output_results(const unsigned int cycle) const override;
     void
-    refine_mesh();
+    refine_mesh() override;
     /// The line that says what this run solves, and how.
     std::string
-    description() const;
+    description() const override;
     /// "Newton-<C>" or the PETSc solver.
     std::string
     solver_name() const;
     /// What the cycle measured: its progress line, columns and record.
     VI::CycleNumbers
-    cycle_numbers(const unsigned int cycle) const;
-    /// The mesh of a cycle, after its system is set up.
+    cycle_numbers(const unsigned int cycle) const override;
     void
-    print_cycle_header(const unsigned int cycle) const;
-    void
-    record_cycle(const unsigned int cycle);
+    record_cycle(const unsigned int cycle) override;
     /// The reference Poisson solves and the PETSc peer of the cycle
     /// (membrane_benchmarks.cc).
     void
     record_benchmarks(VI::Json &record);
     void
-    write_tables() const;
+    write_tables() const override;
     /// The dual coefficients X3_i = <lambda_h, psi_i>_h / D_i of lambda_h.
     void
     compute_dual_coefficients(const Vector &lambda, Vector &X3) const;
 
 
     const Parameters            parameters;
-    ParameterHandler           &prm;
-    ConditionalOStream          pcout;
-    mutable TimerOutput         timer;
     VI::MembraneData<dim>       data;
     VI::ComplementarityFunction C;
 
@@ -298,12 +296,8 @@ namespace StepMembranes
     std::unique_ptr<parallel::distributed::SolutionTransfer<dim, Vector>>
       solution_transfer;
 
-    // What each cycle measured.
-    VI::NewtonReport                   newton_report;
+    // What each cycle measured (beside the members of StationaryProblem).
     std::optional<VI::ContactEstimate> final_estimate;
-    types::global_dof_index            n_contact_nodes = 0;
-    /// Where the exact solution (and multiplier) is known.
-    std::optional<double> error_energy, error_multiplier;
     /// |||u - u_h|||_K per active cell (where the exact solution is known):
     /// beside the estimators in the VTU, the local effectivity.
     dealii::Vector<float> cell_error;
@@ -328,9 +322,7 @@ namespace StepMembranes
       double distance = 0;
     };
     std::optional<PeerRun> petsc_vi_run;
-
-    ConvergenceTable table;
-    /// Header, summary.json, failure guard, timing and closing line.
-    VI::RunRecord run_record;
+    /// The initial iterate of this cycle's solve, the peer's too.
+    Vector peer_initial_iterate;
   };
 } // namespace StepMembranes

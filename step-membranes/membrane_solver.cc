@@ -12,9 +12,24 @@ namespace StepMembranes
   // the linear solver's checks if the iterate is the one it accepted,
   // otherwise one computed for it. The adaptive strategy stops Newton when
   // eta_lin <= gamma_lin eta_disc.
+  // The solve of a cycle, which ends the span of solve_timer and
+  // solve_usage (set-up, assembly and solve). With Benchmark/Compare with
+  // PETSc VI the peer starts from the same iterate (record_cycle()).
   template <int dim>
   void
   MembraneProblem<dim>::solve()
+  {
+    if (parameters.compare_with_petsc_vi)
+      peer_initial_iterate = solution;
+    solve_contact_problem();
+    solve_timer.stop();
+    solve_usage = VI::ProcessUsage::now(comm) - usage_at_solve_start;
+  }
+
+
+  template <int dim>
+  void
+  MembraneProblem<dim>::solve_contact_problem()
   {
     stopping.start_solve();
     final_estimate.reset();
@@ -31,11 +46,8 @@ namespace StepMembranes
         return;
       }
 
-    VI::SemismoothNewton<Vector> newton(
-      typename VI::SemismoothNewton<Vector>::AdditionalData(
-        parameters.nonlinear_solver, C));
-    contact_system.start_newton();
-    contact_system.attach(newton, parameters.output.verbose ? &pcout : nullptr);
+    VI::SemismoothNewton<Vector> newton =
+      contact_system.make_newton(parameters.output.verbose ? &pcout : nullptr);
     newton.setup_jacobian = [&](const Vector &X) {
       stopping.start_step(X);
       if (cell_multiplier)
@@ -186,6 +198,8 @@ namespace StepMembranes
   // Explicit instantiations of this file's members.
   template void
   MembraneProblem<2>::solve();
+  template void
+  MembraneProblem<2>::solve_contact_problem();
   template unsigned int
   MembraneProblem<2>::solve_linearized(const Vector &rhs, Vector &dX);
   template typename VI::AdaptiveStopping<typename MembraneProblem<2>::Iterate,

@@ -229,11 +229,8 @@ namespace StepParabolic
     stopping.start_solve();
     final_estimate.reset();
 
-    VI::SemismoothNewton<Vector> newton(
-      typename VI::SemismoothNewton<Vector>::AdditionalData(
-        parameters.nonlinear_solver, C));
-    contact_system.start_newton();
-    contact_system.attach(newton, parameters.output.verbose ? &pcout : nullptr);
+    VI::SemismoothNewton<Vector> newton =
+      contact_system.make_newton(parameters.output.verbose ? &pcout : nullptr);
     // Every Newton iterate is estimated by the adaptive strategy (its
     // stopping test) and on request (At every check); otherwise only the
     // final one, after Newton. GMRES is watched alike.

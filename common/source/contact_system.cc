@@ -310,4 +310,15 @@ namespace VI
                   << describe(step) << std::endl;
       };
   }
+
+
+  SemismoothNewton<ContactSystem::Vector>
+  ContactSystem::make_newton(const ConditionalOStream *progress)
+  {
+    SemismoothNewton<Vector> newton(
+      typename SemismoothNewton<Vector>::AdditionalData(nonlinear, C));
+    start_newton();
+    attach(newton, progress);
+    return newton;
+  }
 } // namespace VI

@@ -1,5 +1,7 @@
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/quadrature.h>
 #include <deal.II/base/utilities.h>
+#include <deal.II/fe/fe.h>
 #include <deal.II/fe/mapping.h>
 #include <deal.II/grid/tria.h>
 
@@ -351,6 +353,23 @@ namespace VI
   }
 
 
+  template <int dim>
+  void
+  check_membrane_data(const MembraneData<dim>       &data,
+                      const Triangulation<dim, dim> &triangulation,
+                      const Mapping<dim, dim>       &mapping,
+                      const FiniteElement<dim, dim> &fe,
+                      const Quadrature<dim>         &quadrature)
+  {
+    check_membrane_data(data,
+                        triangulation,
+                        mapping,
+                        quadrature.get_points(),
+                        fe.get_unit_support_points(),
+                        triangulation.get_communicator());
+  }
+
+
   template void
   check_membrane_data(const MembraneData<2> &,
                       const Triangulation<2, 2> &,
@@ -358,6 +377,12 @@ namespace VI
                       const std::vector<Point<2>> &,
                       const std::vector<Point<2>> &,
                       const MPI_Comm);
+  template void
+  check_membrane_data(const MembraneData<2> &,
+                      const Triangulation<2, 2> &,
+                      const Mapping<2, 2> &,
+                      const FiniteElement<2, 2> &,
+                      const Quadrature<2> &);
   template MembraneData<2>
   make_membrane_data(const ProblemParameters &, const Point<2> &);
   template std::shared_ptr<Function<2>>

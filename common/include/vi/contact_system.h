@@ -166,6 +166,11 @@ namespace VI
     attach(SemismoothNewton<Vector>         &newton,
            const dealii::ConditionalOStream *progress);
 
+    /// A semismooth Newton solver of this system with the nonlinear
+    /// solver's parameters, started (start_newton()) and attached.
+    SemismoothNewton<Vector>
+    make_newton(const dealii::ConditionalOStream *progress);
+
     /// The matrix A = [E ; J_C] and the load F.
     dealii::TrilinosWrappers::SparseMatrix matrix;
     Vector                                 rhs;

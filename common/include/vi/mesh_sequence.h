@@ -1,9 +1,13 @@
 #pragma once
 
+#include <deal.II/base/function.h>
 #include <deal.II/distributed/solution_transfer.h>
 #include <deal.II/distributed/tria.h>
 #include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/lac/trilinos_vector.h>
 
+#include <functional>
 #include <initializer_list>
 #include <memory>
 #include <vector>
@@ -43,4 +47,26 @@ namespace VI
       dealii::parallel::distributed::SolutionTransfer<dim, VectorType>>
                                        &transfer,
     std::initializer_list<VectorType *> fields);
+
+  /**
+   * The first iterate X = (X1, X2, X3) of a nodal discretisation on a new
+   * mesh: the fields u1, u2, lambda carried by `transfer` (nested
+   * iteration; `dual_coefficients` makes X3 from lambda), or else the
+   * Dirichlet data g1, g2 interpolated at the nodes (if they are given) or
+   * zero, with a zero multiplier.
+   */
+  template <int dim>
+  void
+  initial_nodal_iterate(
+    std::unique_ptr<dealii::parallel::distributed::SolutionTransfer<
+      dim,
+      dealii::TrilinosWrappers::MPI::Vector>> &transfer,
+    const std::function<void(const dealii::TrilinosWrappers::MPI::Vector &,
+                             dealii::TrilinosWrappers::MPI::Vector &)>
+                                          &dual_coefficients,
+    const dealii::Mapping<dim, dim>       &mapping,
+    const dealii::DoFHandler<dim>         &dof_handler,
+    const dealii::Function<dim, double>   *g1,
+    const dealii::Function<dim, double>   *g2,
+    dealii::TrilinosWrappers::MPI::Vector &X);
 } // namespace VI

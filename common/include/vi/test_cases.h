@@ -17,6 +17,10 @@ namespace dealii
   class Triangulation;
   template <int dim, int spacedim>
   class Mapping;
+  template <int dim, int spacedim>
+  class FiniteElement;
+  template <int dim>
+  class Quadrature;
 } // namespace dealii
 
 namespace VI
@@ -90,6 +94,16 @@ namespace VI
                       const std::vector<dealii::Point<dim>> &interior_points,
                       const std::vector<dealii::Point<dim>> &boundary_points,
                       const MPI_Comm                         comm);
+
+  /// The same check at the points of `quadrature` and the support points
+  /// of the nodal element `fe` (collective over the mesh's communicator).
+  template <int dim>
+  void
+  check_membrane_data(const MembraneData<dim>               &data,
+                      const dealii::Triangulation<dim, dim> &triangulation,
+                      const dealii::Mapping<dim, dim>       &mapping,
+                      const dealii::FiniteElement<dim, dim> &fe,
+                      const dealii::Quadrature<dim>         &quadrature);
 
 
   /**
