@@ -29,9 +29,10 @@ namespace VI
   void
   StationaryProblem::run()
   {
-    run_record.start(prm, description());
+    // Data that admit no solution end the run before anything is written.
     make_grid();
     check_data();
+    run_record.start(prm, description());
 
     for (unsigned int cycle = 0; cycle < n_cycles; ++cycle)
       {

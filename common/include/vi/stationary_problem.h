@@ -25,7 +25,7 @@ namespace VI
    * measures and records. A program derives from it and gives the steps of
    * the loop; run() takes them in the order of the algorithm:
    *
-   *   make the mesh, check the data on it;
+   *   make the mesh, check the data on it (before anything is written);
    *   on every mesh: refine (after the first), set up and assemble the
    *   system, start from the last mesh's solution, solve, postprocess,
    *   measure the errors, write, record.
