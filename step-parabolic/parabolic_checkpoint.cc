@@ -219,7 +219,6 @@ namespace StepParabolic
     triangulation.load(mesh);
     mapping->initialize(*geometry_mapping, triangulation);
     check_data();
-    VI::prepare_output_directory(directory, comm);
 
     data.set_time(time);
     setup_system();
@@ -370,10 +369,11 @@ namespace StepParabolic
           << "Difference to the final solution of " << other_directory << ": "
           << energy << " (energy norm), " << l2 << " (L2 norm)"
           << std::defaultfloat << std::endl;
-    summary["compared_with"] = VI::Json::object({{"directory", other_directory},
-                                                 {"time", time},
-                                                 {"difference_energy", energy},
-                                                 {"difference_l2", l2}});
+    run_record.summary["compared_with"] =
+      VI::Json::object({{"directory", other_directory},
+                        {"time", time},
+                        {"difference_energy", energy},
+                        {"difference_l2", l2}});
   }
 
 

@@ -9,7 +9,6 @@
 
 #include <vi/field_output.h>
 #include <vi/nodal_fields.h>
-#include <vi/timer_summary.h>
 
 #include "parabolic_problem.h"
 
@@ -177,6 +176,7 @@ namespace StepParabolic
     std::ostringstream text;
     json.write(text, 4);
     step_json.push_back(text.str());
+    run_record.add(VI::Json::raw(text.str()));
   }
 
 
@@ -273,17 +273,8 @@ namespace StepParabolic
 
   template <int dim>
   void
-  ParabolicProblem<dim>::write_summary(const std::string &status,
-                                       const std::string &failure)
+  ParabolicProblem<dim>::add_totals(VI::Json &summary) const
   {
-    VI::Json json  = summary;
-    VI::Json steps = VI::Json::array();
-    for (const std::string &text : step_json)
-      steps.push_back(VI::Json::raw(text));
-    json["steps"]  = steps;
-    json["status"] = status;
-    if (!failure.empty())
-      json["failure"] = failure;
     VI::Json total             = VI::Json::object();
     total["steps"]             = records.size();
     total["time"]              = time;
@@ -304,9 +295,7 @@ namespace StepParabolic
         if (parameters.estimators.enabled)
           total["effectivity"] = totals.eta() / totals.error();
       }
-    json["totals"] = total;
-    json["timing"] = VI::section_wall_times(timer);
-    VI::write_summary(json, parameters.output.directory, comm);
+    summary["totals"] = total;
   }
 
 
@@ -322,6 +311,5 @@ namespace StepParabolic
   template void
   ParabolicProblem<2>::write_tables() const;
   template void
-  ParabolicProblem<2>::write_summary(const std::string &status,
-                                     const std::string &failure);
+  ParabolicProblem<2>::add_totals(VI::Json &summary) const;
 } // namespace StepParabolic

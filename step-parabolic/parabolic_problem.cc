@@ -89,7 +89,11 @@ namespace StepParabolic
       , stopping(parameters.nonlinear_solver,
                  stopping_hooks(),
                  parameters.output.verbose ? &pcout : nullptr)
+      , run_record("step-parabolic", parameters.output.directory, timer, comm)
   {
+    run_record.complete_summary = [this](VI::Json &summary) {
+      add_totals(summary);
+    };
   }
 
 
@@ -250,28 +254,34 @@ namespace StepParabolic
   }
 
 
-  // The header, the summary's start, and the state at t = 0 (or at the
-  // checkpoint of an earlier run).
+  template <int dim>
+  std::string
+  ParabolicProblem<dim>::description() const
+  {
+    const auto        &linear = parameters.linear_solver;
+    const auto        &ts     = parameters.time;
+    std::ostringstream line;
+    line << "Test case " << data.name << " on the " << parameters.mesh.geometry
+         << ", Q" << fe.degree << " elements, backward Euler with "
+         << (ts.adaptive ? "adaptive dt from " : "dt = ") << ts.time_step
+         << " to T = " << ts.final_time << ", Newton-" << C.name() << " ("
+         << VI::to_string(parameters.nonlinear_solver.strategy) << "), "
+         << (linear.solver == VI::LinearSolverType::direct ?
+               "direct solver " + linear.direct_package :
+               "GMRES + " + VI::to_string(linear.preconditioner))
+         << (parameters.estimators.enabled ? ", estimators on" : "");
+    return line.str();
+  }
+
+
+  // The state at t = 0 (or at the checkpoint of an earlier run), its data
+  // checked before anything is written; then the header and the summary's
+  // start (with the steps of the earlier run).
   template <int dim>
   void
   ParabolicProblem<dim>::start_run()
   {
-    const auto &nonlinear = parameters.nonlinear_solver;
-    const auto &linear    = parameters.linear_solver;
-    const auto &ts        = parameters.time;
-    pcout << VI::run_header("step-parabolic", comm) << std::endl;
-    pcout << "Test case " << data.name << " on the " << parameters.mesh.geometry
-          << ", Q" << fe.degree << " elements, backward Euler with "
-          << (ts.adaptive ? "adaptive dt from " : "dt = ") << ts.time_step
-          << " to T = " << ts.final_time << ", Newton-" << C.name() << " ("
-          << VI::to_string(nonlinear.strategy) << "), "
-          << (linear.solver == VI::LinearSolverType::direct ?
-                "direct solver " + linear.direct_package :
-                "GMRES + " + VI::to_string(linear.preconditioner))
-          << (parameters.estimators.enabled ? ", estimators on" : "")
-          << std::endl;
-
-    summary = VI::make_summary("step-parabolic", comm, prm);
+    const auto &ts = parameters.time;
     if (!parameters.compare_with.empty())
       {
         const std::string file  = parameters.compare_with + "/checkpoint.txt";
@@ -284,25 +294,31 @@ namespace StepParabolic
       }
 
     if (ts.resume)
+      read_checkpoint();
+    else
       {
-        read_checkpoint();
+        make_grid(parameters.mesh.initial_refinements);
+        check_data();
+      }
+    run_record.start(prm, description(), "steps");
+    if (ts.resume)
+      {
+        for (const std::string &text : step_json)
+          run_record.add(VI::Json::raw(text));
         pcout << "Resuming at t = " << time << " (step " << step << ")"
               << std::endl;
       }
     else
       {
-        make_grid(parameters.mesh.initial_refinements);
-        check_data();
-        VI::prepare_output_directory(parameters.output.directory, comm);
         setup_system();
         set_initial_values();
         next_time_step = ts.time_step;
         output_results();
       }
-    summary["mesh"]                   = VI::Json::object();
-    summary["mesh"]["cells"]          = triangulation.n_global_active_cells();
-    summary["mesh"]["dofs"]           = n_fields * dof_handler.n_dofs();
-    summary["mesh"]["dofs_per_field"] = dof_handler.n_dofs();
+    run_record.summary["mesh"] =
+      VI::Json::object({{"cells", triangulation.n_global_active_cells()},
+                        {"dofs", n_fields * dof_handler.n_dofs()},
+                        {"dofs_per_field", dof_handler.n_dofs()}});
     pcout << "Mesh: " << triangulation.n_global_active_cells() << " cells, "
           << n_fields * dof_handler.n_dofs() << " unknowns ("
           << dof_handler.n_dofs() << " per field)";
@@ -330,13 +346,12 @@ namespace StepParabolic
           time_step = ts.final_time - time;
         try
           {
-            solve_time_step();
+            run_record.guard([&] { solve_time_step(); });
           }
-        catch (const VI::SolverFailure &failure)
+        catch (const VI::SolverFailure &)
           {
             pcout << "Step " << step + 1 << " (t = " << time + time_step
                   << ") failed." << std::endl;
-            write_summary("failed", failure.what());
             throw;
           }
         newton_this_step += newton_report.iterations;
@@ -431,18 +446,12 @@ namespace StepParabolic
     if (!parameters.compare_with.empty() && !stopped)
       compare_with_run(parameters.compare_with);
     if (stopped)
-      {
-        write_summary("stopped", "");
-        pcout << "\nStopped after " << steps_this_run
-              << " steps (Time stepping/Steps per run) at t = " << time
-              << "; continue with Time stepping/Resume = true." << std::endl;
-      }
-    else
-      write_summary("completed", "");
-    pcout << "Output in " << parameters.output.directory
-          << "/: solution.pvd (ParaView), convergence.txt, summary.json, "
-             "checkpoint"
-          << std::endl;
+      pcout << "\nStopped after " << steps_this_run
+            << " steps (Time stepping/Steps per run) at t = " << time
+            << "; continue with Time stepping/Resume = true." << std::endl;
+    run_record.finish(
+      "solution.pvd (ParaView), convergence.txt, summary.json, checkpoint",
+      stopped ? "stopped" : "completed");
   }
 
 
@@ -467,6 +476,8 @@ namespace StepParabolic
                                              bool               &accept);
   template void
   ParabolicProblem<2>::run();
+  template std::string
+  ParabolicProblem<2>::description() const;
   template void
   ParabolicProblem<2>::start_run();
   template void

@@ -25,6 +25,7 @@
 #include <vi/membrane_discretisation.h>
 #include <vi/multiplier_function.h>
 #include <vi/nodal_fields.h>
+#include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 
@@ -190,6 +191,9 @@ namespace StepParabolic
     store_previous_step();
 
     // The run's phases.
+    /// The line that says what this run solves, and how.
+    std::string
+    description() const;
     void
     start_run();
     void
@@ -240,8 +244,9 @@ namespace StepParabolic
     output_results();
     void
     write_tables() const;
+    /// The totals of the run so far, for summary.json.
     void
-    write_summary(const std::string &status, const std::string &failure);
+    add_totals(VI::Json &summary) const;
 
     // Checkpoints (parabolic_checkpoint.cc).
     void
@@ -316,6 +321,7 @@ namespace StepParabolic
     std::vector<std::pair<double, std::string>> vtu_files;
     std::string                                 checkpoint_mesh;
 
-    VI::Json summary;
+    /// Header, summary.json, failure guard, timing and closing line.
+    VI::RunRecord run_record;
   };
 } // namespace StepParabolic

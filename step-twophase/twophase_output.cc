@@ -5,7 +5,6 @@
 #include <deal.II/numerics/data_out.h>
 
 #include <vi/summary.h>
-#include <vi/timer_summary.h>
 
 #include "twophase_problem.h"
 
@@ -204,13 +203,8 @@ namespace StepTwoPhase
 
 
   void
-  TwoPhaseProblem::write_summary(const std::string &status,
-                                 const std::string &failure)
+  TwoPhaseProblem::add_results(VI::Json &summary) const
   {
-    VI::Json summary  = VI::make_summary("step-twophase", comm, prm);
-    summary["status"] = status;
-    if (!failure.empty())
-      summary["failure"] = failure;
     summary["time_unit"] = "year";
     summary["cells"]     = scheme->n_cells();
     summary["unknowns"]  = scheme->n_unknowns();
@@ -286,8 +280,5 @@ namespace StepTwoPhase
     totals["time_step_cuts"]             = cuts.size();
     totals["wall_seconds"]               = run_timer.wall_time();
     summary["totals"]                    = totals;
-
-    summary["timing"] = VI::section_wall_times(timer);
-    VI::write_summary(summary, parameters.output.directory, comm);
   }
 } // namespace StepTwoPhase

@@ -50,7 +50,11 @@ namespace StepTwoPhase
       , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
       , reconstruction_fe(2)
       , reconstruction_dof_handler(triangulation)
+      , run_record("step-twophase", parameters.output.directory, timer, comm)
   {
+    run_record.complete_summary = [this](VI::Json &summary) {
+      add_results(summary);
+    };
   }
 
 
@@ -627,23 +631,23 @@ namespace StepTwoPhase
 
 
   // The line that says what this run solves, and how.
-  void
-  TwoPhaseProblem::print_description() const
+  std::string
+  TwoPhaseProblem::description() const
   {
-    const auto &nl = parameters.nonlinear_solver;
-    std::cout << "Couplex-Gas benchmark: " << scheme->n_cells()
-              << " cells, dt = " << years(parameters.time.time_step)
-              << " yr, T = " << years(parameters.time.final_time) << " yr; "
-              << (parameters.nonlinear_solver_package == "kinsol" ?
-                    "KINSOL (Newton with line search, FB)" :
-                    "semismooth Newton-" + C.name())
-              << ", " << VI::to_string(nl.strategy) << " strategy, "
-              << VI::to_string(parameters.linear_solver.solver)
-              << (parameters.linear_solver.solver ==
-                      VI::LinearSolverType::gmres ?
-                    " + ILU(0), " + parameters.ordering + " ordering" :
-                    " (UMFPACK)")
-              << std::endl;
+    const auto        &nl = parameters.nonlinear_solver;
+    std::ostringstream line;
+    line << "Couplex-Gas benchmark: " << scheme->n_cells()
+         << " cells, dt = " << years(parameters.time.time_step)
+         << " yr, T = " << years(parameters.time.final_time) << " yr; "
+         << (parameters.nonlinear_solver_package == "kinsol" ?
+               "KINSOL (Newton with line search, FB)" :
+               "semismooth Newton-" + C.name())
+         << ", " << VI::to_string(nl.strategy) << " strategy, "
+         << VI::to_string(parameters.linear_solver.solver)
+         << (parameters.linear_solver.solver == VI::LinearSolverType::gmres ?
+               " + ILU(0), " + parameters.ordering + " ordering" :
+               " (UMFPACK)");
+    return line.str();
   }
 
 
@@ -704,14 +708,11 @@ namespace StepTwoPhase
   {
     AssertThrow(Utilities::MPI::n_mpi_processes(comm) == 1,
                 ExcMessage("step-twophase is serial"));
-    std::cout << VI::run_header("step-twophase", comm) << std::endl;
-
     make_grid();
     setup_system();
     if (parameters.time.resume)
       read_checkpoint();
-    VI::prepare_output_directory(parameters.output.directory, comm);
-    print_description();
+    run_record.start(prm, description(), "steps");
 
     if (!parameters.time.resume)
       set_initial_state();
@@ -719,25 +720,16 @@ namespace StepTwoPhase
       std::cout << "Resuming at t = " << years(time) << " yr (step " << step
                 << ")" << std::endl;
 
-    try
-      {
-        while (time < parameters.time.final_time)
-          advance_one_step();
-      }
-    catch (const VI::SolverFailure &failure)
-      {
-        write_summary("failed", failure.what());
-        throw;
-      }
+    run_record.guard([&] {
+      while (time < parameters.time.final_time)
+        advance_one_step();
+    });
 
     write_checkpoint();
     write_tables();
-    write_summary("converged", "");
     print_totals();
     print_gas_at_x0();
-    std::cout << "Output in " << parameters.output.directory
-              << "/: convergence.txt, x0.csv, profile-*.csv, solution.pvd, "
-                 "summary.json, checkpoint.txt"
-              << std::endl;
+    run_record.finish("convergence.txt, x0.csv, profile-*.csv, solution.pvd, "
+                      "summary.json, checkpoint.txt");
   }
 } // namespace StepTwoPhase

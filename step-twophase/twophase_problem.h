@@ -13,6 +13,7 @@
 #include <deal.II/lac/vector.h>
 
 #include <vi/complementarity.h>
+#include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 
@@ -128,12 +129,14 @@ namespace StepTwoPhase
     output_results();
     void
     write_tables() const;
+    /// The run's results in summary.json: the mesh, every step (from
+    /// `records`), the time step cuts and the totals.
     void
-    write_summary(const std::string &status, const std::string &failure);
-    // What run() prints: the method, and at the end the totals and the
-    // benchmark's quantities at x = 0.
-    void
-    print_description() const;
+    add_results(VI::Json &summary) const;
+    /// The line that says what this run solves, and how; at the end, the
+    /// totals and the benchmark's quantities at x = 0 on the screen.
+    std::string
+    description() const;
     void
     print_totals() const;
     void
@@ -180,5 +183,8 @@ namespace StepTwoPhase
 
     std::vector<StepRecord>  records;
     std::vector<TimeStepCut> cuts;
+
+    /// Header, summary.json, failure guard, timing and closing line.
+    VI::RunRecord run_record;
   };
 } // namespace StepTwoPhase

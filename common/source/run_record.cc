@@ -77,7 +77,7 @@ namespace VI
         // Keep what the completed cycles measured, marked as failed.
         summary["status"]  = "failed";
         summary["failure"] = std::string(failure.what());
-        write_summary(summary, directory, comm);
+        write();
         throw;
       }
   }
@@ -175,13 +175,22 @@ namespace VI
 
 
   void
-  RunRecord::finish(const std::string &files)
+  RunRecord::finish(const std::string &files, const std::string &status)
   {
-    summary["status"] = "converged";
-    summary["timing"] = section_wall_times(timer);
-    write_summary(summary, directory, comm);
+    summary["status"] = status;
+    write();
     if (Utilities::MPI::this_mpi_process(comm) == 0)
       std::cout << "\nOutput in " << directory << "/: " << files << std::endl;
+  }
+
+
+  void
+  RunRecord::write()
+  {
+    if (complete_summary)
+      complete_summary(summary);
+    summary["timing"] = section_wall_times(timer);
+    write_summary(summary, directory, comm);
   }
 
 

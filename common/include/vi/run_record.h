@@ -64,14 +64,18 @@ namespace VI
    *   program, its versions and parameters, and an empty list of cycles
    *   (or time steps); the output directory made (or the run stopped
    *   with one line if it cannot be written);
-   * - guard(): a solve whose failure writes summary.json as it stands,
-   *   marked "status": "failed" with the reason, before it propagates
-   *   (run_program() turns it into one line and exit status 2);
+   * - guard(): a solve whose failure writes summary.json as it stands
+   *   (with the timing so far), marked "status": "failed" with the
+   *   reason, before it propagates (run_program() turns it into one line
+   *   and exit status 2);
    * - start_cycle() / cycle_timing(): the wall time of a cycle and its share
    *   of every TimerOutput section;
-   * - finish(): "status": "converged", the total of every TimerOutput
+   * - finish(): the status ("converged"), the total of every TimerOutput
    *   section, summary.json, and the closing line that says where the
    *   output is.
+   *
+   * A time-dependent program records its steps the same way (`list`
+   * "steps", one record per step, the status "completed" or "stopped").
    */
   class RunRecord
   {
@@ -125,14 +129,24 @@ namespace VI
                  const std::vector<std::string> &more = {},
                  const unsigned int              dim  = 2) const;
 
-    /// `files`: what the output directory holds, for the closing line.
+    /// `files`: what the output directory holds, for the closing line;
+    /// `status`: how the run ended ("converged"; a time-dependent run
+    /// "completed" at the final time or "stopped" to be resumed).
     void
-    finish(const std::string &files);
+    finish(const std::string &files, const std::string &status = "converged");
+
+    /// What the program adds to the summary just before it is written, at
+    /// the end or on a failure (totals, say); optional.
+    std::function<void(Json &summary)> complete_summary;
 
     /// The summary as it will be written (programs add their own keys).
     Json summary;
 
   private:
+    /// The summary completed, with the timing of every section, written.
+    void
+    write();
+
     const std::string             program;
     const std::string             directory;
     dealii::TimerOutput          &timer;
