@@ -20,8 +20,6 @@
 
 namespace StepHHO
 {
-  using VI::NodalFields::n_fields;
-
   namespace
   {
     /**

@@ -10,10 +10,6 @@
 
 namespace StepHHO
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
   // ------------------------------------------------------------------------
   // Results.
 

@@ -18,10 +18,6 @@
 
 namespace StepHHO
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
   namespace
   {
     /// values(i) = X(indices[i]) (owned or ghost entries of X).

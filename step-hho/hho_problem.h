@@ -18,6 +18,7 @@
 #include <vi/contact_rows.h>
 #include <vi/geometry.h>
 #include <vi/ghosted_copy.h>
+#include <vi/nodal_fields.h>
 #include <vi/parameters.h>
 #include <vi/semismooth_newton.h>
 #include <vi/stationary_problem.h>
@@ -34,6 +35,9 @@
 namespace StepHHO
 {
   using namespace dealii;
+  // The names of the node-interleaved cell unknowns (X1, X2, X3), used by
+  // all the files of the program.
+  using namespace VI::NodalFields::vocabulary;
 
   class JacobianSolver;
 

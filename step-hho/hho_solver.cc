@@ -20,8 +20,6 @@
 
 namespace StepHHO
 {
-  using VI::NodalFields::n_fields;
-
   namespace
   {
     // What the cell workers of the residual, the condensed right-hand side

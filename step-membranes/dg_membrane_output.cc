@@ -21,10 +21,6 @@
 
 namespace StepMembranes
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
 
   // v = M_K^{-1} moments on every owned cell: the broken function whose
   // L2 moments against the nodal basis are the given ones. The mass matrix

@@ -31,10 +31,6 @@
 
 namespace StepMembranes
 {
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
-
   void
   DGParameters::declare(ParameterHandler &prm)
   {
@@ -99,10 +95,7 @@ namespace StepMembranes
           parameters.discretization.degree))
       , face_quadrature(VI::FluxReconstruction<dim>::quadrature_points(
           parameters.discretization.degree))
-      , contact_system(C,
-                       parameters.nonlinear_solver,
-                       parameters.linear_solver,
-                       timer)
+      , contact_system(C, parameters, timer)
       , fe_continuous(parameters.discretization.degree)
       , continuous_dof_handler(triangulation)
   {

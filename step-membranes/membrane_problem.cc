@@ -26,10 +26,7 @@ namespace StepMembranes
       , data(VI::make_membrane_data<dim>(parameters.problem,
                                          VI::geometry_center<dim>(geometry)))
       , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
-      , contact_system(C,
-                       parameters.nonlinear_solver,
-                       parameters.linear_solver,
-                       timer)
+      , contact_system(C, parameters, timer)
       , multiplier_function(make_multiplier_function(contact_system))
       , stopping(parameters.nonlinear_solver,
                  stopping_hooks(),

@@ -46,11 +46,9 @@
 namespace StepMembranes
 {
   using namespace dealii;
-  // The node-interleaved unknowns X = (X1, X2, X3) of every node: the
-  // vocabulary of all the files of the program.
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
+  // The names of the node-interleaved unknowns X = (X1, X2, X3), used by
+  // all the files of the program.
+  using namespace VI::NodalFields::vocabulary;
 
   /// The .prm interface of step-membranes: the shared sections of
   /// parameters.h and the program's own entries.

@@ -81,10 +81,7 @@ namespace StepParabolic
       , data(make_parabolic_data<dim>(parameters.problem, center))
       , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
       , friedrichs_constant(VI::friedrichs_constant(geometry))
-      , contact_system(C,
-                       parameters.nonlinear_solver,
-                       parameters.linear_solver,
-                       timer)
+      , contact_system(C, parameters, timer)
       , multiplier_function(make_multiplier_function(contact_system))
       , stopping(parameters.nonlinear_solver,
                  stopping_hooks(),
@@ -455,37 +452,7 @@ namespace StepParabolic
   }
 
 
-  // Explicit instantiations of this file's members.
-  template double
-  ParabolicProblem<2>::Accumulated::eta() const;
-  template double
-  ParabolicProblem<2>::Accumulated::eta_disc() const;
-  template double
-  ParabolicProblem<2>::Accumulated::eta_lin() const;
-  template double
-  ParabolicProblem<2>::Accumulated::eta_alg() const;
-  template double
-  ParabolicProblem<2>::Accumulated::error() const;
-  template ParabolicProblem<2>::ParabolicProblem(const Parameters &parameters,
-                                                 ParameterHandler &prm,
-                                                 const MPI_Comm    comm);
-  template void
-  ParabolicProblem<2>::check_data() const;
-  template void
-  ParabolicProblem<2>::choose_next_time_step(const StepEstimate &e,
-                                             bool               &accept);
-  template void
-  ParabolicProblem<2>::run();
-  template std::string
-  ParabolicProblem<2>::description() const;
-  template void
-  ParabolicProblem<2>::start_run();
-  template void
-  ParabolicProblem<2>::solve_until_accepted();
-  template void
-  ParabolicProblem<2>::accept_time_step();
-  template void
-  ParabolicProblem<2>::print_step(const double wall) const;
-  template void
-  ParabolicProblem<2>::finish_run(const bool stopped);
+  // The members defined in this file (the others are instantiated where
+  // they are defined).
+  template class ParabolicProblem<2>;
 } // namespace StepParabolic

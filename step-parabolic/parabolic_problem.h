@@ -40,11 +40,9 @@
 namespace StepParabolic
 {
   using namespace dealii;
-  // The node-interleaved unknowns X = (X1, X2, X3) of every node: the
-  // vocabulary of all the files of the program.
-  using VI::NodalFields::index;
-  using VI::NodalFields::multiplier;
-  using VI::NodalFields::n_fields;
+  // The names of the node-interleaved unknowns X = (X1, X2, X3), used by
+  // all the files of the program.
+  using namespace VI::NodalFields::vocabulary;
 
   /**
    * The a posteriori estimate of one time step I_n = (t_(n-1), t_n) for an

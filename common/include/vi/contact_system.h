@@ -61,6 +61,18 @@ namespace VI
                   const NonlinearSolverParameters &nonlinear,
                   const LinearSolverParameters    &linear,
                   dealii::TimerOutput             &timer);
+    /// The same with the sections "Nonlinear solver" and "Linear solver"
+    /// of a program's `parameters`.
+    template <typename ProgramParameters>
+    ContactSystem(const ComplementarityFunction &C,
+                  const ProgramParameters       &parameters,
+                  dealii::TimerOutput           &timer)
+        : ContactSystem(C,
+                        parameters.nonlinear_solver,
+                        parameters.linear_solver,
+                        timer)
+    {
+    }
     ~ContactSystem();
 
     /**

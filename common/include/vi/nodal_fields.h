@@ -100,5 +100,17 @@ namespace VI
     insert_displacements(const dealii::TrilinosWrappers::MPI::Vector &u1,
                          const dealii::TrilinosWrappers::MPI::Vector &u2,
                          dealii::TrilinosWrappers::MPI::Vector       &X);
-  } // namespace NodalFields
+
+    /**
+     * The names the files of a program on these unknowns use everywhere
+     * (`using namespace VI::NodalFields::vocabulary;`): index(node, field),
+     * the field `multiplier` and n_fields.
+     */
+    namespace vocabulary
+    {
+      using NodalFields::index;
+      using NodalFields::multiplier;
+      using NodalFields::n_fields;
+    } // namespace vocabulary
+  }   // namespace NodalFields
 } // namespace VI
