@@ -9,6 +9,7 @@
 #include <deal.II/fe/mapping_q.h>
 
 #include <vi/errors.h>
+#include <vi/memory_budget.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
 
@@ -279,6 +280,8 @@ namespace StepParabolic
   ParabolicProblem<dim>::start_run()
   {
     const auto &ts = parameters.time;
+    // A mesh that cannot fit stops the run before anything is allocated.
+    VI::MemoryBudget(parameters.mesh, parameters.discretization, comm).check();
     if (!parameters.compare_with.empty())
       {
         const std::string file  = parameters.compare_with + "/checkpoint.txt";

@@ -9,6 +9,7 @@
 #include <dlfcn.h>
 #include <filesystem>
 #include <fstream>
+#include <new>
 #if defined(__GLIBC__)
 #  include <malloc.h>
 #endif
@@ -252,6 +253,19 @@ namespace VI
     catch (const SolverFailure &e)
       {
         return report(comm, "Solver failure: " + one_line(e.what()), 2);
+      }
+    catch (const std::bad_alloc &)
+      {
+        // An allocation the model of MemoryBudget did not foresee, maybe on
+        // one rank only: it says so itself and ends the others too.
+        std::cerr << "Error: out of memory on rank "
+                  << Utilities::MPI::this_mpi_process(comm)
+                  << ": the run needs more than the machine gives; use a "
+                     "coarser mesh"
+                  << std::endl;
+        if (Utilities::MPI::n_mpi_processes(comm) > 1)
+          MPI_Abort(comm, 1);
+        return 1;
       }
     catch (const ExceptionBase &e)
       {

@@ -10,11 +10,12 @@ namespace VI
   using namespace dealii;
 
 
-  StationaryProblem::StationaryProblem(const std::string &program,
-                                       ParameterHandler  &prm,
-                                       const std::string &output_directory,
-                                       const unsigned int n_cycles,
-                                       const MPI_Comm     comm)
+  StationaryProblem::StationaryProblem(const std::string  &program,
+                                       ParameterHandler   &prm,
+                                       const std::string  &output_directory,
+                                       const unsigned int  n_cycles,
+                                       const MemoryBudget &memory_budget,
+                                       const MPI_Comm      comm)
       : prm(prm)
       , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
       // Wall times of rank 0: a TimerOutput without communicator needs no MPI
@@ -22,6 +23,7 @@ namespace VI
       , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
       , run_record(program, output_directory, timer, comm)
       , n_cycles(n_cycles)
+      , memory_budget(memory_budget)
   {
   }
 
@@ -29,7 +31,9 @@ namespace VI
   void
   StationaryProblem::run()
   {
-    // Data that admit no solution end the run before anything is written.
+    // A run that cannot fit, or data that admit no solution, end the run
+    // before anything is allocated or written.
+    memory_budget.check();
     make_grid();
     check_data();
     run_record.start(prm, description());

@@ -6,6 +6,7 @@
 #include <deal.II/base/timer.h>
 #include <deal.II/base/types.h>
 
+#include <vi/memory_budget.h>
 #include <vi/run_record.h>
 #include <vi/semismooth_newton.h>
 
@@ -25,7 +26,8 @@ namespace VI
    * measures and records. A program derives from it and gives the steps of
    * the loop; run() takes them in the order of the algorithm:
    *
-   *   make the mesh, check the data on it (before anything is written);
+   *   check that the largest mesh fits in memory, make the first mesh,
+   *   check the data on it (before anything is written);
    *   on every mesh: refine (after the first), set up and assemble the
    *   system, start from the last mesh's solution, solve, postprocess,
    *   measure the errors, write, record.
@@ -55,6 +57,9 @@ namespace VI
                             prm,
                             parameters.output.directory,
                             parameters.mesh.cycles,
+                            MemoryBudget(parameters.mesh,
+                                         parameters.discretization,
+                                         comm),
                             comm)
     {
     }
@@ -63,6 +68,7 @@ namespace VI
                       dealii::ParameterHandler &prm,
                       const std::string        &output_directory,
                       const unsigned int        n_cycles,
+                      const MemoryBudget       &memory_budget,
                       const MPI_Comm            comm);
 
     // The steps of run(), in the order it takes them.
@@ -135,5 +141,7 @@ namespace VI
 
   private:
     const unsigned int n_cycles;
+    /// What the largest mesh needs, checked before the first is made.
+    const MemoryBudget memory_budget;
   };
 } // namespace VI

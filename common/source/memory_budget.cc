@@ -1,0 +1,178 @@
+#include <deal.II/base/mpi.h>
+#include <deal.II/base/utilities.h>
+#include <deal.II/grid/tria.h>
+
+#include <vi/errors.h>
+#include <vi/geometry.h>
+#include <vi/memory_budget.h>
+#include <vi/parameters.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+namespace VI
+{
+  using namespace dealii;
+
+  namespace
+  {
+    // The model of a run's memory, measured as the peak resident memory of
+    // one process (/usr/bin/time -f %M) of two cycles with nested
+    // iteration on seed-smooth, the square, default solvers and
+    // estimators, against the unknowns (all fields) of the finer mesh:
+    //
+    //   step-membranes parameters/membranes-default.prm   (Q1, Q2)
+    //   step-membranes parameters/membranes-dg.prm        (SIPG)
+    //   step-hho parameters/hho-default.prm               (HHO)
+    //     --set "Mesh/Cycles=2" --set "Mesh/Initial refinements=r-1"
+    //     --set "Discretization/Polynomial degree=p" --set "Output/Write
+    //     VTU=false"
+    //
+    // with 2^r x 2^r cells on the finer mesh, r = 6, 7, 8 for Q1 and 5, 6,
+    // 7 for the others (the unknowns per cell of unknowns_per_cell() are
+    // those the programs print). step-parabolic is charged like Q_p: its
+    // ring test (parameters/parabolic-ring.prm, three time steps, Initial
+    // refinements = 5, 6, 7) costs 2560 bytes per unknown, less than Q1. A
+    // process starts at 180 - 215 MB; each unknown then costs the bytes below
+    // (the slope between the two largest runs, made 25 % larger). Degrees
+    // beyond the measured ones are charged like the largest measured degree,
+    // scaled with the length of a matrix row, which grows like (2p + 1)^2.
+    constexpr double bytes_per_process = 2.2e8;
+
+    double
+    bytes_per_unknown(const Method method, const unsigned int degree)
+    {
+      // Q1 3240, Q2 2960, SIPG (p = 1) 4220, HHO (p = 1) 390 bytes
+      // measured, times 1.25.
+      const bool         hho      = method == Method::hho;
+      const bool         dg       = method != Method::fem && !hho;
+      const double       measured = hho         ? 490. :
+                                    dg          ? 5300. :
+                                    degree == 1 ? 4050. :
+                                                  3700.;
+      const unsigned int measured_degree =
+        (hho || dg) ? 1 : std::min(degree, 2u);
+      const double row = (2. * degree + 1) / (2. * measured_degree + 1);
+      return measured * std::max(1., row * row);
+    }
+
+
+    /// The unknowns (all fields) of a mesh of `cells` quadrilaterals: three
+    /// nodal fields, and for HHO two fields on about two faces per cell.
+    double
+    unknowns_per_cell(const Method method, const unsigned int p)
+    {
+      switch (method)
+        {
+          case Method::fem:
+            return 3. * p * p;
+          case Method::hho:
+            return 3. * (p + 1) * (p + 2) / 2 + 2. * 2. * p;
+          default:
+            return 3. * (p + 1) * (p + 1);
+        }
+    }
+
+
+    /// A number from the first line of `file` (or from the line of /proc/
+    /// meminfo that starts with `key`, in kB), if there is one.
+    double
+    read_bytes(const std::string &file, const std::string &key = "")
+    {
+      std::ifstream in(file);
+      std::string   line;
+      while (std::getline(in, line))
+        {
+          if (!key.empty() && line.rfind(key, 0) != 0)
+            continue;
+          std::istringstream numbers(key.empty() ? line :
+                                                   line.substr(key.size()));
+          double             value = 0;
+          if (numbers >> value)
+            return key.empty() ? value : 1024. * value;
+          return std::numeric_limits<double>::infinity(); // "max"
+        }
+      return std::numeric_limits<double>::infinity();
+    }
+
+
+    /// MemAvailable, or less if the process's cgroup (v2, else v1) has a
+    /// limit: the limit less what the cgroup uses.
+    double
+    available_bytes()
+    {
+      double available = read_bytes("/proc/meminfo", "MemAvailable:");
+      const std::pair<const char *, const char *> cgroups[] = {
+        {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"},
+        {"/sys/fs/cgroup/memory/memory.limit_in_bytes",
+         "/sys/fs/cgroup/memory/memory.usage_in_bytes"}};
+      for (const auto &[limit, usage] : cgroups)
+        {
+          const double l = read_bytes(limit), u = read_bytes(usage);
+          if (std::isfinite(l) && std::isfinite(u))
+            available = std::min(available, l - u);
+        }
+      return available;
+    }
+  } // namespace
+
+
+  MemoryBudget::MemoryBudget(const MeshParameters           &mesh,
+                             const DiscretizationParameters &discretization,
+                             const MPI_Comm                  comm)
+      : MemoryBudget(mesh.geometry,
+                     mesh.initial_refinements +
+                       (mesh.refinement == "global" ? mesh.cycles - 1 : 0),
+                     discretization,
+                     comm)
+  {
+    to_lower += " or Mesh/Cycles";
+  }
+
+
+  MemoryBudget::MemoryBudget(const DomainParameters         &mesh,
+                             const DiscretizationParameters &discretization,
+                             const MPI_Comm                  comm)
+      : MemoryBudget(mesh.geometry,
+                     mesh.initial_refinements,
+                     discretization,
+                     comm)
+  {
+  }
+
+
+  MemoryBudget::MemoryBudget(const std::string              &geometry,
+                             const unsigned int              levels,
+                             const DiscretizationParameters &discretization,
+                             const MPI_Comm                  comm)
+  {
+    Triangulation<2> coarse;
+    make_coarse_mesh(geometry_from_name(geometry), coarse);
+    const unsigned int p = discretization.degree;
+    cells                = coarse.n_active_cells() * std::pow(4., levels);
+    unknowns             = cells * unknowns_per_cell(discretization.method, p);
+    needed = bytes_per_process * Utilities::MPI::n_mpi_processes(comm) +
+             bytes_per_unknown(discretization.method, p) * unknowns;
+    if (Utilities::MPI::this_mpi_process(comm) == 0)
+      available = available_bytes();
+    available = Utilities::MPI::broadcast(comm, available, 0);
+  }
+
+
+  void
+  MemoryBudget::check() const
+  {
+    if (needed <= available)
+      return;
+    std::ostringstream line;
+    line << std::setprecision(2) << "the largest mesh has " << cells
+         << " cells and " << unknowns << " unknowns and needs about "
+         << needed / 1e9 << " GB of memory; lower " << to_lower << " ("
+         << available / 1e9 << " GB are available)";
+    throw InputError(line.str());
+  }
+} // namespace VI
