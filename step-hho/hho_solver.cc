@@ -204,7 +204,7 @@ namespace StepHHO
     VI::ResidualNorms norms;
     norms.equations =
       R.l2_norm() / std::max(load_norm, std::numeric_limits<double>::min());
-    norms.complementarity = contact_rows.evaluate(C, X, multiplier_scale, R);
+    contact_rows.evaluate(C, X, multiplier_scale, R, norms);
     return norms;
   }
 
@@ -254,8 +254,9 @@ namespace StepHHO
         for (unsigned int I = 0; I < n_c; ++I)
           {
             const auto g =
-              C.generalized_gradient(X(unknowns[I]) - X(unknowns[n_c + I]),
-                                     X(unknowns[2 * n_c + I]));
+              contact_rows.row_gradient(C,
+                                        X(unknowns[I]) - X(unknowns[n_c + I]),
+                                        X(unknowns[2 * n_c + I]));
             Ga(I) = g[0];
             Gb(I) = g[1];
           }
@@ -463,6 +464,9 @@ namespace StepHHO
     };
     newton.active_set = [&](const auto &X, const bool first) {
       return contact_rows.linearised_active_set(C, X, active_rows, !first);
+    };
+    newton.set_smoothing = [&](const auto &X, const double mu) {
+      contact_rows.set_smoothing(mu, X, multiplier_scale);
     };
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &step) {

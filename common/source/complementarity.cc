@@ -75,4 +75,46 @@ namespace VI
   {
     return type_ == Type::fischer_burmeister;
   }
+
+
+  // Both smoothings are evaluated in the form that does not cancel: for the
+  // min-function, (x + y - s) / 2 = 2 (x y - mu^2) / (x + y + s) when
+  // x + y > 0; for Fischer-Burmeister, s - x - y = (2 mu^2 - 2 x y) /
+  // (s + x + y) when x + y > 0. Both vanish to round-off on x y = mu^2.
+  double
+  ComplementarityFunction::smoothed_value(const double x,
+                                          const double y,
+                                          const double mu) const
+  {
+    if (type_ == Type::min)
+      {
+        const double s = std::sqrt((x - y) * (x - y) + 4. * mu * mu);
+        return x + y > 0 ? 2. * (x * y - mu * mu) / (x + y + s) :
+                           0.5 * (x + y - s);
+      }
+    const double s = std::sqrt(x * x + y * y + 2. * mu * mu);
+    return x + y > 0 ? 2. * (mu * mu - x * y) / (s + x + y) : s - x - y;
+  }
+
+
+  std::array<double, 2>
+  ComplementarityFunction::smoothed_gradient(const double x,
+                                             const double y,
+                                             const double mu) const
+  {
+    if (type_ == Type::min)
+      {
+        const double s = std::sqrt((x - y) * (x - y) + 4. * mu * mu);
+        if (s == 0.)
+          return {{0.5, 0.5}};
+        return {{0.5 * (1. - (x - y) / s), 0.5 * (1. + (x - y) / s)}};
+      }
+    const double s = std::sqrt(x * x + y * y + 2. * mu * mu);
+    if (s == 0.)
+      {
+        const double xi = 1. / std::sqrt(2.);
+        return {{xi - 1., xi - 1.}};
+      }
+    return {{x / s - 1., y / s - 1.}};
+  }
 } // namespace VI

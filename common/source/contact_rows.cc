@@ -44,16 +44,12 @@ namespace VI
   }
 
 
-  double
-  ContactRows::evaluate(const ComplementarityFunction       &C,
-                        const TrilinosWrappers::MPI::Vector &X,
-                        const double                         multiplier_scale,
-                        TrilinosWrappers::MPI::Vector       &R) const
+  std::array<double, 2>
+  ContactRows::scales(const TrilinosWrappers::MPI::Vector &X,
+                      const double multiplier_scale) const
   {
-    const double *x = X.begin();
-    double       *r = R.begin();
-
-    double local_scales[2] = {0., 0.};
+    const double *x               = X.begin();
+    double        local_scales[2] = {0., 0.};
     for (const std::size_t k : positions)
       {
         local_scales[0] = std::max({local_scales[0],
@@ -62,31 +58,97 @@ namespace VI
         local_scales[1] =
           std::max(local_scales[1], std::abs(x[n_fields * k + 2]));
       }
-    double scales[2];
+    double global[2];
     Utilities::MPI::max(ArrayView<const double>(local_scales, 2),
                         X.get_mpi_communicator(),
-                        ArrayView<double>(scales, 2));
+                        ArrayView<double>(global, 2));
     const double tiny = std::numeric_limits<double>::min();
-    const double U    = std::max(scales[0], tiny);
-    const double B    = std::max({scales[1], multiplier_scale, tiny});
+    return {{std::max(global[0], tiny),
+             std::max({global[1], multiplier_scale, tiny})}};
+  }
 
-    double residual = 0, not_a_number = 0;
+
+  void
+  ContactRows::evaluate(const ComplementarityFunction       &C,
+                        const TrilinosWrappers::MPI::Vector &X,
+                        const double                         multiplier_scale,
+                        TrilinosWrappers::MPI::Vector       &R,
+                        ResidualNorms                       &norms) const
+  {
+    const double *x           = X.begin();
+    double       *r           = R.begin();
+    const auto [U_now, B_now] = scales(X, multiplier_scale);
+    double local[3]           = {0., 0., 0.}; // C, C_mu, NaN
     for (const std::size_t k : positions)
       {
         const double a      = x[n_fields * k] - x[n_fields * k + 1];
         const double b      = x[n_fields * k + 2];
-        r[n_fields * k + 2] = C.value(a, b);
-        const double scaled = std::abs(C.value(a / U, b / B));
-        if (std::isnan(scaled))
-          not_a_number = 1;
+        r[n_fields * k + 2] = row_value(C, a, b);
+        const double scaled = std::abs(C.value(a / U_now, b / B_now));
+        if (std::isnan(scaled) || std::isnan(r[n_fields * k + 2]))
+          local[2] = 1;
         else
-          residual = std::max(residual, scaled);
+          {
+            local[0] = std::max(local[0], scaled);
+            if (mu > 0)
+              local[1] = std::max(local[1], std::abs(r[n_fields * k + 2]) / U);
+          }
       }
-    double local[2] = {residual, not_a_number}, global[2];
-    Utilities::MPI::max(ArrayView<const double>(local, 2),
+    double global[3];
+    Utilities::MPI::max(ArrayView<const double>(local, 3),
                         X.get_mpi_communicator(),
-                        ArrayView<double>(global, 2));
-    return global[1] > 0 ? std::numeric_limits<double>::quiet_NaN() : global[0];
+                        ArrayView<double>(global, 3));
+    const double nan      = std::numeric_limits<double>::quiet_NaN();
+    norms.complementarity = global[2] > 0 ? nan : global[0];
+    norms.smoothed_complementarity =
+      global[2] > 0 ? nan : (mu > 0 ? global[1] : global[0]);
+  }
+
+
+  void
+  ContactRows::set_smoothing(const double                         mu,
+                             const TrilinosWrappers::MPI::Vector &X,
+                             const double multiplier_scale)
+  {
+    if (mu > 0 && this->mu == 0)
+      {
+        const auto frozen = scales(X, multiplier_scale);
+        U                 = frozen[0];
+        B                 = frozen[1];
+      }
+    else if (mu == 0)
+      U = B = 1.;
+    this->mu = mu;
+  }
+
+
+  double
+  ContactRows::row_value(const ComplementarityFunction &C,
+                         const double                   a,
+                         const double                   b) const
+  {
+    if (mu == 0)
+      return C.value(a, b);
+    return U * C.smoothed_value(a / U, b / B, mu);
+  }
+
+
+  std::array<double, 2>
+  ContactRows::row_gradient(const ComplementarityFunction &C,
+                            const double                   a,
+                            const double                   b) const
+  {
+    if (mu == 0)
+      return C.generalized_gradient(a, b);
+    const auto g = C.smoothed_gradient(a / U, b / B, mu);
+    return {{g[0], g[1] * U / B}};
+  }
+
+
+  bool
+  ContactRows::enforces_gap(const std::array<double, 2> &g) const
+  {
+    return std::abs(g[0]) >= std::abs(g[1]) * B / U;
   }
 
 
@@ -102,7 +164,7 @@ namespace VI
         const std::size_t k = positions[n];
         const double      a = x[n_fields * k] - x[n_fields * k + 1];
         const double      b = x[n_fields * k + 2];
-        const auto        g = C.generalized_gradient(a, b);
+        const auto        g = row_gradient(C, a, b);
 
         const types::global_dof_index i          = node_indices[n];
         const types::global_dof_index columns[3] = {
@@ -127,11 +189,12 @@ namespace VI
     for (std::size_t n = 0; n < positions.size(); ++n)
       {
         const std::size_t k = positions[n];
-        const auto        g =
-          C.generalized_gradient(x[n_fields * k] - x[n_fields * k + 1],
-                                 x[n_fields * k + 2]);
-        weights[n] = std::abs(g[0]) >= std::abs(g[1]) ? stiffness_weight[k] :
-                                                        multiplier_weight[k];
+        const auto        g = row_gradient(C,
+                                    x[n_fields * k] - x[n_fields * k + 1],
+                                    x[n_fields * k + 2]);
+        // A row that mainly enforces X3 = 0 has the units of X3 times U / B.
+        weights[n] =
+          enforces_gap(g) ? stiffness_weight[k] : multiplier_weight[k] * B / U;
       }
     return weights;
   }
@@ -151,11 +214,9 @@ namespace VI
     unsigned long long local[2] = {0, 0};
     for (std::size_t n = 0; n < positions.size(); ++n)
       {
-        const std::size_t k = positions[n];
-        const auto        g =
-          C.generalized_gradient(x[n_fields * k] - x[n_fields * k + 1],
-                                 x[n_fields * k + 2]);
-        const bool is_active = std::abs(g[0]) >= std::abs(g[1]);
+        const std::size_t k         = positions[n];
+        const bool        is_active = enforces_gap(row_gradient(
+          C, x[n_fields * k] - x[n_fields * k + 1], x[n_fields * k + 2]));
         local[0] += is_active;
         local[1] += compare && is_active != active[n];
         active[n] = is_active;

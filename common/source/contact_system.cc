@@ -181,7 +181,7 @@ namespace VI
       r[n_fields * k] = r[n_fields * k + 1] = 0.;
 
     ResidualNorms norms;
-    norms.complementarity = rows.evaluate(C, X, multiplier_scale, R);
+    rows.evaluate(C, X, multiplier_scale, R, norms);
 
     double local = 0;
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
@@ -303,6 +303,9 @@ namespace VI
     };
     newton.active_set = [this](const Vector &X, const bool first) {
       return active_set(X, first);
+    };
+    newton.set_smoothing = [this](const Vector &X, const double mu) {
+      rows.set_smoothing(mu, X, multiplier_scale);
     };
     if (progress)
       newton.monitor = [progress](const NewtonStep &step) {

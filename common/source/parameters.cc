@@ -369,6 +369,19 @@ namespace VI
                       "cuts most steps from a transferred or a cold "
                       "iterate; 5 was too few on the cold disk start, "
                       "doc/performance.md).");
+    prm.declare_entry("Continuation",
+                      "true",
+                      Bool(),
+                      "Newton-min: when the active set stalls (six steps "
+                      "in a row that switch rows and shrink the "
+                      "complementarity residual by less than half), "
+                      "follow the central path of the smoothed C-function "
+                      "instead, back to the C-function below the "
+                      "tolerance (doc/reference.md, Continuation). false: "
+                      "plain semismooth Newton throughout. "
+                      "Fischer-Burmeister keeps its line search (the "
+                      "continuation cost it steps, doc/stress.md), and "
+                      "step-twophase has no smoothed rows.");
     prm.declare_entry("Nested iteration",
                       "true",
                       Bool(),
@@ -399,6 +412,7 @@ namespace VI
     max_iterations   = prm.get_integer("Maximum iterations");
     tolerance        = prm.get_double("Tolerance");
     watchdog_steps   = prm.get_integer("Watchdog steps");
+    continuation     = prm.get_bool("Continuation");
     nested_iteration = prm.get_bool("Nested iteration");
     initial_guess    = prm.get("Initial guess");
     require_positive(tolerance, "Nonlinear solver/Tolerance");

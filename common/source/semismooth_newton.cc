@@ -6,9 +6,11 @@
 #include <vi/parameters.h>
 #include <vi/semismooth_newton.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <vector>
 
 namespace VI
 {
@@ -39,6 +41,9 @@ namespace VI
       , line_search(C.has_smooth_merit_function())
       , watchdog_steps(parameters.watchdog_steps)
       , name("semismooth Newton-" + C.name())
+      // Fischer-Burmeister converges from cold starts with its line
+      // search; the continuation cost it steps there (doc/stress.md).
+      , continuation(parameters.continuation && !C.has_smooth_merit_function())
   {
   }
 
@@ -68,6 +73,22 @@ namespace VI
 
 
   template <typename VectorType>
+  bool
+  SemismoothNewton<VectorType>::stalled(const NewtonReport &report) const
+  {
+    const auto &steps = report.steps;
+    if (steps.size() < data.stall_steps + 1)
+      return false;
+    for (std::size_t n = steps.size() - data.stall_steps; n < steps.size(); ++n)
+      if (!steps[n].has_active_set || steps[n].active_set.switched == 0 ||
+          steps[n].residual.complementarity <
+            data.stall_ratio * steps[n - 1].residual.complementarity)
+        return false;
+    return true;
+  }
+
+
+  template <typename VectorType>
   NewtonReport
   SemismoothNewton<VectorType>::solve(VectorType &X) const
   {
@@ -77,7 +98,7 @@ namespace VI
 
     NewtonReport report;
 
-    VectorType R, rhs, dX, trial;
+    VectorType R, rhs, dX;
     R.reinit(X);
     rhs.reinit(X);
     dX.reinit(X);
@@ -85,16 +106,19 @@ namespace VI
     ResidualNorms norms     = residual(X, R);
     report.initial_residual = norms;
 
-    bool criterion_met = false;
-    // The watchdog's reference iterate and merit, the full steps taken
-    // since it without the test, and whether the iteration has just
-    // returned to it (then the next step backtracks).
-    VectorType X_reference;
-    X_reference.reinit(X);
-    X_reference                  = X;
-    double       theta_reference = 0.5 * R.norm_sqr();
-    unsigned int relaxed_steps   = 0;
-    bool         returned        = false;
+    Watchdog   watchdog;
+    const auto restart_watchdog = [&]() {
+      watchdog.X_reference.reinit(X);
+      watchdog.X_reference     = X;
+      watchdog.theta_reference = 0.5 * R.norm_sqr();
+      watchdog.relaxed_steps   = 0;
+      watchdog.returned        = false;
+    };
+    restart_watchdog();
+
+    bool                criterion_met = false;
+    double              mu = 0.; // the continuation's smoothing parameter
+    std::vector<double> merits;  // its last values of 1/2 |R_mu|^2
     for (unsigned int k = 1;; ++k)
       {
         if (!norms.is_finite())
@@ -122,80 +146,12 @@ namespace VI
           fail("the Newton update is not a number at iteration " +
                std::to_string(k) + " (singular generalised Jacobian?)");
 
-        double step_length = 1.;
-        if (!data.line_search)
-          {
-            X.add(1., dX);
-            norms = residual(X, R);
-          }
-        else
-          {
-            // Backtracking on theta(X) = 1/2 |R(X)|^2. For the exact Newton
-            // direction, theta'(X; dX) = -2 theta(X), hence the Armijo test.
-            const double theta_0 = 0.5 * R.norm_sqr();
-            trial.reinit(X, /*omit_zeroing_entries=*/true);
-            trial = X;
-            trial.add(1., dX);
-            const bool certified = accept_full_step && accept_full_step(trial);
-            if (!certified && !returned && data.watchdog_steps > 0)
-              {
-                // Full steps may raise the merit function before they
-                // converge (Fischer-Burmeister from a transferred iterate):
-                // the watchdog takes them, and checks the sufficient
-                // decrease against the reference instead of every step.
-                X                  = trial;
-                norms              = residual(X, R);
-                const double theta = 0.5 * R.norm_sqr();
-                if (std::isfinite(theta) &&
-                    theta <=
-                      (1. - 2. * data.armijo_parameter) * theta_reference)
-                  {
-                    X_reference     = X;
-                    theta_reference = theta;
-                    relaxed_steps   = 0;
-                  }
-                else if (++relaxed_steps == data.watchdog_steps ||
-                         !std::isfinite(theta))
-                  {
-                    X           = X_reference;
-                    norms       = residual(X, R);
-                    step_length = 0;
-                    returned    = true;
-                  }
-              }
-            else
-              {
-                for (unsigned int cuts = 0;; ++cuts)
-                  {
-                    norms = residual(trial, R);
-                    if (certified)
-                      break;
-                    const double theta_t = 0.5 * R.norm_sqr();
-                    if (std::isfinite(theta_t) &&
-                        theta_t <=
-                          (1. - 2. * data.armijo_parameter * step_length) *
-                            theta_0)
-                      break;
-                    if (cuts == data.max_line_search_steps)
-                      fail("the line search on the merit function found no "
-                           "decrease after " +
-                           std::to_string(cuts) +
-                           " step halvings at iteration " + std::to_string(k));
-                    step_length *= 0.5;
-                    trial = X;
-                    trial.add(step_length, dX);
-                  }
-                X               = trial;
-                X_reference     = X;
-                theta_reference = 0.5 * R.norm_sqr();
-                relaxed_steps   = 0;
-                returned        = false;
-              }
-          }
-
+        step.smoothing         = mu;
+        step.step_length       = mu > 0 ?
+                                   continuation_step(X, dX, R, norms, merits, k) :
+                                   plain_step(X, dX, R, norms, watchdog, k);
         step.iteration         = k;
         step.residual          = norms;
-        step.step_length       = step_length;
         step.linear_iterations = linear_iterations;
         report.steps.push_back(step);
         report.iterations = k;
@@ -204,10 +160,188 @@ namespace VI
           monitor(step);
         if (stopping_criterion)
           criterion_met = stopping_criterion(X, step);
+        if (!set_smoothing || !data.continuation || converged(norms) ||
+            criterion_met)
+          continue;
+
+        // The continuation: it starts once, when the active set stalls,
+        // with mu of the size of the complementarity residual. A step of
+        // length t reduces mu by the factor 1 - t (1 - smoothing_reduction)
+        // (a full step by smoothing_reduction, a short one little), but not
+        // below neighbourhood_factor times the smoothed residual, so that
+        // the iterate stays near the central path (after the update of Qi,
+        // Sun and Zhou's smoothing Newton method). Below the tolerance the rows
+        // return to C for the last steps.
+        double next_mu = mu;
+        if (mu == 0 && report.continuation_start == 0 && stalled(report))
+          {
+            report.continuation_start = k;
+            next_mu = std::clamp(norms.complementarity, data.tolerance, 1.);
+          }
+        else if (mu > 0)
+          {
+            const double t = step.step_length;
+            next_mu =
+              std::max(mu * (1. - t * (1. - data.smoothing_reduction)),
+                       std::min(mu,
+                                data.neighbourhood_factor *
+                                  std::max(norms.equations,
+                                           norms.smoothed_complementarity)));
+            if (next_mu < data.tolerance)
+              next_mu = 0;
+          }
+        if (next_mu != mu)
+          {
+            mu = next_mu;
+            set_smoothing(X, mu);
+            norms = residual(X, R);
+            if (mu == 0)
+              restart_watchdog();
+          }
       }
 
     report.final_residual = norms;
     return report;
+  }
+
+
+  template <typename VectorType>
+  double
+  SemismoothNewton<VectorType>::plain_step(VectorType        &X,
+                                           const VectorType  &dX,
+                                           VectorType        &R,
+                                           ResidualNorms     &norms,
+                                           Watchdog          &watchdog,
+                                           const unsigned int k) const
+  {
+    if (!data.line_search)
+      {
+        X.add(1., dX);
+        norms = residual(X, R);
+        return 1.;
+      }
+
+    // Backtracking on theta(X) = 1/2 |R(X)|^2. For the exact Newton
+    // direction, theta'(X; dX) = -2 theta(X), hence the Armijo test.
+    const double theta_0 = 0.5 * R.norm_sqr();
+    VectorType   trial;
+    trial.reinit(X, /*omit_zeroing_entries=*/true);
+    trial = X;
+    trial.add(1., dX);
+    const bool certified = accept_full_step && accept_full_step(trial);
+    if (!certified && !watchdog.returned && data.watchdog_steps > 0)
+      {
+        // Full steps may raise the merit function before they converge
+        // (Fischer-Burmeister from a transferred iterate): the watchdog
+        // takes them, and checks the sufficient decrease against the
+        // reference instead of every step.
+        X                  = trial;
+        norms              = residual(X, R);
+        const double theta = 0.5 * R.norm_sqr();
+        if (std::isfinite(theta) && theta <= (1. - 2. * data.armijo_parameter) *
+                                               watchdog.theta_reference)
+          {
+            watchdog.X_reference     = X;
+            watchdog.theta_reference = theta;
+            watchdog.relaxed_steps   = 0;
+          }
+        else if (++watchdog.relaxed_steps == data.watchdog_steps ||
+                 !std::isfinite(theta))
+          {
+            X                 = watchdog.X_reference;
+            norms             = residual(X, R);
+            watchdog.returned = true;
+            return 0.;
+          }
+        return 1.;
+      }
+
+    const double step_length =
+      backtrack(X,
+                dX,
+                trial,
+                R,
+                norms,
+                theta_0,
+                certified,
+                "the line search on the merit function",
+                k);
+    watchdog.X_reference     = X;
+    watchdog.theta_reference = 0.5 * R.norm_sqr();
+    watchdog.relaxed_steps   = 0;
+    watchdog.returned        = false;
+    return step_length;
+  }
+
+
+  template <typename VectorType>
+  double
+  SemismoothNewton<VectorType>::continuation_step(VectorType          &X,
+                                                  const VectorType    &dX,
+                                                  VectorType          &R,
+                                                  ResidualNorms       &norms,
+                                                  std::vector<double> &merits,
+                                                  const unsigned int   k) const
+  {
+    // Nonmonotone backtracking (Grippo, Lampariello and Lucidi) on
+    // theta = 1/2 |R_mu|^2, which is smooth for mu > 0: the step must
+    // decrease theta sufficiently below the largest of its last values, so
+    // that the full steps that cross the bend of the central path (where
+    // a node changes from gap to contact) are not cut to a crawl.
+    merits.push_back(0.5 * R.norm_sqr());
+    if (merits.size() > data.nonmonotone_window)
+      merits.erase(merits.begin());
+    const double theta_max = *std::max_element(merits.begin(), merits.end());
+
+    VectorType trial;
+    trial.reinit(X, /*omit_zeroing_entries=*/true);
+    trial = X;
+    trial.add(1., dX);
+    return backtrack(
+      X,
+      dX,
+      trial,
+      R,
+      norms,
+      theta_max,
+      /*certified=*/false,
+      "the continuation's line search on the smoothed merit function",
+      k);
+  }
+
+
+  template <typename VectorType>
+  double
+  SemismoothNewton<VectorType>::backtrack(VectorType        &X,
+                                          const VectorType  &dX,
+                                          VectorType        &trial,
+                                          VectorType        &R,
+                                          ResidualNorms     &norms,
+                                          const double       theta_reference,
+                                          const bool         certified,
+                                          const std::string &search,
+                                          const unsigned int k) const
+  {
+    double step_length = 1.;
+    for (unsigned int cuts = 0;; ++cuts)
+      {
+        norms = residual(trial, R);
+        if (certified)
+          break;
+        const double theta_t = 0.5 * R.norm_sqr();
+        if (std::isfinite(theta_t) &&
+            theta_t <=
+              (1. - 2. * data.armijo_parameter * step_length) * theta_reference)
+          break;
+        if (cuts == data.max_line_search_steps)
+          fail(search + " found no decrease after " + std::to_string(cuts) +
+               " step halvings at iteration " + std::to_string(k));
+        step_length *= 0.5;
+        trial = X;
+        trial.add(step_length, dX);
+      }
+    X = trial;
+    return step_length;
   }
 
 
@@ -222,6 +356,9 @@ namespace VI
     if (step.linear_iterations > 0)
       line << ", " << step.linear_iterations << ' ' << linear_solver
            << " iterations";
+    if (step.smoothing > 0)
+      line << ", smoothing " << std::scientific << std::setprecision(1)
+           << step.smoothing << std::defaultfloat;
     if (step.step_length == 0)
       line << ", back to the watchdog's reference iterate";
     else if (step.step_length < 1)

@@ -268,6 +268,8 @@ namespace VI
         it["residual_equations"]       = step.residual.equations;
         it["residual_complementarity"] = step.residual.complementarity;
         it["step_length"]              = step.step_length;
+        if (step.smoothing > 0) // a step of the continuation
+          it["smoothing"] = step.smoothing;
         if (step.has_active_set)
           {
             it["active_rows"] = step.active_set.active;

@@ -126,3 +126,62 @@ TEST(Complementarity, NamesRoundTrip)
     EXPECT_EQ(ComplementarityFunction::from_name(C.name()).type(), C.type());
   EXPECT_THROW(ComplementarityFunction::from_name("max"), VI::InputError);
 }
+
+
+TEST(Complementarity, SmoothingVanishesOnTheCentralPath)
+{
+  // C_mu(x, y) = 0 exactly for x, y > 0, x y = mu^2, and not elsewhere.
+  for (const auto &C : c_functions)
+    for (const double mu : {1e-12, 1e-6, 1e-2, 1.})
+      for (const double x : {1e-3 * mu, mu, 1e3 * mu})
+        {
+          const double y = mu * mu / x;
+          EXPECT_NEAR(C.smoothed_value(x, y, mu), 0., 1e-15 * (x + y))
+            << C.name() << " mu = " << mu << " x = " << x;
+          EXPECT_GT(std::abs(C.smoothed_value(x, 2. * y, mu)), 0.)
+            << C.name() << " mu = " << mu << " x = " << x;
+          EXPECT_GT(std::abs(C.smoothed_value(-x, -y, mu)), 0.)
+            << C.name() << " mu = " << mu << " x = " << x;
+        }
+}
+
+
+TEST(Complementarity, SmoothingTendsToTheCFunction)
+{
+  // |C_mu - C| <= mu (CHKS: exactly mu on the diagonal; Kanzow's FB: at
+  // most sqrt(2) mu - a bound of the same order).
+  const std::vector<std::pair<double, double>> points = {
+    {1, 2}, {2, 1}, {-1, 3}, {3, -1}, {-2, -0.5}, {0., 0.}, {1e-3, 5}};
+  for (const auto &C : c_functions)
+    for (const double mu : {1e-1, 1e-4, 1e-8})
+      for (const auto &[x, y] : points)
+        EXPECT_LE(std::abs(C.smoothed_value(x, y, mu) - C.value(x, y)),
+                  std::sqrt(2.) * mu * (1. + 1e-12))
+          << C.name() << " mu = " << mu << " at (" << x << ", " << y << ")";
+}
+
+
+TEST(Complementarity, SmoothedGradientMatchesFiniteDifferences)
+{
+  const std::vector<std::pair<double, double>> points = {
+    {1, 2}, {2, 1}, {-1, 3}, {0., 0.}, {1e-3, 1e-3}, {0.3, -0.7}};
+  for (const auto &C : c_functions)
+    for (const double mu : {1e-2, 0.5})
+      for (const auto &[x, y] : points)
+        {
+          const double h = 1e-7;
+          const auto   g = C.smoothed_gradient(x, y, mu);
+          EXPECT_NEAR(g[0],
+                      (C.smoothed_value(x + h, y, mu) -
+                       C.smoothed_value(x - h, y, mu)) /
+                        (2. * h),
+                      1e-6)
+            << C.name() << " at (" << x << ", " << y << ")";
+          EXPECT_NEAR(g[1],
+                      (C.smoothed_value(x, y + h, mu) -
+                       C.smoothed_value(x, y - h, mu)) /
+                        (2. * h),
+                      1e-6)
+            << C.name() << " at (" << x << ", " << y << ")";
+        }
+}

@@ -114,7 +114,10 @@ TEST(ContactRows, ResidualAndJacobianRowsOfTheComplementarity)
   X.compress(VectorOperation::insert);
 
   const VI::ComplementarityFunction min;
-  const double                      residual = rows.evaluate(min, X, 1., R);
+  VI::ResidualNorms                 norms;
+  rows.evaluate(min, X, 1., R, norms);
+  const double residual = norms.complementarity;
+  EXPECT_EQ(norms.smoothed_complementarity, residual); // no smoothing
   EXPECT_EQ(R(3 * 1 + 2), 0.);
   EXPECT_EQ(R(3 * 2 + 2), 0.);
   EXPECT_EQ(R(3 * 3 + 2), -1.);

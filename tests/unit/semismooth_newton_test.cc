@@ -13,6 +13,7 @@
 #include "test_helpers.h"
 
 #include <cmath>
+#include <iostream>
 #include <memory>
 #include <string>
 
@@ -58,12 +59,16 @@ namespace
           double Ku = 0;
           for (unsigned int j = 0; j < n; ++j)
             Ku += K(i, j) * X(j);
-          R(i)     = Ku - X(n + i) - f(i);
-          R(n + i) = C.value(X(i) - psi(i), X(n + i));
+          R(i)           = Ku - X(n + i) - f(i);
+          const double a = X(i) - psi(i), b = X(n + i);
+          R(n + i) =
+            mu > 0 ? U * C.smoothed_value(a / U, b / B, mu) : C.value(a, b);
           equations += R(i) * R(i);
           load += f(i) * f(i);
           norms.complementarity =
-            std::max(norms.complementarity, std::abs(R(n + i)));
+            std::max(norms.complementarity, std::abs(C.value(a, b)));
+          norms.smoothed_complementarity =
+            std::max(norms.smoothed_complementarity, std::abs(R(n + i)) / U);
         }
       norms.equations = std::sqrt(equations / load);
       return norms;
@@ -78,9 +83,11 @@ namespace
           for (unsigned int j = 0; j < n; ++j)
             jacobian(i, j) = K(i, j);
           jacobian(i, n + i) = -1.;
-          const auto g       = C.generalized_gradient(X(i) - psi(i), X(n + i));
+          const double a = X(i) - psi(i), b = X(n + i);
+          const auto   g     = mu > 0 ? C.smoothed_gradient(a / U, b / B, mu) :
+                                        C.generalized_gradient(a, b);
           jacobian(n + i, i) = g[0];
-          jacobian(n + i, n + i) = g[1];
+          jacobian(n + i, n + i) = mu > 0 ? g[1] * U / B : g[1];
         }
       inverse = jacobian;
       inverse.gauss_jordan();
@@ -108,8 +115,26 @@ namespace
       return newton;
     }
 
+    /// The smoothing of SemismoothNewton::set_smoothing, with the scales
+    /// of the gap and the multiplier frozen when it starts.
+    void
+    set_smoothing(const Vector<double> &X, const double new_mu)
+    {
+      if (mu == 0 && new_mu > 0)
+        {
+          U = B = 1e-300;
+          for (unsigned int i = 0; i < n; ++i)
+            {
+              U = std::max(U, std::abs(X(i) - psi(i)));
+              B = std::max(B, std::abs(X(n + i)));
+            }
+        }
+      mu = new_mu;
+    }
+
     const unsigned int      n;
     ComplementarityFunction C;
+    double                  mu = 0, U = 1, B = 1;
     FullMatrix<double>      K;
     Vector<double>          f, psi;
     FullMatrix<double>      jacobian, inverse;
@@ -341,4 +366,71 @@ TEST(SemismoothNewton, WatchdogReturnsToItsReferenceWhenFullStepsDiverge)
   EXPECT_LT(armijo.steps[0].step_length, 1.);
   for (const VI::NewtonStep &step : armijo.steps)
     EXPECT_GT(step.step_length, 0.);
+}
+
+
+TEST(SemismoothNewton, ContinuationRecoversFromAStalledActiveSet)
+{
+  // From u = psi, lambda = 0 every node is a tie, hence active: the string
+  // lies on the obstacle, and primal-dual active set steps free one node at
+  // each end per step (only there does the multiplier change sign), about
+  // 0.35 (n + 1) steps to the contact set [0.354, 0.646]. The continuation
+  // on the smoothed C-function frees the whole set in a few steps, and
+  // ends on the same discrete solution. (The programs use it with
+  // Newton-min only; here it is tested for both smoothings.)
+  const unsigned int n = 120;
+  for (const auto type : {ComplementarityFunction::Type::min,
+                          ComplementarityFunction::Type::fischer_burmeister})
+    {
+      ObstacleProblem problem(n, ComplementarityFunction(type));
+      typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+      data.tolerance      = 1e-13;
+      data.max_iterations = 200;
+      data.line_search =
+        ComplementarityFunction(type).has_smooth_merit_function();
+      const auto start = [&]() {
+        Vector<double> X(2 * n);
+        for (unsigned int i = 0; i < n; ++i)
+          X(i) = problem.psi(i);
+        return X;
+      };
+      const auto active_set = [&](const Vector<double> &X, bool) {
+        VI::ActiveSetChange change;
+        for (unsigned int i = 0; i < n; ++i)
+          change.active += X(i) - problem.psi(i) <= X(n + i);
+        change.switched = 1; // stalls only by its residual here
+        return change;
+      };
+
+      Vector<double> X_plain  = start();
+      auto           plain    = problem.make_newton(data);
+      plain.active_set        = active_set;
+      const auto plain_report = plain.solve(X_plain);
+      expect_solution(problem, X_plain);
+
+      Vector<double> X      = start();
+      auto           newton = problem.make_newton(data);
+      newton.active_set     = active_set;
+      newton.set_smoothing  = [&](const Vector<double> &X, const double mu) {
+        problem.set_smoothing(X, mu);
+      };
+      const auto report = newton.solve(X);
+      expect_solution(problem, X);
+      for (unsigned int i = 0; i < 2 * n; ++i)
+        EXPECT_NEAR(X(i), X_plain(i), 1e-10)
+          << ComplementarityFunction(type).name();
+      EXPECT_GT(report.continuation_start, 0u);
+      EXPECT_EQ(plain_report.continuation_start, 0u);
+      // It stops on the residual of C, not of the smoothing.
+      EXPECT_LE(report.final_residual.complementarity, data.tolerance);
+      std::cout << ComplementarityFunction(type).name() << ": "
+                << plain_report.iterations << " plain steps, "
+                << report.iterations << " with the continuation (after step "
+                << report.continuation_start << ")" << std::endl;
+      EXPECT_LE(report.iterations, 25u) << ComplementarityFunction(type).name();
+      if (type == ComplementarityFunction::Type::min)
+        {
+          EXPECT_GE(plain_report.iterations, 35u);
+        }
+    }
 }

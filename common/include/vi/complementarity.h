@@ -67,5 +67,24 @@ namespace VI
     /// True if 1/2 |C|^2 is continuously differentiable (Fischer-Burmeister).
     bool
     has_smooth_merit_function() const;
+
+    /**
+     * The smoothing C_mu of C (mu > 0), on dimensionless arguments x, y:
+     *
+     * - min: (x + y - sqrt((x - y)^2 + 4 mu^2)) / 2 (Chen-Harker-Kanzow-Smale);
+     * - Fischer-Burmeister: sqrt(x^2 + y^2 + 2 mu^2) - x - y (Kanzow).
+     *
+     * Both are smooth, tend to C as mu -> 0 (|C_mu - C| <= mu), and vanish
+     * exactly on the central path x > 0, y > 0, x y = mu^2, so that the
+     * smoothed system has a unique solution that tends to the solution of
+     * the inequality. This is the homotopy of the continuation with which
+     * SemismoothNewton recovers from a stalled active set.
+     */
+    double
+    smoothed_value(const double x, const double y, const double mu) const;
+
+    /// The gradient (dC_mu/dx, dC_mu/dy) of smoothed_value().
+    std::array<double, 2>
+    smoothed_gradient(const double x, const double y, const double mu) const;
   };
 } // namespace VI

@@ -8,6 +8,7 @@
 #include <vi/complementarity.h>
 #include <vi/semismooth_newton.h>
 
+#include <array>
 #include <vector>
 
 namespace VI
@@ -52,11 +53,40 @@ namespace VI
      * balance the load (|F| / max D), so that round-off in X3 is not mistaken
      * for a violation when there is no contact at all.
      */
-    double
+    /// With smoothing (set_smoothing()) the rows are those of C_mu, and
+    /// `norms.smoothed_complementarity` is their dimensionless maximum;
+    /// `norms.complementarity` is always that of C.
+    void
     evaluate(const ComplementarityFunction               &C,
              const dealii::TrilinosWrappers::MPI::Vector &X,
              const double                                 multiplier_scale,
-             dealii::TrilinosWrappers::MPI::Vector       &R) const;
+             dealii::TrilinosWrappers::MPI::Vector       &R,
+             ResidualNorms                               &norms) const;
+
+    /**
+     * Smooth the constraint rows with the parameter mu > 0, or return to C
+     * with mu = 0 (SemismoothNewton::set_smoothing). The smoothed row of
+     * node i is U C_mu(a_i / U, b_i / B), with the scales U and B of
+     * evaluate() taken at X when smoothing starts and kept while it lasts,
+     * so that mu is dimensionless and the homotopy does not move with the
+     * iterate.
+     */
+    void
+    set_smoothing(const double                                 mu,
+                  const dealii::TrilinosWrappers::MPI::Vector &X,
+                  const double multiplier_scale);
+
+    /// The row function at one node, C(a, b) or U C_mu(a / U, b / B).
+    double
+    row_value(const ComplementarityFunction &C,
+              const double                   a,
+              const double                   b) const;
+
+    /// Its gradient (d/da, d/db): an element of the generalised Jacobian.
+    std::array<double, 2>
+    row_gradient(const ComplementarityFunction &C,
+                 const double                   a,
+                 const double                   b) const;
 
     /**
      * Write the rows w_i (dC/da, -dC/da, dC/db) of an element of the
@@ -110,6 +140,21 @@ namespace VI
                 dealii::TrilinosWrappers::MPI::Vector       &indicator) const;
 
   private:
+    /// U = max_i max(|X1_i|, |X2_i|) and B = max(max_i |X3_i|,
+    /// multiplier_scale) over all processes (see evaluate()).
+    std::array<double, 2>
+    scales(const dealii::TrilinosWrappers::MPI::Vector &X,
+           const double                                 multiplier_scale) const;
+
+    /// Whether a row with gradient g (row_gradient()) mainly enforces
+    /// u1 = u2: |dC/dx| >= |dC/dy| in the dimensionless arguments.
+    bool
+    enforces_gap(const std::array<double, 2> &g) const;
+
+    /// The smoothing parameter (0: none) and the frozen scales U, B
+    /// (1 without smoothing, so that the rows are C(a, b) bit for bit).
+    double mu = 0., U = 1., B = 1.;
+
     std::vector<dealii::types::global_dof_index> node_indices;
     /// Position of each node among the locally owned nodes.
     std::vector<std::size_t> positions;

@@ -167,6 +167,7 @@ namespace VI
     unsigned int max_iterations   = 50;
     double       tolerance        = 1e-10;
     unsigned int watchdog_steps   = 8;
+    bool         continuation     = true;
     bool         nested_iteration = true;
     std::string  initial_guess    = "zero";
 

@@ -19,6 +19,9 @@ namespace VI
   {
     double equations       = 0.;
     double complementarity = 0.;
+    /// That of the rows Newton solves: the smoothed C-function's during the
+    /// continuation (SemismoothNewton::set_smoothing), else complementarity.
+    double smoothed_complementarity = 0.;
 
     bool
     is_finite() const;
@@ -53,6 +56,8 @@ namespace VI
     /// its reference iterate (AdditionalData::watchdog_steps)
     double       step_length       = 1.;
     unsigned int linear_iterations = 0;
+    /// The smoothing parameter mu of the step's rows (0: the C-function)
+    double smoothing = 0.;
     /// of the step's linearisation, if the problem reports it (active_set)
     bool            has_active_set = false;
     ActiveSetChange active_set     = {};
@@ -76,6 +81,9 @@ namespace VI
     ResidualNorms           initial_residual  = {};
     ResidualNorms           final_residual    = {};
     std::vector<NewtonStep> steps;
+    /// The step after which the stalled active set started the
+    /// continuation (0: plain semismooth Newton converged by itself)
+    unsigned int continuation_start = 0;
   };
 
 
@@ -92,6 +100,25 @@ namespace VI
    * theta = 1/2 |R|^2 decreases by the Armijo factor (1 - 2 sigma t): this is
    * the globalisation used with Fischer-Burmeister, whose merit function is
    * continuously differentiable.
+   *
+   * Plain semismooth Newton-min is the primal-dual active set method, and on
+   * a fine mesh it can need a number of steps that grows with the mesh: where
+   * the load presses the membranes together but the boundary data hold them
+   * apart, the active set from a cold start covers the whole domain and
+   * loses one ring of nodes per step (O(1/h) steps), since each step only
+   * sees the multiplier change sign next to the free nodes. No line search
+   * can help, the direction itself is too local. When the problem provides
+   * set_smoothing(), a stalled active set (see AdditionalData::stall_ratio)
+   * starts a continuation instead: Newton follows the central path of the
+   * smoothed C-function C_mu (ComplementarityFunction::smoothed_value),
+   * whose Jacobian couples the gap and the multiplier at every node where
+   * both are below mu, so that a step moves the contact zone by a distance
+   * of order one, not a mesh width. mu falls with the length of each step
+   * (see solve()), a nonmonotone line search on 1/2 |R_mu|^2 keeps the
+   * steps safe, and once mu is below the tolerance the last steps use C
+   * itself, so that the iterate solves the unsmoothed system to the
+   * tolerance (doc/reference.md, "Continuation").
+   * Where plain Newton converges, nothing of this runs.
    *
    * The class knows nothing of meshes or finite elements: a problem plugs in
    * through the three callbacks below, in the manner of deal.II's interfaces
@@ -126,6 +153,25 @@ namespace VI
       unsigned int watchdog_steps = 0;
       /// Used in failure messages, e.g. "semismooth Newton-min".
       std::string name = "semismooth Newton";
+      /// The active set stalls when `stall_steps` steps in a row switch
+      /// rows and shrink the complementarity residual by less than
+      /// `stall_ratio` each (superlinear convergence shrinks it by far
+      /// more). Six steps: no plain run of the test suite is touched (cold
+      /// starts on coarse meshes converge while still slow, e.g. the disk
+      /// of 768 cells in 8 steps); five would change seven of them.
+      double       stall_ratio = 0.5;
+      unsigned int stall_steps = 6;
+      /// Whether a stalled active set starts the continuation (if the
+      /// problem provides set_smoothing). From `Nonlinear solver`: its
+      /// `Continuation`, with Newton-min only.
+      bool continuation = true;
+      /// Factor by which a full step of the continuation reduces mu.
+      double smoothing_reduction = 0.1;
+      /// mu stays above this factor times the smoothed residual.
+      double neighbourhood_factor = 0.1;
+      /// The continuation's line search compares with the largest merit
+      /// of this many last steps (1: monotone).
+      unsigned int nonmonotone_window = 5;
     };
 
     explicit SemismoothNewton(const AdditionalData &data);
@@ -150,6 +196,14 @@ namespace VI
      * ActiveSetChange); reported with each step.
      */
     std::function<ActiveSetChange(const VectorType &X, bool first)> active_set;
+
+    /**
+     * Optional: make residual() and setup_jacobian() use the smoothed
+     * C-function C_mu (mu > 0) from now on, with scales taken at X, or C
+     * again (mu = 0). A problem that provides it is recovered from a
+     * stalled active set by the continuation described above.
+     */
+    std::function<void(const VectorType &X, double mu)> set_smoothing;
 
     /// Optional: called after every accepted step (progress output).
     std::function<void(const NewtonStep &)> monitor;
@@ -178,6 +232,57 @@ namespace VI
     solve(VectorType &X) const;
 
   private:
+    /// The watchdog's reference iterate and merit, the full steps taken
+    /// since it without the test, and whether the iteration has just
+    /// returned to it (then the next step backtracks).
+    struct Watchdog
+    {
+      VectorType   X_reference;
+      double       theta_reference = 0;
+      unsigned int relaxed_steps   = 0;
+      bool         returned        = false;
+    };
+
+    /// X += t dX with the step length t of plain semismooth Newton: 1, or
+    /// that of the line search and its watchdog; R and norms at the new X.
+    double
+    plain_step(VectorType        &X,
+               const VectorType  &dX,
+               VectorType        &R,
+               ResidualNorms     &norms,
+               Watchdog          &watchdog,
+               const unsigned int k) const;
+
+    /// X += t dX on the smoothed system, with t halved until 1/2 |R|^2
+    /// falls below the largest of its last values (`merits`).
+    double
+    continuation_step(VectorType          &X,
+                      const VectorType    &dX,
+                      VectorType          &R,
+                      ResidualNorms       &norms,
+                      std::vector<double> &merits,
+                      const unsigned int   k) const;
+
+    /// X = `trial` = X + t dX with t = 1, 1/2, 1/4, ... until 1/2 |R|^2
+    /// <= (1 - 2 armijo_parameter t) theta_reference, or t = 1 if
+    /// `certified`; R and norms at the new X. `search` names the search in
+    /// the failure message.
+    double
+    backtrack(VectorType        &X,
+              const VectorType  &dX,
+              VectorType        &trial,
+              VectorType        &R,
+              ResidualNorms     &norms,
+              const double       theta_reference,
+              const bool         certified,
+              const std::string &search,
+              const unsigned int k) const;
+
+    /// Whether the last stall_steps steps switched rows of the active set
+    /// without shrinking the complementarity residual by stall_ratio.
+    bool
+    stalled(const NewtonReport &report) const;
+
     bool
     converged(const ResidualNorms &norms) const;
 
