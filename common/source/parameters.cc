@@ -380,7 +380,7 @@ namespace VI
                       "tolerance (doc/reference.md, Continuation). false: "
                       "plain semismooth Newton throughout. "
                       "Fischer-Burmeister keeps its line search (the "
-                      "continuation cost it steps, doc/stress.md), and "
+                      "continuation costs it steps, doc/stress.md), and "
                       "step-twophase has no smoothed rows.");
     prm.declare_entry("Nested iteration",
                       "true",

@@ -42,7 +42,7 @@ namespace VI
       , watchdog_steps(parameters.watchdog_steps)
       , name("semismooth Newton-" + C.name())
       // Fischer-Burmeister converges from cold starts with its line
-      // search; the continuation cost it steps there (doc/stress.md).
+      // search; the continuation costs it steps (doc/stress.md).
       , continuation(parameters.continuation && !C.has_smooth_merit_function())
   {
   }
@@ -106,15 +106,8 @@ namespace VI
     ResidualNorms norms     = residual(X, R);
     report.initial_residual = norms;
 
-    Watchdog   watchdog;
-    const auto restart_watchdog = [&]() {
-      watchdog.X_reference.reinit(X);
-      watchdog.X_reference     = X;
-      watchdog.theta_reference = 0.5 * R.norm_sqr();
-      watchdog.relaxed_steps   = 0;
-      watchdog.returned        = false;
-    };
-    restart_watchdog();
+    Watchdog watchdog;
+    watchdog.restart(X, 0.5 * R.norm_sqr());
 
     bool                criterion_met = false;
     double              mu = 0.; // the continuation's smoothing parameter
@@ -196,7 +189,7 @@ namespace VI
             set_smoothing(X, mu);
             norms = residual(X, R);
             if (mu == 0)
-              restart_watchdog();
+              watchdog.restart(X, 0.5 * R.norm_sqr());
           }
       }
 
@@ -240,11 +233,7 @@ namespace VI
         const double theta = 0.5 * R.norm_sqr();
         if (std::isfinite(theta) && theta <= (1. - 2. * data.armijo_parameter) *
                                                watchdog.theta_reference)
-          {
-            watchdog.X_reference     = X;
-            watchdog.theta_reference = theta;
-            watchdog.relaxed_steps   = 0;
-          }
+          watchdog.restart(X, theta);
         else if (++watchdog.relaxed_steps == data.watchdog_steps ||
                  !std::isfinite(theta))
           {
@@ -266,10 +255,7 @@ namespace VI
                 certified,
                 "the line search on the merit function",
                 k);
-    watchdog.X_reference     = X;
-    watchdog.theta_reference = 0.5 * R.norm_sqr();
-    watchdog.relaxed_steps   = 0;
-    watchdog.returned        = false;
+    watchdog.restart(X, 0.5 * R.norm_sqr());
     return step_length;
   }
 

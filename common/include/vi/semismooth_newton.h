@@ -158,7 +158,7 @@ namespace VI
       /// `stall_ratio` each (superlinear convergence shrinks it by far
       /// more). Six steps: no plain run of the test suite is touched (cold
       /// starts on coarse meshes converge while still slow, e.g. the disk
-      /// of 768 cells in 8 steps); five would change seven of them.
+      /// of 768 cells in 8 steps).
       double       stall_ratio = 0.5;
       unsigned int stall_steps = 6;
       /// Whether a stalled active set starts the continuation (if the
@@ -241,6 +241,18 @@ namespace VI
       double       theta_reference = 0;
       unsigned int relaxed_steps   = 0;
       bool         returned        = false;
+
+      /// X, with merit theta, is the new reference.
+      void
+      restart(const VectorType &X, const double theta)
+      {
+        if (X_reference.size() != X.size())
+          X_reference.reinit(X, /*omit_zeroing_entries=*/true);
+        X_reference     = X;
+        theta_reference = theta;
+        relaxed_steps   = 0;
+        returned        = false;
+      }
     };
 
     /// X += t dX with the step length t of plain semismooth Newton: 1, or
