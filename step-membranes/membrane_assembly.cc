@@ -67,14 +67,30 @@ namespace StepMembranes
                   << " distinct patch matrices" << std::endl;
           }
         cell_multiplier.reset();
-        if (fe.degree > 1 &&
-            parameters.estimators.multiplier == "contact cells")
+        // (the transmitted load distributes the moments the cellwise way,
+        // on the cells of J, also for p = 1)
+        const bool transmitted =
+          parameters.estimators.uses_transmitted_load(data.mu1,
+                                                      data.mu2,
+                                                      fe.degree);
+        if ((fe.degree > 1 &&
+             parameters.estimators.multiplier == "contact cells") ||
+            transmitted)
           {
             cell_multiplier = std::make_unique<VI::CellMultiplier<dim>>();
             cell_multiplier->reinit(*mapping,
                                     dof_handler,
                                     u1_constraints,
                                     flux_reconstruction->get_quadrature());
+          }
+        transmitted_load.reset();
+        if (transmitted)
+          {
+            transmitted_load = std::make_unique<VI::TransmittedLoad<dim>>();
+            transmitted_load->reinit(*mapping,
+                                     dof_handler,
+                                     u1_constraints,
+                                     flux_reconstruction->get_quadrature());
           }
         dual_norm.reset();
         if (parameters.estimators.needs_dual_norm_bound())

@@ -47,24 +47,60 @@ namespace StepMembranes
     Vector moments(owned_nodes, comm);
     VI::NodalFields::extract(X, multiplier, moments);
     moments.scale(contact_system.coupling());
+
+    // The transmitted load g on the joined cells J takes its moments G
+    // from lambda_h, and the cone reconstruction joins the membranes on J.
+    typename VI::TransmittedLoad<dim>::Split split;
+    const Vector                            *offset = nullptr;
+    Vector                                   load_nodes;
+    if (transmitted_load)
+      {
+        transmitted_load->split(data.mu1,
+                                data.mu2,
+                                load_values[0],
+                                load_values[1],
+                                contact,
+                                it.s1,
+                                it.s2,
+                                split);
+        offset           = &split.node_moments;
+        it.joined_cells  = std::move(split.joined_cells);
+        Vector joined[2] = {owned[2], owned[3]};
+        VI::join_at_nodes(
+          data.mu1, data.mu2, split.joined_nodes, joined[0], joined[1]);
+        for (unsigned int a = 0; a < 2; ++a)
+          hanging_node_constraints.distribute(joined[a]);
+        ghosted_nodes.copy(joined[0], it.s1_joined);
+        ghosted_nodes.copy(joined[1], it.s2_joined);
+        // (the moments shared on the cells of J)
+        ghosted_nodes.copy(split.load_nodes, load_nodes);
+      }
+
     if (cell_multiplier)
       {
         // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i).
         Vector gap(owned[0]);
         gap -= owned[1];
         it.complementarity = 2. * (moments * gap);
-        Vector m;
-        ghosted_nodes.copy(moments, m);
-        cell_multiplier->distribute(m, contact, it.lambda_cells);
+        Vector m, shifted(moments);
+        if (offset)
+          shifted -= *offset;
+        ghosted_nodes.copy(shifted, m);
+        // (on the joined cells with the transmitted load)
+        const Vector &share_on = transmitted_load ? load_nodes : contact;
+        cell_multiplier->distribute(m, share_on, it.lambda_cells);
         for (double &value : moments)
           value = std::max(value, 0.);
+        if (offset)
+          moments -= *offset;
         ghosted_nodes.copy(moments, m);
-        cell_multiplier->distribute(m, contact, it.lambda_nonnegative_cells);
+        cell_multiplier->distribute(m, share_on, it.lambda_nonnegative_cells);
       }
     else
       multiplier_function.with_nonnegative_part(moments,
                                                 it.lambda,
-                                                it.lambda_nonnegative);
+                                                it.lambda_nonnegative,
+                                                offset);
 
     // r_h from the residual F - E X of the rows of u1 and u2.
     residual_functions(contact_system, multiplier_function, X, it.r1, it.r2);
@@ -98,6 +134,7 @@ namespace StepMembranes
                 flux_reconstruction->get_quadrature(),
                 update_values | update_gradients),
               lambda_values = std::vector<double>(quadrature.size()),
+              g_values      = std::vector<double>(quadrature.size()),
               r_values      = std::vector<double>(quadrature.size()),
               coefficients  = std::vector<double>()](const auto &cell,
                                                     auto       &flux,
@@ -108,6 +145,17 @@ namespace StepMembranes
                                                                 &dof_handler);
         FEValues<dim>                                 &values = *values_of;
         values.reinit(dof_cell);
+        // g on the joined cells, zero elsewhere
+        const unsigned int index  = cell->active_cell_index();
+        const bool         joined = transmitted_load && it.joined_cells[index];
+        for (unsigned int q = 0; q < g_values.size(); ++q)
+          g_values[q] = joined ?
+                          VI::TransmittedLoad<dim>::value(
+                            data.mu1,
+                            data.mu2,
+                            load_values[0][index * g_values.size() + q],
+                            load_values[1][index * g_values.size() + q]) :
+                          0.;
         if (cell_multiplier)
           cell_multiplier->values(it.lambda_cells,
                                   cell->active_cell_index(),
@@ -125,17 +173,30 @@ namespace StepMembranes
                           cell->active_cell_index() * source[a].size(),
                         source[a].size(),
                         source[a].begin());
+            // (p = 1 lumps the residual, and lambda_h unless the cellwise
+            // multiplier takes it)
+            const bool multiplier_at_points = cell_multiplier || !lumped;
+            for (unsigned int q = 0; q < source[a].size(); ++q)
+              source[a][q] -=
+                sign[a] *
+                (g_values[q] + (multiplier_at_points ? lambda_values[q] : 0.));
             if (!lumped)
               {
                 VI::cell_function_values(
                   values, dof_cell, *r[a], coefficients, &r_values);
                 for (unsigned int q = 0; q < source[a].size(); ++q)
-                  source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+                  source[a][q] -= r_values[q];
               }
           }
       };
     };
-    if (lumped)
+    if (lumped && cell_multiplier)
+      // (the multiplier at the points, the residual lumped)
+      sources.vertex_source = [&](const unsigned int vertex,
+                                  const unsigned int alpha) {
+        return -(*r[alpha])(vertex_dofs[vertex]);
+      };
+    else if (lumped)
       sources.vertex_source = lumped_sources(it.lambda, it.r1, it.r2);
     flux_reconstruction->reconstruct(sources, {&it.sigma1, &it.sigma2});
     it.has_fluxes = true;
@@ -210,6 +271,13 @@ namespace StepMembranes
         in.lambda_ahead_cells       = &ahead.lambda_cells;
         in.complementarity          = it.complementarity;
       }
+    if (transmitted_load)
+      {
+        in.joined_cells       = &it.joined_cells;
+        in.joined_cells_ahead = &ahead.joined_cells;
+        in.s1_joined          = &it.s1_joined;
+        in.s2_joined          = &it.s2_joined;
+      }
     return VI::estimate_contact_error(in);
   }
 
@@ -222,7 +290,7 @@ namespace StepMembranes
   {
     Iterate it;
     Vector  contact;
-    if (cell_multiplier)
+    if (cell_multiplier || transmitted_load)
       contact_nodes(X, contact);
     describe_iterate(X, contact, it);
     return estimate(it, it, equilibrated);

@@ -36,6 +36,7 @@
 #include <vi/stationary_problem.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
+#include <vi/transmitted_load.h>
 
 #include <functional>
 #include <map>
@@ -133,6 +134,9 @@ namespace StepMembranes
       /// `lambda_nonnegative` stay empty), and 2 <lambda_h, u1h - u2h>_h.
       std::vector<double> lambda_cells, lambda_nonnegative_cells;
       double              complementarity = 0;
+      /// With the transmitted load: the joined cells and potentials.
+      std::vector<std::uint8_t> joined_cells;
+      Vector                    s1_joined, s2_joined;
       /// Whether sigma1, sigma2 were reconstructed (see add_fluxes()).
       bool has_fluxes = false;
     };
@@ -269,6 +273,9 @@ namespace StepMembranes
     /// The multiplier of the estimate on the contact cells (p >= 2 and
     /// `Estimators/Multiplier = contact cells`; null otherwise).
     std::unique_ptr<VI::CellMultiplier<dim>> cell_multiplier;
+    /// The transmitted load of the estimate's multiplier on the joined
+    /// cells (Estimators/Transmitted load; null otherwise).
+    std::unique_ptr<VI::TransmittedLoad<dim>> transmitted_load;
     /// The equilibrated bound of the undershoots' dual norm, if asked for
     /// (Estimators/Equilibrated dual norms); after flux_reconstruction, which
     /// it refers to.

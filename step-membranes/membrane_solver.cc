@@ -50,7 +50,7 @@ namespace StepMembranes
       contact_system.make_newton(parameters.output.verbose ? &pcout : nullptr);
     newton.setup_jacobian = [&](const Vector &X) {
       stopping.start_step(X);
-      if (cell_multiplier)
+      if (cell_multiplier || transmitted_load)
         contact_nodes(X, step_contact_nodes);
       contact_system.setup_jacobian(X);
     };

@@ -11,6 +11,7 @@
 #include <vi/estimators.h>
 #include <vi/piola_divergence.h>
 #include <vi/same_cell.h>
+#include <vi/transmitted_load.h>
 
 #include "contact_estimator_internal.h"
 
@@ -86,7 +87,13 @@ namespace VI
                             &sigma_ahead[a],
                             &grad_G[a]})
               v->resize(n_q);
-            for (auto *v : {&u[a], &s[a], &r_ahead[a], &div_ahead[a], &G[a]})
+            grad_s_joined[a].resize(n_q);
+            for (auto *v : {&u[a],
+                            &s[a],
+                            &s_joined[a],
+                            &r_ahead[a],
+                            &div_ahead[a],
+                            &G[a]})
               v->resize(n_q);
             // Zero for steady problems.
             dt_u[a].assign(n_q, 0.);
@@ -119,11 +126,12 @@ namespace VI
       PiolaDivergence<dim> divergence;
       std::vector<double>  sigma_coefficients, potential_coefficients,
         unused_divergences;
-      std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
-        sigma_ahead[2], grad_G[2];
-      std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], dt_u[2],
-        dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative, lambda_ahead,
-        s_coefficients;
+      // (s_joined: the potentials s~ is built from, s or s_J)
+      std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], grad_s_joined[2],
+        sigma_disc[2], sigma_ahead[2], grad_G[2];
+      std::vector<double> u[2], s[2], s_joined[2], r_ahead[2], div_ahead[2],
+        dt_u[2], dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative,
+        lambda_ahead, s_coefficients;
       std::vector<std::unique_ptr<FEValues<dim>>> face_values;
     };
 
@@ -160,6 +168,7 @@ namespace VI
           , load_values{in.f1_values, in.f2_values}
           , dt_vectors{in.dt_u1, in.dt_u2}
           , dt_ahead_vectors{in.dt_u1_ahead, in.dt_u2_ahead}
+          , joined_potentials{in.s1_joined, in.s2_joined}
           , lifting(in.g1 && in.g2)
           , own_look_ahead(in.sigma1_ahead == in.sigma1_disc &&
                            in.sigma2_ahead == in.sigma2_disc &&
@@ -178,6 +187,11 @@ namespace VI
         Assert((in.dt_u1 && in.dt_u2 && in.dt_u1_ahead && in.dt_u2_ahead) ||
                  !(in.dt_u1 || in.dt_u2 || in.dt_u1_ahead || in.dt_u2_ahead),
                ExcMessage("Give all four time derivatives, or none."));
+        AssertThrow(!in.joined_cells ||
+                      (in.joined_cells_ahead && in.f1_values && in.f2_values &&
+                       in.s1_joined && in.s2_joined),
+                    ExcMessage("The transmitted load needs the loads' values "
+                               "and the joined potentials."));
         AssertThrow(with_fluxes ||
                       (own_look_ahead &&
                        !(in.dual_norm && in.dual_norm_undershoots)),
@@ -329,6 +343,7 @@ namespace VI
             values(*in.lambda, scratch.lambda);
             values(*in.lambda_nonnegative, scratch.lambda_nonnegative);
           }
+        add_transmitted_load(index, scratch.lambda, scratch.lambda_nonnegative);
         add_multiplier_terms(lean.get_JxW_values(),
                              potential_cell->diameter(),
                              index,
@@ -456,8 +471,60 @@ namespace VI
                                    potential_coefficients,
                                    &lambda_ahead);
           }
+        const auto index = potential_cell->active_cell_index();
+        if (own_look_ahead)
+          add_transmitted_load(index, lambda, lambda_nonnegative);
+        else
+          add_transmitted_load(index,
+                               lambda,
+                               lambda_nonnegative,
+                               &lambda_ahead);
         if (own_look_ahead)
           lambda_ahead = lambda;
+
+        // The potentials of the cone reconstruction.
+        for (unsigned int a = 0; a < 2; ++a)
+          if (joined_potentials[a])
+            cell_function_values(potential_values,
+                                 potential_cell,
+                                 *joined_potentials[a],
+                                 potential_coefficients,
+                                 &scratch.s_joined[a],
+                                 &scratch.grad_s_joined[a]);
+          else
+            {
+              scratch.s_joined[a]      = s[a];
+              scratch.grad_s_joined[a] = grad_s[a];
+            }
+      }
+
+      // On the joined cells, the transmitted load g (TransmittedLoad) is
+      // part of the multipliers.
+      void
+      add_transmitted_load(const unsigned int   index,
+                           std::vector<double> &lambda,
+                           std::vector<double> &lambda_nonnegative,
+                           std::vector<double> *lambda_ahead = nullptr) const
+      {
+        if (!in.joined_cells)
+          return;
+        const bool here  = (*in.joined_cells)[index],
+                   ahead = lambda_ahead && (*in.joined_cells_ahead)[index];
+        for (unsigned int q = 0; q < n_q && (here || ahead); ++q)
+          {
+            const double g =
+              TransmittedLoad<dim>::value(mu[0],
+                                          mu[1],
+                                          (*load_values[0])[index * n_q + q],
+                                          (*load_values[1])[index * n_q + q]);
+            if (here)
+              {
+                lambda[q] += g;
+                lambda_nonnegative[q] += g;
+              }
+            if (ahead)
+              (*lambda_ahead)[q] += g;
+          }
       }
 
       // G = sum over boundary faces F of delta_F(t) (1 - n) in the
@@ -489,6 +556,8 @@ namespace VI
               grad_u[a][q] += grad_G[a][q];
               s[a][q] += G[a][q];
               grad_s[a][q] += grad_G[a][q];
+              scratch.s_joined[a][q] += G[a][q];
+              scratch.grad_s_joined[a][q] += grad_G[a][q];
             }
       }
 
@@ -572,28 +641,33 @@ namespace VI
       {
         const FEValues<dim> &potential_values = scratch.potential_values;
         const auto          &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
-                   &grad_G           = scratch.grad_G;
-        const auto                &u = scratch.u, &s = scratch.s;
+                   &grad_G = scratch.grad_G;
+        const auto &u      = scratch.u;
+        const auto &s = scratch.s_joined, &grad_j = scratch.grad_s_joined;
         const std::vector<double> &lambda = scratch.lambda;
-        // Non-conformity: s~ = s + (theta w, -(1 - theta) w), w = (s2 - s1)^+,
-        // is in the cone; s - u_h vanishes once Newton has converged.
+        // Non-conformity: s~ = s_J + (theta w, -(1 - theta) w), w = (s_J,2 -
+        // s_J,1)^+, is in the cone (s_J = s_h without joined cells); s_h -
+        // u_h vanishes once Newton has converged, s~ - s_h is a
+        // discretisation term.
         for (unsigned int q = 0; q < n_q; ++q)
           {
             const double         dx     = potential_values.JxW(q);
             const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
-                                            grad_s[1][q] - grad_s[0][q] :
+                                            grad_j[1][q] - grad_j[0][q] :
                                             Tensor<1, dim>();
             const Tensor<1, dim> d1     = grad_s[0][q] - grad_u[0][q],
                                  d2     = grad_s[1][q] - grad_u[1][q];
-            cell[ContactSum::nonc_total] +=
-              (mu[0] * (d1 + theta * grad_w).norm_square() +
-               mu[1] * (d2 - (1 - theta) * grad_w).norm_square()) *
-              dx;
+            const Tensor<1, dim> j1 =
+                                   grad_j[0][q] - grad_s[0][q] + theta * grad_w,
+                                 j2 = grad_j[1][q] - grad_s[1][q] -
+                                      (1 - theta) * grad_w;
+            cell[ContactSum::nonc_total] += (mu[0] * (d1 + j1).norm_square() +
+                                             mu[1] * (d2 + j2).norm_square()) *
+                                            dx;
             cell[ContactSum::nonc_lin] +=
               (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
             cell[ContactSum::nonc_disc] +=
-              (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
-              grad_w.norm_square() * dx;
+              (mu[0] * j1.norm_square() + mu[1] * j2.norm_square()) * dx;
 
             const double positive_part = std::max(lambda[q], 0.);
             const double gap           = u[0][q] - u[1][q];
@@ -619,6 +693,7 @@ namespace VI
         *ahead_vectors[2];
       const std::vector<double>           *load_values[2];
       const TrilinosWrappers::MPI::Vector *dt_vectors[2], *dt_ahead_vectors[2];
+      const TrilinosWrappers::MPI::Vector *joined_potentials[2];
       // The lifting G of g - I_h g on the cells at the boundary (see
       // add_lifting()) needs the values of u_h, g and the mapping on
       // the boundary faces, at the points that share the tangential

@@ -56,17 +56,22 @@ namespace VI
   void
   MultiplierFunction::with_nonnegative_part(const Vector &moments,
                                             Vector       &lambda,
-                                            Vector &lambda_nonnegative) const
+                                            Vector       &lambda_nonnegative,
+                                            const Vector *offset) const
   {
     const IndexSet owned = moments.locally_owned_elements();
     const MPI_Comm comm  = moments.get_mpi_communicator();
-    Vector         function(owned, comm);
-    from_moments(moments, function);
+    Vector         function(owned, comm), shifted(moments);
+    if (offset)
+      shifted -= *offset;
+    from_moments(shifted, function);
     ghosts.copy(function, lambda);
 
     Vector nonnegative(moments);
     for (double &m : nonnegative)
       m = std::max(m, 0.);
+    if (offset)
+      nonnegative -= *offset;
     from_moments(nonnegative, function);
     ghosts.copy(function, lambda_nonnegative);
   }

@@ -166,6 +166,17 @@ namespace VI
                               *lambda_ahead_cells       = nullptr;
     double complementarity                              = 0;
 
+    /// Optional (TransmittedLoad): the cells J, by active cell index, on
+    /// which the multiplier of the estimate is g plus the one above,
+    /// g = (mu1 f2 - mu2 f1) / (mu1 + mu2) from f1_values and f2_values,
+    /// and those of the look-ahead (J depends on the iterate); and the
+    /// joined potentials s_J (s_h with the tension-weighted mean at the
+    /// nodes of the joined cells), from which the cone reconstruction s~ is
+    /// built instead of s_h. |||s~ - s_h||| is a discretisation term.
+    const std::vector<std::uint8_t> *joined_cells       = nullptr,
+                                    *joined_cells_ahead = nullptr;
+    const Vector *s1_joined = nullptr, *s2_joined = nullptr;
+
     // The look-ahead.
     const Vector *lambda_ahead = nullptr;
     const Vector *r1_ahead = nullptr, *r2_ahead = nullptr;

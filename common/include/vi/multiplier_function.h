@@ -40,11 +40,14 @@ namespace VI
     from_moments(const Vector &moments, Vector &v) const;
 
     /// lambda_h and the function of the nonnegative moments max(m, 0) (the
-    /// multiplier of the discretisation estimate), both with ghosts.
+    /// multiplier of the discretisation estimate), both with ghosts; with
+    /// an `offset` G, the functions of m - G and max(m, 0) - G (the moments
+    /// a TransmittedLoad leaves).
     void
     with_nonnegative_part(const Vector &moments,
                           Vector       &lambda,
-                          Vector       &lambda_nonnegative) const;
+                          Vector       &lambda_nonnegative,
+                          const Vector *offset = nullptr) const;
 
   private:
     const unsigned int                            degree;

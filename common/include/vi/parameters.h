@@ -245,6 +245,20 @@ namespace VI
     /// The estimate each solve ends with computed once more with both dual
     /// norms bounded by equilibration; the smaller bound is reported.
     bool sharpen_final = false;
+    /// Estimators/Transmitted load: whether the estimate's multiplier
+    /// carries the transmitted load on the joined cells (TransmittedLoad).
+    enum class TransmittedLoad
+    {
+      automatic, ///< for tensions more than 10 times apart
+      always,
+      never
+    } transmitted_load = TransmittedLoad::automatic;
+    /// Whether an estimate of FEM of degree p with tensions mu1, mu2 uses
+    /// the transmitted load (for p >= 2 only with the cellwise multiplier).
+    bool
+    uses_transmitted_load(const double       mu1,
+                          const double       mu2,
+                          const unsigned int p) const;
     bool
     equilibrated_dual_norms() const
     {
