@@ -1,0 +1,216 @@
+// The transmitted load of the estimate (VI::TransmittedLoad): the moments G
+// it takes from lambda_h are those of g 1_J against every conforming vertex
+// hat, also on meshes with hanging nodes and for Q2 (so that lambda~ = g 1_J
+// + the multiplier of m - G keeps the moments the patch problems need), and
+// the joined potentials have no gap at the nodes of the joined cells.
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_q.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_q.h>
+#include <deal.II/grid/grid_generator.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/vector.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <vi/transmitted_load.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+namespace
+{
+  using namespace dealii;
+  using TrilinosVector = TrilinosWrappers::MPI::Vector;
+
+  // Q_p on the unit square refined twice, one cell once more (hanging
+  // nodes), Dirichlet nodes on the boundary; loads f1, f2 that jump across
+  // a circle, a contact set inside it and a gap outside.
+  struct Setting
+  {
+    explicit Setting(const unsigned int degree)
+        : fe(degree)
+        , dofs(tria)
+        , quadrature(degree + 3)
+    {
+      GridGenerator::hyper_cube(tria);
+      tria.refine_global(3);
+      for (const auto &cell : tria.active_cell_iterators())
+        if (cell->center().distance(Point<2>(0.5, 0.5)) < 0.2)
+          cell->set_refine_flag();
+      tria.execute_coarsening_and_refinement();
+      dofs.distribute_dofs(fe);
+      DoFTools::make_hanging_node_constraints(dofs, no_moment);
+      VectorTools::interpolate_boundary_values(dofs,
+                                               0,
+                                               Functions::ZeroFunction<2>(),
+                                               no_moment);
+      no_moment.close();
+      load.reinit(mapping, dofs, no_moment, quadrature);
+
+      FEValues<2> values(mapping, fe, quadrature, update_quadrature_points);
+      for (const auto &cell : dofs.active_cell_iterators())
+        {
+          values.reinit(cell);
+          for (const Point<2> &x : values.get_quadrature_points())
+            {
+              const bool inside = x.distance(Point<2>(0.45, 0.5)) < 0.3;
+              f1.push_back(inside ? -2. : 0.3 * x[0]);
+              f2.push_back(inside ? 2. + x[1] : 0.);
+            }
+        }
+
+      const auto            all = complete_index_set(dofs.n_dofs());
+      std::vector<Point<2>> support(dofs.n_dofs());
+      DoFTools::map_dofs_to_support_points(mapping, dofs, support);
+      contact.reinit(all, MPI_COMM_WORLD);
+      s1.reinit(all, MPI_COMM_WORLD);
+      s2.reinit(all, MPI_COMM_WORLD);
+      for (types::global_dof_index i = 0; i < dofs.n_dofs(); ++i)
+        {
+          const double r = support[i].distance(Point<2>(0.45, 0.5));
+          contact(i)     = r < 0.25 ? 1. : 0.;
+          s1(i)          = r < 0.25 ? 0. : std::pow(r - 0.25, 2);
+          s2(i)          = 0.;
+        }
+      no_moment.distribute(s1);
+    }
+
+    Triangulation<2>          tria;
+    FE_Q<2>                   fe;
+    DoFHandler<2>             dofs;
+    QGauss<2>                 quadrature;
+    MappingQ<2>               mapping{1};
+    AffineConstraints<double> no_moment;
+    VI::TransmittedLoad<2>    load;
+    std::vector<double>       f1, f2;
+    TrilinosVector            contact, s1, s2;
+  };
+} // namespace
+
+
+// For every conforming vertex hat psi_b, sum_i G_i psi_b(x_i) over the nodes
+// that carry a moment equals (g 1_J, psi_b).
+TEST(TransmittedLoad, TakesTheMomentsOfTheLoadOnJAgainstTheVertexHats)
+{
+  for (const unsigned int degree : {1u, 2u})
+    for (const double mu1 : {1e-6, 1., 1e3})
+      {
+        Setting                       s(degree);
+        const double                  mu2 = 1.;
+        VI::TransmittedLoad<2>::Split split;
+        s.load.split(mu1, mu2, s.f1, s.f2, s.contact, s.s1, s.s2, split);
+        unsigned int n_joined_cells = 0;
+        for (const auto flag : split.joined_cells)
+          n_joined_cells += flag;
+        EXPECT_GT(n_joined_cells, 10u);
+
+        const FE_Q<2>             q1(1);
+        DoFHandler<2>             hats(s.tria);
+        AffineConstraints<double> hat_constraints;
+        hats.distribute_dofs(q1);
+        DoFTools::make_hanging_node_constraints(hats, hat_constraints);
+        hat_constraints.close();
+        std::vector<Point<2>> hat_support(hats.n_dofs());
+        DoFTools::map_dofs_to_support_points(s.mapping, hats, hat_support);
+        FEValues<2>                          at_points(s.mapping,
+                              q1,
+                              s.quadrature,
+                              update_values | update_JxW_values);
+        FEValues<2>                          at_nodes(s.mapping,
+                             q1,
+                             Quadrature<2>(s.fe.get_unit_support_points()),
+                             update_values);
+        const unsigned int                   n_q = s.quadrature.size();
+        std::vector<types::global_dof_index> node_dofs(s.fe.n_dofs_per_cell());
+        std::vector<double> psi_q(n_q), psi_node(s.fe.n_dofs_per_cell());
+        unsigned int        n_checked = 0;
+        for (types::global_dof_index b = 0; b < hats.n_dofs(); ++b)
+          {
+            if (hat_constraints.is_constrained(b))
+              continue;
+            dealii::Vector<double> psi(hats.n_dofs());
+            psi(b) = 1;
+            hat_constraints.distribute(psi);
+
+            double            integral = 0, functional = 0, size = 0;
+            std::vector<bool> counted(s.dofs.n_dofs(), false);
+            auto              node_cell = s.dofs.begin_active();
+            for (const auto &cell : hats.active_cell_iterators())
+              {
+                const auto index = cell->active_cell_index();
+                at_points.reinit(cell);
+                at_points.get_function_values(psi, psi_q);
+                for (unsigned int q = 0; q < n_q; ++q)
+                  {
+                    const double g = VI::TransmittedLoad<2>::value(
+                      mu1, mu2, s.f1[index * n_q + q], s.f2[index * n_q + q]);
+                    size += std::abs(g) * psi_q[q] * at_points.JxW(q);
+                    if (split.joined_cells[index])
+                      integral += g * psi_q[q] * at_points.JxW(q);
+                  }
+                at_nodes.reinit(cell);
+                at_nodes.get_function_values(psi, psi_node);
+                node_cell->get_dof_indices(node_dofs);
+                for (unsigned int i = 0; i < node_dofs.size(); ++i)
+                  if (!counted[node_dofs[i]] &&
+                      !s.no_moment.is_constrained(node_dofs[i]))
+                    {
+                      counted[node_dofs[i]] = true;
+                      functional +=
+                        split.node_moments(node_dofs[i]) * psi_node[i];
+                    }
+                ++node_cell;
+              }
+            // (the hats of boundary vertices carry no moment: their patch
+            // problems need none)
+            const Point<2> &x = hat_support[b];
+            if (x[0] == 0. || x[0] == 1. || x[1] == 0. || x[1] == 1.)
+              continue;
+            EXPECT_NEAR(integral, functional, 1e-13 * (1. + size))
+              << "Q" << degree << ", mu1 = " << mu1 << ", hat " << b;
+            ++n_checked;
+          }
+        EXPECT_GT(n_checked, 40u);
+      }
+}
+
+
+// At the nodes of the joined cells the joined potentials have no gap, and
+// they keep the tension-weighted mean; elsewhere they are unchanged.
+TEST(TransmittedLoad, JoinsTheMembranesAtTheNodesOfTheJoinedCells)
+{
+  Setting                       s(1);
+  const double                  mu1 = 1e-6, mu2 = 1.;
+  VI::TransmittedLoad<2>::Split split;
+  s.load.split(mu1, mu2, s.f1, s.f2, s.contact, s.s1, s.s2, split);
+  TrilinosVector j1(s.s1), j2(s.s2);
+  VI::join_at_nodes(mu1, mu2, split.joined_nodes, j1, j2);
+  unsigned int n_joined = 0;
+  for (types::global_dof_index i = 0; i < s.dofs.n_dofs(); ++i)
+    if (split.joined_nodes(i) > 0)
+      {
+        ++n_joined;
+        EXPECT_FALSE(s.no_moment.is_constrained(i));
+        EXPECT_EQ(j1(i), j2(i));
+        EXPECT_NEAR(j1(i),
+                    (mu1 * s.s1(i) + mu2 * s.s2(i)) / (mu1 + mu2),
+                    1e-15);
+      }
+    else
+      {
+        EXPECT_EQ(j1(i), s.s1(i));
+        EXPECT_EQ(j2(i), s.s2(i));
+      }
+  // with mu1 << mu2 the data jump across the circle: some cells with a gap
+  // are joined
+  unsigned int n_gap_joined = 0;
+  for (types::global_dof_index i = 0; i < s.dofs.n_dofs(); ++i)
+    n_gap_joined += split.joined_nodes(i) > 0 && s.s1(i) > 0;
+  EXPECT_GT(n_joined, 10u);
+  EXPECT_GT(n_gap_joined, 0u);
+}
