@@ -74,7 +74,8 @@ namespace StepMembranes
                                                       data.mu2,
                                                       fe.degree);
         if ((fe.degree > 1 &&
-             parameters.estimators.multiplier == "contact cells") ||
+             parameters.estimators.multiplier ==
+               VI::EstimatorParameters::Multiplier::contact_cells) ||
             transmitted)
           {
             cell_multiplier = std::make_unique<VI::CellMultiplier<dim>>();

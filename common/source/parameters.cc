@@ -44,6 +44,10 @@ namespace VI
     const Spellings<PreconditionerType> preconditioner_spellings =
       {{PreconditionerType::ilu, "ilu"}, {PreconditionerType::amg, "amg"}};
     using TransmittedLoad = EstimatorParameters::TransmittedLoad;
+    using Multiplier      = EstimatorParameters::Multiplier;
+    const Spellings<Multiplier> multiplier_spellings = {
+      {Multiplier::contact_cells, "contact cells"},
+      {Multiplier::conforming, "conforming"}};
     const Spellings<TransmittedLoad> transmitted_load_spellings = {
       {TransmittedLoad::automatic, "auto"},
       {TransmittedLoad::always, "always"},
@@ -541,9 +545,10 @@ namespace VI
     prm.declare_entry(
       "Multiplier",
       "contact cells",
-      Selection("contact cells|conforming"),
+      Selection(all_spellings(multiplier_spellings)),
       "The multiplier the estimate works with, for FEM of degree p >= 2 "
-      "(p = 1 keeps its mass-lumped nodal one, dG its cellwise one): "
+      "(p = 1 keeps its mass-lumped nodal one, and takes the contact cells' "
+      "with the transmitted load; dG its cellwise one): "
       "'contact cells' shares "
       "each nodal moment of lambda_h among the cells at the node, on the "
       "contact cells where there are some, as a cellwise Q1 function; "
@@ -626,7 +631,7 @@ namespace VI
     const ParameterSubsection section(prm, "Estimators");
     enabled     = prm.get_bool("Enabled");
     every_check = prm.get_bool("At every check");
-    multiplier  = prm.get("Multiplier");
+    multiplier  = parse_choice(multiplier_spellings, prm.get("Multiplier"));
     flux_degree = prm.get("Flux degree");
     const auto dual_norms =
       dealii::Utilities::split_string_list(prm.get("Equilibrated dual norms"));
@@ -651,7 +656,7 @@ namespace VI
     // (p >= 2: with the cellwise multiplier, on whose contact cells the
     // moments are shared)
     if (transmitted_load == TransmittedLoad::never ||
-        (p > 1 && multiplier != "contact cells"))
+        (p > 1 && multiplier != Multiplier::contact_cells))
       return false;
     return transmitted_load == TransmittedLoad::always ||
            std::max(mu1, mu2) > 10. * std::min(mu1, mu2);

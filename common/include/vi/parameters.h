@@ -225,8 +225,13 @@ namespace VI
   {
     bool enabled     = true;
     bool every_check = true;
-    /// "contact cells" (CellMultiplier) or "conforming" (M^(-1) m).
-    std::string multiplier = "contact cells";
+    /// The multiplier of the estimate for p >= 2: on the contact cells
+    /// (CellMultiplier) or the finite element function M^(-1) m.
+    enum class Multiplier
+    {
+      contact_cells,
+      conforming
+    } multiplier = Multiplier::contact_cells;
     /// "p": fluxes in RT_p x Q_p for elements of degree p ([DMV20]);
     /// "p-1": in RT_(p-1) x Q_(p-1).
     std::string flux_degree = "p";
