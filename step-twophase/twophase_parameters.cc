@@ -191,7 +191,7 @@ namespace StepTwoPhase
                           "L, m (> 0): Omega = (0, L).");
         prm.declare_entry("Number of cells",
                           "1000",
-                          Integer(1, 10000000),
+                          Integer(1, 1000000000),
                           "Uniform cells of the finite volume mesh.");
       }
       prm.leave_subsection();

@@ -92,6 +92,8 @@ namespace StepTwoPhase
 
   private:
     void
+    check_memory_budget() const;
+    void
     make_grid();
     void
     setup_system();

@@ -155,8 +155,29 @@ namespace VI
     const unsigned int p = discretization.degree;
     cells                = coarse.n_active_cells() * std::pow(4., levels);
     unknowns             = cells * unknowns_per_cell(discretization.method, p);
+    compare_with_machine(bytes_per_unknown(discretization.method, p), comm);
+  }
+
+
+  MemoryBudget::MemoryBudget(const double       cells,
+                             const double       unknowns,
+                             const double       bytes_per_unknown,
+                             const std::string &to_lower,
+                             const MPI_Comm     comm)
+      : cells(cells)
+      , unknowns(unknowns)
+      , to_lower(to_lower)
+  {
+    compare_with_machine(bytes_per_unknown, comm);
+  }
+
+
+  void
+  MemoryBudget::compare_with_machine(const double   bytes_per_unknown,
+                                     const MPI_Comm comm)
+  {
     needed = bytes_per_process * Utilities::MPI::n_mpi_processes(comm) +
-             bytes_per_unknown(discretization.method, p) * unknowns;
+             bytes_per_unknown * unknowns;
     if (Utilities::MPI::this_mpi_process(comm) == 0)
       available = available_bytes();
     available = Utilities::MPI::broadcast(comm, available, 0);

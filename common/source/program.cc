@@ -6,10 +6,13 @@
 #include <vi/program.h>
 #include <vi/version.h>
 
+#include <cstdio>
+#include <cstring>
 #include <dlfcn.h>
 #include <filesystem>
 #include <fstream>
 #include <new>
+#include <sc.h>
 #if defined(__GLIBC__)
 #  include <malloc.h>
 #endif
@@ -134,6 +137,61 @@ namespace VI
     }
 
 
+    /**
+     * p4est's support library (libsc) does not throw: when an allocation in
+     * p4est fails, or one of its checks, it logs "Abort: <reason>" and calls
+     * its abort handler, which by default calls MPI_Abort and abort() with
+     * neither the reason (deal.II sets libsc's log to silent) nor a word on
+     * what to change. These handlers keep the first such reason and turn
+     * the abort into the one line and the exit status of a std::bad_alloc
+     * (run_program()); any other reason is reported as an internal error.
+     */
+    char     libsc_abort_reason[256] = ""; // no allocation when memory is out
+    MPI_Comm libsc_comm              = MPI_COMM_WORLD;
+
+    void
+    keep_libsc_abort_reason(FILE *,
+                            const char *,
+                            int,
+                            int,
+                            int,
+                            int,
+                            const char *message)
+    {
+      if (libsc_abort_reason[0] != '\0' ||
+          std::strncmp(message, "Abort: ", 7) != 0)
+        return;
+      std::snprintf(libsc_abort_reason,
+                    sizeof(libsc_abort_reason),
+                    "%s",
+                    message + 7);
+      libsc_abort_reason[std::strcspn(libsc_abort_reason, "\n")] = '\0';
+    }
+
+
+    [[noreturn]] void
+    end_libsc_abort_in_one_line()
+    {
+      int rank = 0, size = 1;
+      MPI_Comm_rank(libsc_comm, &rank);
+      MPI_Comm_size(libsc_comm, &size);
+      const bool out_of_memory =
+        std::strstr(libsc_abort_reason, "alloc") != nullptr;
+      std::fprintf(stderr,
+                   "%s on rank %d in p4est (%s)%s\n",
+                   out_of_memory ? "Error: out of memory" : "Internal error",
+                   rank,
+                   libsc_abort_reason,
+                   out_of_memory ? ": the run needs more than the machine "
+                                   "gives; use a coarser mesh" :
+                                   "");
+      const int status = out_of_memory ? 1 : 3;
+      if (size > 1)
+        MPI_Abort(libsc_comm, status);
+      std::_Exit(status);
+    }
+
+
     int
     report(const MPI_Comm comm, const std::string &message, const int status)
     {
@@ -142,6 +200,19 @@ namespace VI
       return status;
     }
   } // namespace
+
+
+  void
+  report_libsc_aborts_in_one_line(const MPI_Comm comm)
+  {
+    libsc_comm = comm;
+    sc_set_log_defaults(nullptr, keep_libsc_abort_reason, SC_LP_ERROR);
+    // deal.II calls sc_init() only for p4est before 2.0; without it libsc
+    // logs as no package, at the default threshold set here.
+    if (sc_package_id >= 0)
+      sc_package_set_verbosity(sc_package_id, SC_LP_ERROR);
+    sc_set_abort_handler(end_libsc_abort_in_one_line);
+  }
 
 
   std::string
@@ -198,6 +269,7 @@ namespace VI
     Utilities::MPI::MPI_InitFinalize mpi(argc, argv);
     const MPI_Comm                   comm = MPI_COMM_WORLD;
     avoid_concurrent_calls_to_sequential_openblas(comm);
+    report_libsc_aborts_in_one_line(comm);
 
     ParameterHandler prm;
     program.declare_parameters(prm);

@@ -35,6 +35,18 @@ namespace VI
                  const DiscretizationParameters &discretization,
                  const MPI_Comm                  comm);
 
+    /**
+     * The same for a run whose size is known by its caller: `unknowns` on
+     * `cells` cells, each unknown costing `bytes_per_unknown` beyond the
+     * base of a process (step-twophase, whose 1D mesh is its "Number of
+     * cells"); `to_lower` names the parameter that makes the run smaller.
+     */
+    MemoryBudget(const double       cells,
+                 const double       unknowns,
+                 const double       bytes_per_unknown,
+                 const std::string &to_lower,
+                 const MPI_Comm     comm);
+
     /// Throws InputError, one line with both numbers and the parameters to
     /// lower, if the run cannot fit.
     void
@@ -55,5 +67,9 @@ namespace VI
                  const unsigned int              levels,
                  const DiscretizationParameters &discretization,
                  const MPI_Comm                  comm);
+
+    /// needed and available for the cells and unknowns already set.
+    void
+    compare_with_machine(const double bytes_per_unknown, const MPI_Comm comm);
   };
 } // namespace VI

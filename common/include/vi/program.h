@@ -71,6 +71,16 @@ namespace VI
   void
   prepare_output_directory(const std::string &directory, const MPI_Comm comm);
 
+  /**
+   * Make an abort in p4est's support library (libsc: a failed allocation,
+   * or a failed check) end the run like a std::bad_alloc in run_program():
+   * one line with the reason, exit status 1 for a failed allocation (3
+   * otherwise), MPI_Abort on runs of several ranks. run_program() calls it
+   * after MPI_Init.
+   */
+  void
+  report_libsc_aborts_in_one_line(const MPI_Comm comm);
+
   /// The header every run prints: program, version, deal.II, ranks, threads.
   std::string
   run_header(const std::string &program, const MPI_Comm comm);
