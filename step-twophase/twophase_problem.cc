@@ -14,6 +14,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <sstream>
 
 namespace StepTwoPhase
@@ -316,6 +317,15 @@ namespace StepTwoPhase
                   << step.linear_iterations << " GMRES" << std::defaultfloat
                   << std::endl;
     };
+    // Without the estimators' criterion, Newton also stops where its
+    // balance residual is at the rounding level (a fine mesh's floor, above
+    // the tolerance).
+    if (!adaptive)
+      newton.stopping_criterion = [&](const Vector<double> &,
+                                      const VI::NewtonStep &step) {
+        return step.residual.equations <= 2 * balance_rounding_level &&
+               step.residual.complementarity <= p.tolerance;
+      };
     if (adaptive)
       newton.stopping_criterion = [&](const Vector<double> &X,
                                       const VI::NewtonStep &) {
@@ -438,6 +448,30 @@ namespace StepTwoPhase
   }
 
 
+  // How far rounding alone moves the balance rows: eps sum_j |A_Kj X_j|, the
+  // first-order change of R_K when every unknown moves by one unit in the
+  // last place, at worst, at its largest over K. Newton cannot bring the
+  // residual below this; it grows like N^2 (the fluxes divide by h^2) and
+  // meets the default tolerance 1e-8 at about 1e5 cells.
+  double
+  TwoPhaseProblem::rounding_level(const Vector<double> &X) const
+  {
+    double largest = 0;
+    for (unsigned int K = 0; K < scheme->n_cells(); ++K)
+      for (const auto c :
+           {FiniteVolumeScheme::pressure, FiniteVolumeScheme::molar_fraction})
+        {
+          const unsigned int row = scheme->index(K, c);
+          double             sum = 0;
+          for (auto entry = jacobian.begin(row); entry != jacobian.end(row);
+               ++entry)
+            sum += std::abs(entry->value() * X[entry->column()]);
+          largest = std::max(largest, sum);
+        }
+    return std::numeric_limits<double>::epsilon() * largest;
+  }
+
+
   // The generalised Jacobian at X, its ILU(0) (the sparsity never changes,
   // so the factorisation reuses its storage) or LU, and X as the estimators'
   // linearisation point.
@@ -447,6 +481,7 @@ namespace StepTwoPhase
     {
       TimerOutput::Scope t(timer, "jacobian");
       scheme->assemble_jacobian(X, C, jacobian);
+      balance_rounding_level = rounding_level(X);
     }
     {
       TimerOutput::Scope t(timer, "estimators");

@@ -112,6 +112,8 @@ namespace StepTwoPhase
     solve_with_kinsol(StepRecord &record);
     void
     prepare_linear_solver(const Vector<double> &X);
+    double
+    rounding_level(const Vector<double> &X) const;
     unsigned int
     solve_linear_system(const Vector<double> &rhs,
                         Vector<double>       &dX,
@@ -173,6 +175,8 @@ namespace StepTwoPhase
     bool                 ilu_initialized = false;
     SparseDirectUMFPACK  direct_solver;
     Vector<double>       linearization_point;
+    /// rounding_level() at the last linearisation point
+    double balance_rounding_level = 0.;
 
     Vector<double> solution;     ///< X^n (scaled unknowns)
     Vector<double> old_solution; ///< X^{n-1}

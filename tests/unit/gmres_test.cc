@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <vector>
 
 using dealii::FullMatrix;
@@ -153,4 +154,68 @@ TEST(Gmres, IterationLimitIsAFailure)
   Vector<double> x(80);
   EXPECT_THROW(Solver(data).solve(system.op(), system.jacobi(), x, system.b),
                VI::SolverFailure);
+}
+
+
+namespace
+{
+  /// The exact inverse of A as a preconditioner, plus an error of size
+  /// `noise` |A^-1 b| that changes with every application (a preconditioner
+  /// that is not a fixed linear operator, whose error no GMRES cycle can
+  /// remove).
+  Solver::Operator
+  inverse(const System &system, const double noise)
+  {
+    auto A_inverse = std::make_shared<FullMatrix<double>>(system.A);
+    A_inverse->gauss_jordan();
+    Vector<double> solution(system.b.size());
+    A_inverse->vmult(solution, system.b);
+    const double error = noise * solution.l2_norm();
+    auto         calls = std::make_shared<unsigned int>(0);
+    return [A_inverse, error, calls](Vector<double>       &dst,
+                                     const Vector<double> &src) {
+      A_inverse->vmult(dst, src);
+      ++*calls;
+      for (unsigned int i = 0; i < dst.size(); ++i)
+        dst(i) += error * std::sin(7. * i + *calls);
+    };
+  }
+} // namespace
+
+
+TEST(Gmres, StopsAtTheRoundingLevelOfTheSystem)
+{
+  // A tolerance below what double precision can reach: with the exact
+  // inverse the first step solves the system, and the next cycle finds the
+  // true residual where rounding leaves it. That solution is returned at
+  // once, not after max_iterations of repeated cycles.
+  const System           system(60);
+  Solver::AdditionalData data;
+  data.relative_tolerance = 1e-20;
+  data.max_iterations     = 1000;
+  Vector<double> x(60);
+  const auto     report =
+    Solver(data).solve(system.op(), inverse(system, 0.), x, system.b);
+  EXPECT_EQ(report.outcome, VI::LinearSolveReport::Outcome::stagnated);
+  EXPECT_LE(report.iterations, 5u);
+  EXPECT_LE(system.residual(x), 1e-12 * system.b.l2_norm());
+}
+
+
+TEST(Gmres, ReportsTheStagnatedResidual)
+{
+  // A preconditioner with errors of 1e-6: the recurrence converges, the
+  // true residual stays near 1e-6 of the initial one, and the report says
+  // where.
+  const System           system(60);
+  Solver::AdditionalData data;
+  data.relative_tolerance = 1e-10;
+  data.max_iterations     = 1000;
+  Vector<double> x(60);
+  const auto     report =
+    Solver(data).solve(system.op(), inverse(system, 1e-6), x, system.b);
+  EXPECT_EQ(report.outcome, VI::LinearSolveReport::Outcome::stagnated);
+  EXPECT_LE(report.iterations, 10u);
+  EXPECT_GT(report.final_residual, 1e-8 * report.initial_residual);
+  EXPECT_NEAR(system.residual(x), report.final_residual, 1e-12);
 }

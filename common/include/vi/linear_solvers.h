@@ -20,6 +20,8 @@ namespace VI
     {
       converged,         ///< |b - A x| <= tolerance
       stopped_by_caller, ///< the monitor asked to stop (adaptive stopping)
+      stagnated, ///< the recurrence met the tolerance, the true residual
+                 ///< stayed above it: the rounding level of the system
     };
     Outcome      outcome          = Outcome::converged;
     unsigned int iterations       = 0;
