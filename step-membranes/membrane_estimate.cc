@@ -148,14 +148,15 @@ namespace StepMembranes
         // g on the joined cells, zero elsewhere
         const unsigned int index  = cell->active_cell_index();
         const bool         joined = transmitted_load && it.joined_cells[index];
-        for (unsigned int q = 0; q < g_values.size(); ++q)
-          g_values[q] = joined ?
-                          VI::TransmittedLoad<dim>::value(
-                            data.mu1,
-                            data.mu2,
-                            load_values[0][index * g_values.size() + q],
-                            load_values[1][index * g_values.size() + q]) :
-                          0.;
+        if (joined)
+          VI::TransmittedLoad<dim>::cell_values(data.mu1,
+                                                data.mu2,
+                                                load_values[0],
+                                                load_values[1],
+                                                index,
+                                                g_values);
+        else
+          std::fill(g_values.begin(), g_values.end(), 0.);
         if (cell_multiplier)
           cell_multiplier->values(it.lambda_cells,
                                   cell->active_cell_index(),

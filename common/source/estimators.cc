@@ -471,14 +471,10 @@ namespace VI
                                    potential_coefficients,
                                    &lambda_ahead);
           }
-        const auto index = potential_cell->active_cell_index();
-        if (own_look_ahead)
-          add_transmitted_load(index, lambda, lambda_nonnegative);
-        else
-          add_transmitted_load(index,
-                               lambda,
-                               lambda_nonnegative,
-                               &lambda_ahead);
+        add_transmitted_load(potential_cell->active_cell_index(),
+                             lambda,
+                             lambda_nonnegative,
+                             own_look_ahead ? nullptr : &lambda_ahead);
         if (own_look_ahead)
           lambda_ahead = lambda;
 
@@ -510,20 +506,20 @@ namespace VI
           return;
         const bool here  = (*in.joined_cells)[index],
                    ahead = lambda_ahead && (*in.joined_cells_ahead)[index];
-        for (unsigned int q = 0; q < n_q && (here || ahead); ++q)
+        if (!here && !ahead)
+          return;
+        std::vector<double> g(n_q);
+        TransmittedLoad<dim>::cell_values(
+          mu[0], mu[1], *load_values[0], *load_values[1], index, g);
+        for (unsigned int q = 0; q < n_q; ++q)
           {
-            const double g =
-              TransmittedLoad<dim>::value(mu[0],
-                                          mu[1],
-                                          (*load_values[0])[index * n_q + q],
-                                          (*load_values[1])[index * n_q + q]);
             if (here)
               {
-                lambda[q] += g;
-                lambda_nonnegative[q] += g;
+                lambda[q] += g[q];
+                lambda_nonnegative[q] += g[q];
               }
             if (ahead)
-              (*lambda_ahead)[q] += g;
+              (*lambda_ahead)[q] += g[q];
           }
       }
 

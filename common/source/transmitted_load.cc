@@ -183,8 +183,7 @@ namespace VI
         // varies too much to be left out (across the free boundary, where
         // the data jump), joined where the contact term would cost more.
         const auto index = cell->active_cell_index();
-        for (unsigned int q = 0; q < n_q; ++q)
-          g[q] = value(mu1, mu2, f1[index * n_q + q], f2[index * n_q + q]);
+        cell_values(mu1, mu2, f1, f2, index, g);
         values.reinit(cell);
         if (n_in_contact < n_nodes)
           {

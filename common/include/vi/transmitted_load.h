@@ -6,6 +6,7 @@
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -111,6 +112,21 @@ namespace VI
     value(const double mu1, const double mu2, const double f1, const double f2)
     {
       return (mu1 * f2 - mu2 * f1) / (mu1 + mu2);
+    }
+
+    /// g at the g.size() quadrature points of the cell of active index
+    /// `index`, from the loads tabulated as split() takes them.
+    static void
+    cell_values(const double               mu1,
+                const double               mu2,
+                const std::vector<double> &f1,
+                const std::vector<double> &f2,
+                const unsigned int         index,
+                std::vector<double>       &g)
+    {
+      const std::size_t n_q = g.size();
+      for (std::size_t q = 0; q < n_q; ++q)
+        g[q] = value(mu1, mu2, f1[index * n_q + q], f2[index * n_q + q]);
     }
 
   private:
