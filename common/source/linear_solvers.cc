@@ -82,20 +82,6 @@ namespace VI
             V[j + 1].add(-h, V[i]);
           }
     }
-
-
-    /// The failure of a solve that ended with `report` above `tolerance`.
-    SolverFailure
-    failure(const std::string       &what,
-            const LinearSolveReport &report,
-            const double             tolerance)
-    {
-      std::ostringstream message;
-      message << "GMRES: " << what << " (residual reduced from "
-              << report.initial_residual << " to " << report.final_residual
-              << ", tolerance " << tolerance << ")";
-      return SolverFailure(message.str());
-    }
   } // namespace
 
 
@@ -238,10 +224,12 @@ namespace VI
         x = current;
       }
 
-    throw failure("no convergence in " + std::to_string(data.max_iterations) +
-                    " iterations",
-                  report,
-                  tolerance);
+    std::ostringstream message;
+    message << "GMRES: no convergence in " << data.max_iterations
+            << " iterations (residual reduced from " << report.initial_residual
+            << " to " << report.final_residual << ", tolerance " << tolerance
+            << ")";
+    throw SolverFailure(message.str());
   }
 
 

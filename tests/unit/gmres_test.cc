@@ -180,6 +180,21 @@ namespace
         dst(i) += error * std::sin(7. * i + *calls);
     };
   }
+
+
+  /// GMRES on `system` preconditioned by inverse(system, noise), to a
+  /// relative tolerance, with a limit no test reaches.
+  VI::LinearSolveReport
+  solve_with_inverse(const System   &system,
+                     const double    noise,
+                     const double    relative_tolerance,
+                     Vector<double> &x)
+  {
+    Solver::AdditionalData data;
+    data.relative_tolerance = relative_tolerance;
+    data.max_iterations     = 1000;
+    return Solver(data).solve(system.op(), inverse(system, noise), x, system.b);
+  }
 } // namespace
 
 
@@ -189,13 +204,9 @@ TEST(Gmres, StopsAtTheRoundingLevelOfTheSystem)
   // inverse the first step solves the system, and the next cycle finds the
   // true residual where rounding leaves it. That solution is returned at
   // once, not after max_iterations of repeated cycles.
-  const System           system(60);
-  Solver::AdditionalData data;
-  data.relative_tolerance = 1e-20;
-  data.max_iterations     = 1000;
+  const System   system(60);
   Vector<double> x(60);
-  const auto     report =
-    Solver(data).solve(system.op(), inverse(system, 0.), x, system.b);
+  const auto     report = solve_with_inverse(system, 0., 1e-20, x);
   EXPECT_EQ(report.outcome, VI::LinearSolveReport::Outcome::stagnated);
   EXPECT_LE(report.iterations, 5u);
   EXPECT_LE(system.residual(x), 1e-12 * system.b.l2_norm());
@@ -207,13 +218,9 @@ TEST(Gmres, ReportsTheStagnatedResidual)
   // A preconditioner with errors of 1e-6: the recurrence converges, the
   // true residual stays near 1e-6 of the initial one, and the report says
   // where.
-  const System           system(60);
-  Solver::AdditionalData data;
-  data.relative_tolerance = 1e-10;
-  data.max_iterations     = 1000;
+  const System   system(60);
   Vector<double> x(60);
-  const auto     report =
-    Solver(data).solve(system.op(), inverse(system, 1e-6), x, system.b);
+  const auto     report = solve_with_inverse(system, 1e-6, 1e-10, x);
   EXPECT_EQ(report.outcome, VI::LinearSolveReport::Outcome::stagnated);
   EXPECT_LE(report.iterations, 10u);
   EXPECT_GT(report.final_residual, 1e-8 * report.initial_residual);
