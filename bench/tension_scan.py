@@ -8,13 +8,15 @@ u2 = 0) and seed-smooth, mu2 = 1 and mu1 = 1e-6 ... 1e6, Q1 on 4 x 4 to
 multiplier of the estimate without the transmitted load (Estimators/
 Transmitted load = never, the estimate of equal tensions) and with it
 (always; 'auto' takes it when the tensions are more than 10 times apart).
-The final estimates are sharpened (Estimators/Sharpen final estimate): both
-dual norms bounded by equilibration where that is smaller. About 20
-minutes on two cores. Writes doc/data/tension_scan.{csv,md}. Usage, from
-the repository root after ./demo.sh or ./test.sh:
-  bench/tension_scan.py [--reuse]
+The final estimates of the conforming method are sharpened (Estimators/
+Sharpen final estimate): both dual norms bounded by equilibration where
+that is smaller. About 20 minutes on two cores for fem, 10 for sipg.
+Writes doc/data/tension_scan.{csv,md} (fem) or
+doc/data/tension_scan_<method>.{csv,md}. Usage, from the repository root
+after ./demo.sh or ./test.sh:
+  bench/tension_scan.py [--method fem|sipg|nipg|iipg] [--reuse]
 --reuse takes the runs whose summary.json the last run left in
-output/bench-tension-scan. STEP_MEMBRANES names another binary.
+output/bench-tension-scan[-<method>]. STEP_MEMBRANES names another binary.
 """
 import json
 import os
@@ -23,7 +25,10 @@ import sys
 from vi_bench import ROOT, program, run, write_table
 
 PROGRAM = program("membranes")
-OUT = os.path.join(ROOT, "output", "bench-tension-scan")
+METHOD = (sys.argv[sys.argv.index("--method") + 1]
+          if "--method" in sys.argv else "fem")
+SUFFIX = "" if METHOD == "fem" else "_" + METHOD
+OUT = os.path.join(ROOT, "output", "bench-tension-scan" + SUFFIX.replace("_", "-"))
 PRM = os.path.join(ROOT, "tests", "stress", "membranes", "tension-ratio-1e-6.prm")
 REUSE = "--reuse" in sys.argv
 
@@ -41,8 +46,10 @@ def solve(test, degree, mu1, load):
                 "Mesh/Initial refinements": 2,
                 "Mesh/Cycles": CYCLES[degree],
                 "Discretization/Polynomial degree": degree,
+                "Discretization/Method": METHOD,
                 "Estimators/Transmitted load": load,
-                "Estimators/Sharpen final estimate": "true",
+                "Estimators/Sharpen final estimate":
+                    "true" if METHOD == "fem" else "false",
                 "Output/Write VTU": "false"}
     if not (REUSE and os.path.exists(os.path.join(directory, "summary.json"))):
         run(PROGRAM, PRM, settings, directory)
@@ -76,7 +83,7 @@ for test in ["seed-jump", "seed-smooth"]:
                       f"transmitted load {load:6s}: "
                       + ", ".join(f"{e:.3g}" for e in values), flush=True)
 
-write_table("tension_scan", rows,
+write_table("tension_scan" + SUFFIX, rows,
             ["test", "p", "mu1 / mu2", "transmitted load", "auto's choice",
              "unknowns per field", "effectivity, coarsest to finest",
              "finest", "largest from 16 x 16 cells"],
@@ -84,4 +91,4 @@ write_table("tension_scan", rows,
              ("transmitted_load", "{}"), ("auto", "{}"), ("dofs", "{}"),
              ("effectivity", "{}"), ("finest", "{}"),
              ("worst_from_16", "{}")])
-print("wrote doc/data/tension_scan.{csv,md}")
+print(f"wrote doc/data/tension_scan{SUFFIX}.{{csv,md}}")

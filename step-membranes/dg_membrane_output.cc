@@ -1,8 +1,11 @@
 // step-membranes, interior penalty dG: the multiplier and the fields of a
 // solution, its guaranteed estimate, errors, output and the cycle's record.
 
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_tools.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping_q.h>
+#include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/meshworker/mesh_loop.h>
 #include <deal.II/meshworker/scratch_data.h>
@@ -13,6 +16,7 @@
 #include <vi/membrane_errors.h>
 #include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
+#include <vi/transmitted_load.h>
 
 #include "dg_membrane_problem.h"
 
@@ -186,22 +190,6 @@ namespace StepMembranes
         VI::NodalFields::extract(X, a, field);
         ghosted_nodes.copy(field, u[a]);
       }
-    // The multiplier of the estimate: on every cell, the nodal function
-    // lambda_N(x_I) = <lambda_h, psi_I>_h / (psi_I, 1)_K (the discrete
-    // lambda_h itself for p = 1), scaled towards its cell mean where it is
-    // negative at a quadrature point (positivity-preserving limiter). It has
-    // the cell means of the L2 representative lambda* = M_K^{-1}
-    // (<lambda_h, psi_I>_h)_I, which the fluxes equilibrate (compatibility),
-    // and that is all the theorem needs (doc/step-membranes.md).
-    Vector lambda_source, moments(owned_nodes, comm);
-    VI::NodalFields::extract(X, multiplier, moments);
-    moments.scale(contact_system.coupling());
-    function_from_moments(moments, lambda_source);
-    limited_nodal_function(moments, lambda);
-    for (double &m : moments)
-      m = std::max(m, 0.);
-    limited_nodal_function(moments, lambda_nonnegative);
-
     Vector R(owned_system, comm);
     contact_system.matrix.vmult(R, X);
     R.sadd(-1., 1., contact_system.rhs);
@@ -227,11 +215,37 @@ namespace StepMembranes
       }
     VI::average_at_violated_nodes(
       data.mu1, data.mu2, s_owned[0], s_owned[1], s_averaged[0], s_averaged[1]);
+    Vector moments(owned_nodes, comm);
+    VI::NodalFields::extract(X, multiplier, moments);
+    moments.scale(contact_system.coupling());
+    if (parameters.estimators.transmits_load(data.mu1, data.mu2))
+      join_at_contact_cells(X, moments, s_averaged);
     for (unsigned int a = 0; a < 2; ++a)
       {
         s[a].reinit(owned_continuous, relevant_continuous, comm);
         s[a] = s_averaged[a];
       }
+
+    // The multiplier of the estimate: on every cell, the nodal function
+    // lambda_N(x_I) = <lambda_h, psi_I>_h / (psi_I, 1)_K (the discrete
+    // lambda_h itself for p = 1), scaled towards its cell mean where it is
+    // negative at a quadrature point (positivity-preserving limiter). It has
+    // the cell means of the L2 representative lambda* = M_K^{-1}
+    // (<lambda_h, psi_I>_h)_I, which the fluxes equilibrate (compatibility),
+    // and that is all the theorem needs (doc/step-membranes.md).
+    // With tensions far apart, the transmitted load g 1_J on the cells at
+    // the contact set takes its moments G off the multiplier (see the
+    // conforming method and VI::TransmittedLoad: the broken nodes are the
+    // cells' own, so J and G are cellwise).
+    Vector lambda_source, nonnegative(moments), G(owned_nodes, comm);
+    for (double &m : nonnegative)
+      m = std::max(m, 0.);
+    const std::vector<double> transmitted = transmitted_load(X, s, G);
+    moments -= G;
+    nonnegative -= G;
+    function_from_moments(moments, lambda_source);
+    limited_nodal_function(moments, lambda);
+    limited_nodal_function(nonnegative, lambda_nonnegative);
 
     const double         epsilon = penalty.symmetry();
     const double         mu[2]   = {data.mu1, data.mu2};
@@ -251,7 +265,9 @@ namespace StepMembranes
                 update_values | update_gradients | update_quadrature_points),
               lifting_values_of =
                 std::shared_ptr<FEValues<dim>>(lifting->make_cell_values()),
-              lambda_values  = std::vector<double>(n_q),
+              lambda_values = std::vector<double>(n_q),
+              no_load       = std::vector<double>(n_q, 0.),
+              n_q,
               r_values       = std::vector<double>(n_q),
               lifting_values = std::vector<Tensor<1, dim>>(
                 n_q)](const auto &cell, auto &flux, auto &source) mutable {
@@ -260,6 +276,10 @@ namespace StepMembranes
         FEValues<dim> &values = *values_of;
         values.reinit(dof_cell);
         values.get_function_values(lambda_source, lambda_values);
+        const double *g =
+          transmitted.empty() ?
+            no_load.data() :
+            transmitted.data() + cell->active_cell_index() * n_q;
         for (unsigned int a = 0; a < 2; ++a)
           {
             values.get_function_gradients(u[a], flux[a]);
@@ -269,7 +289,7 @@ namespace StepMembranes
             f[a]->value_list(values.get_quadrature_points(), source[a]);
             values.get_function_values(r[a], r_values);
             for (unsigned int q = 0; q < source[a].size(); ++q)
-              source[a][q] -= sign[a] * lambda_values[q] + r_values[q];
+              source[a][q] -= sign[a] * (lambda_values[q] + g[q]) + r_values[q];
           }
       };
     };
@@ -302,7 +322,181 @@ namespace StepMembranes
     in.s2                  = &s[1];
     in.sigma1              = &sigma[0];
     in.sigma2              = &sigma[1];
+    if (!transmitted.empty())
+      in.transmitted_load = &transmitted;
     return VI::estimate_dg_contact_error(in);
+  }
+
+
+  // The broken nodes of a cell at the contact set carry their moments on
+  // the cell itself: where the membranes part within such a cell (at the
+  // free boundary), lambda_h meets a gap of the cone reconstruction, and
+  // the contact term 2 (lambda_h^+, s~1 - s~2)_K is of the size of the
+  // data, whatever the tensions. With tensions far apart the membranes of
+  // s~ are joined at the nodes of such a cell (both values replaced by the
+  // tension-weighted mean, which leaves s~ in the cone) where that costs
+  // less: the contact term vanishes there, for the price of m^(1/2)
+  // |grad(s~1 - s~2)| in the non-conformity (m = mu1 mu2 / (mu1 + mu2)),
+  // the size of the error in the gap, estimated by m sum_i gap_i^2
+  // |grad phi_i|_K^2 (times the cells at x_i). Dirichlet nodes keep the
+  // boundary data. `moments` are those of lambda_h.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::join_at_contact_cells(const Vector &X,
+                                                const Vector &moments,
+                                                Vector (&s)[2]) const
+  {
+    Vector owned(owned_nodes, comm), contact, m;
+    contact_system.contact_rows().contact_set(X, owned);
+    ghosted_nodes.copy(owned, contact);
+    ghosted_nodes.copy(moments, m);
+    Vector gap(s[0]);
+    gap -= s[1];
+    Vector ghosted_gap(owned_continuous, relevant_continuous, comm);
+    ghosted_gap = gap;
+
+    const Quadrature<dim> &points = flux_reconstruction->get_quadrature();
+    FEValues<dim>          broken_values(*mapping, fe, points, update_values);
+    FEValues<dim>          continuous_values(*mapping,
+                                    fe_continuous,
+                                    points,
+                                    update_values | update_gradients |
+                                      update_JxW_values);
+    std::vector<types::global_dof_index> broken(fe.n_dofs_per_cell()),
+      nodes(fe_continuous.n_dofs_per_cell()), marked;
+    std::vector<double> gap_values(points.size());
+    const double        tension = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          cell->get_dof_indices(broken);
+          if (std::none_of(broken.begin(), broken.end(), [&](const auto i) {
+                return contact(i) > 0;
+              }))
+            continue;
+          const typename DoFHandler<dim>::active_cell_iterator continuous_cell(
+            &triangulation,
+            cell->level(),
+            cell->index(),
+            &continuous_dof_handler);
+          continuous_cell->get_dof_indices(nodes);
+          broken_values.reinit(cell);
+          continuous_values.reinit(continuous_cell);
+          continuous_values.get_function_values(ghosted_gap, gap_values);
+          // lambda_N(x_I) = m_I / (psi_I, 1)_K at the points
+          double contact_term = 0;
+          for (const unsigned int q :
+               continuous_values.quadrature_point_indices())
+            {
+              double lambda = 0;
+              for (unsigned int i = 0; i < broken.size(); ++i)
+                lambda += m(broken[i]) / lumped_mass(broken[i]) *
+                          broken_values.shape_value(i, q);
+              contact_term += 2. * std::max(lambda, 0.) *
+                              std::max(gap_values[q], 0.) *
+                              continuous_values.JxW(q);
+            }
+          double joining = 0;
+          for (unsigned int i = 0; i < nodes.size(); ++i)
+            {
+              const double cells_at_node =
+                fe_continuous.get_associated_geometry_primitive(i) ==
+                    GeometryPrimitive::vertex ?
+                  (1U << dim) :
+                  2.;
+              double stiffness = 0;
+              for (const unsigned int q :
+                   continuous_values.quadrature_point_indices())
+                stiffness += continuous_values.shape_grad(i, q).norm_square() *
+                             continuous_values.JxW(q);
+              joining += tension * std::pow(ghosted_gap(nodes[i]), 2) *
+                         stiffness * cells_at_node;
+            }
+          if (joining < contact_term)
+            marked.insert(marked.end(), nodes.begin(), nodes.end());
+        }
+    Vector joined(owned_continuous, comm);
+    joined.add(marked, std::vector<double>(marked.size(), 1.));
+    joined.compress(VectorOperation::add);
+    const IndexSet boundary =
+      DoFTools::extract_boundary_dofs(continuous_dof_handler);
+    const double theta = data.mu1 / (data.mu1 + data.mu2);
+    for (const types::global_dof_index i : owned_continuous)
+      if (joined(i) > 0 && !boundary.is_element(i))
+        {
+          const double mean = theta * s[0](i) + (1. - theta) * s[1](i);
+          s[0](i)           = mean;
+          s[1](i)           = mean;
+        }
+    for (unsigned int a = 0; a < 2; ++a)
+      s[a].compress(VectorOperation::insert);
+  }
+
+
+  // g 1_J and G = (g 1_J, psi_I)_K of VI::TransmittedLoad for the iterate X
+  // with the cone reconstruction s (continuous, ghosted) when
+  // Estimators/Transmitted load takes it (else empty, and G = 0): J holds
+  // the cells all of whose nodes are in contact, and those at the contact
+  // set that the data decide.
+  template <int dim>
+  std::vector<double>
+  DGMembraneProblem<dim>::transmitted_load(const Vector &X,
+                                           const Vector (&s)[2],
+                                           Vector &G) const
+  {
+    G = 0;
+    if (!parameters.estimators.transmits_load(data.mu1, data.mu2))
+      return {};
+    const Quadrature<dim> &points = flux_reconstruction->get_quadrature();
+    const unsigned int     n_q    = points.size();
+    std::vector<double>    loads[2];
+    for (unsigned int a = 0; a < 2; ++a)
+      loads[a].assign(triangulation.n_active_cells() * n_q, 0.);
+    FEValues<dim>        values(*mapping, fe, points, update_quadrature_points);
+    const Function<dim> *f[2] = {data.f1.get(), data.f2.get()};
+    std::vector<double>  cell_values(n_q);
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              f[a]->value_list(values.get_quadrature_points(), cell_values);
+              std::copy(cell_values.begin(),
+                        cell_values.end(),
+                        loads[a].begin() + cell->active_cell_index() * n_q);
+            }
+        }
+
+    Vector owned(owned_nodes, comm), contact;
+    contact_system.contact_rows().contact_set(X, owned);
+    ghosted_nodes.copy(owned, contact);
+    // (no node of the broken space is constrained: the boundary data are
+    // imposed weakly)
+    AffineConstraints<double> none;
+    none.close();
+    // (s on the broken nodes, for the cost of the contact term on a cell)
+    Vector s_broken[2];
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        owned = 0;
+        FETools::interpolate(continuous_dof_handler, s[a], dof_handler, owned);
+        ghosted_nodes.copy(owned, s_broken[a]);
+      }
+    VI::TransmittedLoad<dim> load;
+    load.reinit(
+      *mapping, dof_handler, none, points, VI::friedrichs_constant(geometry));
+    typename VI::TransmittedLoad<dim>::Split split;
+    load.split(data.mu1,
+               data.mu2,
+               loads[0],
+               loads[1],
+               contact,
+               s_broken[0],
+               s_broken[1],
+               split);
+    G = split.node_moments;
+    return std::move(split.values);
   }
 
 
@@ -483,6 +677,14 @@ namespace StepMembranes
       &local) const;
   template VI::DGContactEstimate
   DGMembraneProblem<2>::estimate(const Vector &X) const;
+  template void
+  DGMembraneProblem<2>::join_at_contact_cells(const Vector &X,
+                                              const Vector &moments,
+                                              Vector (&s)[2]) const;
+  template std::vector<double>
+  DGMembraneProblem<2>::transmitted_load(const Vector &X,
+                                         const Vector (&s)[2],
+                                         Vector &G) const;
   template void
   DGMembraneProblem<2>::postprocess();
   template void

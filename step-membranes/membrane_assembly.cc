@@ -66,33 +66,10 @@ namespace StepMembranes
                   << " vertex patches, " << n_matrices
                   << " distinct patch matrices" << std::endl;
           }
-        cell_multiplier.reset();
-        // (the transmitted load distributes the moments the cellwise way,
-        // on the cells of J, also for p = 1)
-        const bool transmitted =
-          parameters.estimators.uses_transmitted_load(data.mu1,
-                                                      data.mu2,
-                                                      fe.degree);
-        if ((fe.degree > 1 &&
-             parameters.estimators.multiplier ==
-               VI::EstimatorParameters::Multiplier::contact_cells) ||
-            transmitted)
-          {
-            cell_multiplier = std::make_unique<VI::CellMultiplier<dim>>();
-            cell_multiplier->reinit(*mapping,
-                                    dof_handler,
-                                    u1_constraints,
-                                    flux_reconstruction->get_quadrature());
-          }
-        transmitted_load.reset();
-        if (transmitted)
-          {
-            transmitted_load = std::make_unique<VI::TransmittedLoad<dim>>();
-            transmitted_load->reinit(*mapping,
-                                     dof_handler,
-                                     u1_constraints,
-                                     flux_reconstruction->get_quadrature());
-          }
+        setup_estimate_multiplier(parameters.estimators,
+                                  data.mu1,
+                                  data.mu2,
+                                  flux_reconstruction->get_quadrature());
         dual_norm.reset();
         if (parameters.estimators.needs_dual_norm_bound())
           {
@@ -105,28 +82,6 @@ namespace StepMembranes
           }
         make_vertex_dofs();
       }
-  }
-
-
-  template <int dim>
-  void
-  MembraneProblem<dim>::on_owned_cells_in_parallel(
-    const std::function<
-      void(const std::vector<typename DoFHandler<dim>::active_cell_iterator> &,
-           const std::size_t,
-           const std::size_t)> &work) const
-  {
-    std::vector<typename DoFHandler<dim>::active_cell_iterator> cells;
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      if (cell->is_locally_owned())
-        cells.push_back(cell);
-    parallel::apply_to_subranges(
-      std::size_t(0),
-      cells.size(),
-      [&](const std::size_t begin, const std::size_t end) {
-        work(cells, begin, end);
-      },
-      /*grainsize=*/1024);
   }
 
 
@@ -147,27 +102,7 @@ namespace StepMembranes
     // without estimators: the estimators add no evaluation of f. (Timed
     // also on their own, inside the assembly.)
     TimerOutput::Scope loads(timer, "assembly: loads");
-    for (unsigned int a = 0; a < 2; ++a)
-      load_values[a].assign(triangulation.n_active_cells() * quadrature.size(),
-                            0.);
-    on_owned_cells_in_parallel(
-      [&](const auto &cells, const std::size_t begin, const std::size_t end) {
-        const Function<dim> *f[2] = {data.f1.get(), data.f2.get()};
-        FEValues<dim> where(*mapping, fe, quadrature, update_quadrature_points);
-        std::vector<double> values(quadrature.size());
-        for (std::size_t c = begin; c < end; ++c)
-          {
-            where.reinit(cells[c]);
-            for (unsigned int a = 0; a < 2; ++a)
-              {
-                f[a]->value_list(where.get_quadrature_points(), values);
-                std::copy(values.begin(),
-                          values.end(),
-                          load_values[a].begin() +
-                            cells[c]->active_cell_index() * quadrature.size());
-              }
-          }
-      });
+    tabulate_loads(*data.f1, *data.f2);
     loads.stop();
 
     contact_system.matrix = 0;
@@ -309,12 +244,6 @@ namespace StepMembranes
   // Explicit instantiations of this file's members.
   template void
   MembraneProblem<2>::setup_system();
-  template void
-  MembraneProblem<2>::on_owned_cells_in_parallel(
-    const std::function<
-      void(const std::vector<typename DoFHandler<2>::active_cell_iterator> &,
-           const std::size_t,
-           const std::size_t)> &work) const;
   template void
   MembraneProblem<2>::assemble_system();
   template void

@@ -129,14 +129,6 @@ namespace StepMembranes
      */
     struct Iterate : VI::MembraneIterate
     {
-      /// With the cellwise multiplier (p >= 2): lambda_h and its part from
-      /// the nonnegative coefficients on the cells (then `lambda` and
-      /// `lambda_nonnegative` stay empty), and 2 <lambda_h, u1h - u2h>_h.
-      std::vector<double> lambda_cells, lambda_nonnegative_cells;
-      double              complementarity = 0;
-      /// With the transmitted load: the joined cells and potentials.
-      std::vector<std::uint8_t> joined_cells;
-      Vector                    s1_joined, s2_joined;
       /// Whether sigma1, sigma2 were reconstructed (see add_fluxes()).
       bool has_fluxes = false;
     };
@@ -193,9 +185,6 @@ namespace StepMembranes
     predicted_eta_disc() const;
     void
     remember_eta_disc(const VI::ContactEstimate &estimate);
-    /// The nodes in contact at X (1, else 0; with ghosts).
-    void
-    contact_nodes(const Vector &X, Vector &indicator) const;
     /// With `equilibrated`, both dual norms (undershoots, remainder) are
     /// bounded by equilibration, whatever Estimators/Equilibrated dual norms
     /// says; `sharpen_remainder` (optional) says where the remainder's bound
@@ -216,15 +205,6 @@ namespace StepMembranes
     postprocess() override;
     void
     compute_errors() override;
-    /// Call work(cells, begin, end) for parts [begin, end) of the locally
-    /// owned cells `cells`, concurrently on the threads (the problem data
-    /// may be evaluated from several threads at once).
-    void
-    on_owned_cells_in_parallel(
-      const std::function<void(
-        const std::vector<typename DoFHandler<dim>::active_cell_iterator> &,
-        const std::size_t,
-        const std::size_t)> &work) const;
     void
     output_results(const unsigned int cycle) const override;
     void
@@ -263,19 +243,8 @@ namespace StepMembranes
     Vector solution; ///< X
     /// lambda_h as a finite element function, from its nodal moments.
     const VI::MultiplierFunction multiplier_function;
-    /// f1, f2 at the points of `quadrature` (the flux quadrature) of the
-    /// owned cells, [active cell index * n_q + q]: tabulated by the assembly,
-    /// read by it, the flux reconstruction and every estimate.
-    std::vector<double> load_values[2];
-
     // Estimators.
     std::unique_ptr<VI::FluxReconstruction<dim>> flux_reconstruction;
-    /// The multiplier of the estimate on the contact cells (p >= 2 and
-    /// `Estimators/Multiplier = contact cells`; null otherwise).
-    std::unique_ptr<VI::CellMultiplier<dim>> cell_multiplier;
-    /// The transmitted load of the estimate's multiplier on the joined
-    /// cells (Estimators/Transmitted load; null otherwise).
-    std::unique_ptr<VI::TransmittedLoad<dim>> transmitted_load;
     /// The equilibrated bound of the undershoots' dual norm, if asked for
     /// (Estimators/Equilibrated dual norms); after flux_reconstruction, which
     /// it refers to.

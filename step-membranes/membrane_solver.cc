@@ -50,8 +50,8 @@ namespace StepMembranes
       contact_system.make_newton(parameters.output.verbose ? &pcout : nullptr);
     newton.setup_jacobian = [&](const Vector &X) {
       stopping.start_step(X);
-      if (cell_multiplier || transmitted_load)
-        contact_nodes(X, step_contact_nodes);
+      if (multiplier_needs_contact_set())
+        contact_nodes(contact_system, X, step_contact_nodes);
       contact_system.setup_jacobian(X);
     };
     newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
@@ -180,21 +180,6 @@ namespace StepMembranes
   }
 
 
-  // The iterate as the estimators need it: u1h, u2h, s_h (nodal averaging
-  // where u1h < u2h), lambda_h and its part from nonnegative coefficients,
-  // the algebraic residual r_h of the balance equations (<r_h, psi_i>_h =
-  // (F - E X)_i), and the equilibrated fluxes of both membranes.
-  template <int dim>
-  void
-  MembraneProblem<dim>::contact_nodes(const Vector &X, Vector &indicator) const
-  {
-    Vector owned(owned_nodes, comm);
-    contact_system.contact_rows().contact_set(X, owned);
-    indicator.reinit(owned_nodes, relevant_nodes, comm);
-    indicator = owned;
-  }
-
-
   // Explicit instantiations of this file's members.
   template void
   MembraneProblem<2>::solve();
@@ -205,6 +190,4 @@ namespace StepMembranes
   template typename VI::AdaptiveStopping<typename MembraneProblem<2>::Iterate,
                                          VI::ContactEstimate>::Hooks
   MembraneProblem<2>::stopping_hooks();
-  template void
-  MembraneProblem<2>::contact_nodes(const Vector &X, Vector &indicator) const;
 } // namespace StepMembranes

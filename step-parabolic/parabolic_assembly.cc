@@ -44,6 +44,10 @@ namespace StepParabolic
           fe.degree);
         flux_reconstruction->reinit(dof_handler);
         make_vertex_dofs();
+        setup_estimate_multiplier(parameters.estimators,
+                                  data.mu1,
+                                  data.mu2,
+                                  flux_reconstruction->get_quadrature());
       }
 
     // The ring of every owned node (ring test: where contact begins).
@@ -84,19 +88,21 @@ namespace StepParabolic
       stiffness_matrix = 0;
 
     // The loads (f(t_n), psi) + (u_h^(n-1), psi) / dt of the backward Euler
-    // step; the copier puts the blocks mu_alpha S + M / dt into A and F
-    // through the constraints, and S + M / (mu dt) into the matrix of AMG.
-    const auto cell_loads = [&](const auto &,
+    // step, from f(t_n) tabulated at the quadrature points (which the
+    // estimates read too); the copier puts the blocks mu_alpha S + M / dt
+    // into A and F through the constraints, and S + M / (mu dt) into the
+    // matrix of AMG.
+    tabulate_loads(*data.f1, *data.f2);
+    const auto cell_loads = [&](const auto          &cell,
                                 const FEValues<dim> &fe_values,
                                 std::vector<double>(&loads)[2]) {
-      const auto          &points = fe_values.get_quadrature_points();
-      const Function<dim> *f[2]   = {data.f1.get(), data.f2.get()};
-      const Vector        *old[2] = {&previous_u1, &previous_u2};
+      const std::size_t first  = cell->active_cell_index() * quadrature.size();
+      const Vector     *old[2] = {&previous_u1, &previous_u2};
       for (unsigned int a = 0; a < 2; ++a)
         {
           fe_values.get_function_values(*old[a], loads[a]);
           for (const unsigned int q : fe_values.quadrature_point_indices())
-            loads[a][q] = f[a]->value(points[q]) + loads[a][q] / dt;
+            loads[a][q] = load_values[a][first + q] + loads[a][q] / dt;
         }
     };
     std::vector<types::global_dof_index> system_dofs(fe.n_dofs_per_cell());
@@ -130,7 +136,7 @@ namespace StepParabolic
         }
     };
     const Vector lumped_mass = assemble_cells(cell_loads,
-                                              update_quadrature_points,
+                                              update_default,
                                               /*mass_term=*/true,
                                               copy_system);
     contact_system.matrix.compress(VectorOperation::add);
@@ -239,6 +245,8 @@ namespace StepParabolic
       {
         newton.setup_jacobian = [&](const Vector &X) {
           stopping.start_step(X);
+          if (multiplier_needs_contact_set())
+            contact_nodes(contact_system, X, step_contact_nodes);
           contact_system.setup_jacobian(X);
         };
         newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
@@ -270,7 +278,7 @@ namespace StepParabolic
   {
     typename VI::AdaptiveStopping<Iterate, StepEstimate>::Hooks hooks;
     hooks.describe = [this](const Vector &X, Iterate &it) {
-      describe_iterate(X, it);
+      describe_iterate(X, step_contact_nodes, it);
     };
     hooks.estimate = [this](const Iterate &it, const Iterate &ahead) {
       return estimate(it, ahead);

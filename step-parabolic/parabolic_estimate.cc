@@ -15,12 +15,15 @@
 namespace StepParabolic
 {
   // The iterate as the estimators need it (see step-membranes): u_h, s_h,
-  // lambda_h and its part from nonnegative coefficients, the residual r_h
+  // lambda~ (lambda_h, its part from nonnegative coefficients, with the
+  // transmitted load of the loads f(t_n) - d_t u_h), the residual r_h
   // (<r_h, psi_i>_h = (F - E X)_i), d_t u_h = (u_h - u_h^(n-1)) / dt_n, and
-  // the fluxes equilibrated with f(t_n) - d_t u_h -/+ lambda_h - r_h.
+  // the fluxes equilibrated with f(t_n) - d_t u_h -/+ lambda~ - r_h.
   template <int dim>
   void
-  ParabolicProblem<dim>::describe_iterate(const Vector &X, Iterate &it) const
+  ParabolicProblem<dim>::describe_iterate(const Vector &X,
+                                          const Vector &contact,
+                                          Iterate      &it) const
   {
     TimerOutput::Scope t(timer, "estimators: fluxes");
     it.X = X;
@@ -29,7 +32,7 @@ namespace StepParabolic
       X, data.mu1, data.mu2, it.owned, {{&it.u1, &it.u2, &it.s1, &it.s2}});
 
     // d_t u_h, from the owned values of u_h^(n-1).
-    Vector function(owned_nodes, comm), moments(owned_nodes, comm);
+    Vector function(owned_nodes, comm);
     for (const auto &[u, old, target] :
          {std::tuple<const Vector *, const Vector *, Vector *>{&it.owned[0],
                                                                &previous_u1,
@@ -42,18 +45,31 @@ namespace StepParabolic
         ghosted_nodes.copy(function, *target);
       }
 
-    VI::NodalFields::extract(X, multiplier, moments);
-    moments.scale(contact_system.coupling());
-    multiplier_function.with_nonnegative_part(moments,
-                                              it.lambda,
-                                              it.lambda_nonnegative);
+    const Vector       *dt_u[2] = {&it.dt_u1, &it.dt_u2};
+    std::vector<double> step_loads[2];
+    if (transmitted_load)
+      loads_of_step(dt_u, step_loads);
+    describe_multiplier(contact_system,
+                        multiplier_function,
+                        X,
+                        it.owned,
+                        contact,
+                        transmitted_load ? step_loads : load_values,
+                        data.mu1,
+                        data.mu2,
+                        it);
+    if (cell_multiplier)
+      {
+        // 2 <lambda_h^n, u1h^(n-1) - u2h^(n-1)>_h = 2 sum_i m_i (gap at x_i)
+        Vector moments(owned_nodes, comm), gap(previous_owned[0]);
+        VI::NodalFields::extract(X, multiplier, moments);
+        moments.scale(contact_system.coupling());
+        gap -= previous_owned[1];
+        it.previous_complementarity = 2. * (moments * gap);
+      }
 
     residual_functions(contact_system, multiplier_function, X, it.r1, it.r2);
-
-    // The fluxes equilibrated with f(t_n) - d_t u_h -/+ lambda_h - r_h.
-    const Function<dim> *f[2]    = {data.f1.get(), data.f2.get()};
-    const Vector        *dt_u[2] = {&it.dt_u1, &it.dt_u2};
-    equilibrate_fluxes(*flux_reconstruction, data.mu1, data.mu2, f, dt_u, it);
+    equilibrate_fluxes(*flux_reconstruction, data.mu1, data.mu2, dt_u, it);
   }
 
 
@@ -259,6 +275,10 @@ namespace StepParabolic
             in.s1 = &s1;
             in.s2 = &s2;
           }
+        // (the linearisation part of the contact term of the cellwise
+        // multiplier, linear in t as u_ht)
+        in.complementarity = (1. - theta) * it.previous_complementarity +
+                             theta * it.complementarity;
         VI::ContactEstimate c = VI::estimate_contact_error(in);
 
         const double A = c.eta_1 + c.nonc_1 + c.nonc_2 + terms.eta_dt;
@@ -313,7 +333,10 @@ namespace StepParabolic
   ParabolicProblem<dim>::estimate(const Vector &X) const
   {
     Iterate it;
-    describe_iterate(X, it);
+    Vector  contact;
+    if (multiplier_needs_contact_set())
+      contact_nodes(contact_system, X, contact);
+    describe_iterate(X, contact, it);
     return estimate(it, it);
   }
 
@@ -407,7 +430,9 @@ namespace StepParabolic
 
   // Explicit instantiations of this file's members.
   template void
-  ParabolicProblem<2>::describe_iterate(const Vector &X, Iterate &it) const;
+  ParabolicProblem<2>::describe_iterate(const Vector &X,
+                                        const Vector &contact,
+                                        Iterate      &it) const;
   template std::vector<std::pair<double, double>>
   ParabolicProblem<2>::time_points() const;
   template void

@@ -126,6 +126,9 @@ namespace StepParabolic
       Vector dt_u1, dt_u2;
       /// u1h, u2h, s1, s2 without ghosts (for interpolation in time).
       Vector owned[4];
+      /// With the cellwise multiplier: 2 <lambda_h^n, u1h^(n-1) -
+      /// u2h^(n-1)>_h, the contact term's linearisation part at t_(n-1).
+      double previous_complementarity = 0;
     };
 
     /// The terms of the step estimate beyond the steady estimators.
@@ -212,8 +215,12 @@ namespace StepParabolic
     stopping_hooks();
 
     // Estimators.
+    /// `contact`: the nodes in contact that decide the contact cells of
+    /// the cellwise multiplier (and J).
     void
-    describe_iterate(const Vector &X, Iterate &iterate) const;
+    describe_iterate(const Vector &X,
+                     const Vector &contact,
+                     Iterate      &iterate) const;
     StepEstimate
     estimate(const Iterate &iterate, const Iterate &ahead) const;
     StepEstimate
@@ -284,6 +291,9 @@ namespace StepParabolic
     std::vector<unsigned int> node_ring;
 
     std::unique_ptr<VI::FluxReconstruction<dim>> flux_reconstruction;
+    /// The nodes in contact at the linearisation point of the current
+    /// Newton step (see step-membranes).
+    Vector step_contact_nodes;
 
     // The time step: t_(n-1) = time, t_n = time + time_step.
     double       time               = 0;

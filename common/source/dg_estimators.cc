@@ -221,6 +221,16 @@ namespace VI
         broken_values.get_function_values(*in.lambda, lambda);
         broken_values.get_function_values(*in.lambda_nonnegative,
                                           lambda_nonnegative);
+        if (in.transmitted_load)
+          {
+            const double *g = in.transmitted_load->data() +
+                              broken_cell->active_cell_index() * lambda.size();
+            for (unsigned int q = 0; q < lambda.size(); ++q)
+              {
+                lambda[q] += g[q];
+                lambda_nonnegative[q] += g[q];
+              }
+          }
 
         lift_boundary_data(continuous_cell,
                            continuous_values,

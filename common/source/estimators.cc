@@ -87,13 +87,7 @@ namespace VI
                             &sigma_ahead[a],
                             &grad_G[a]})
               v->resize(n_q);
-            grad_s_joined[a].resize(n_q);
-            for (auto *v : {&u[a],
-                            &s[a],
-                            &s_joined[a],
-                            &r_ahead[a],
-                            &div_ahead[a],
-                            &G[a]})
+            for (auto *v : {&u[a], &s[a], &r_ahead[a], &div_ahead[a], &G[a]})
               v->resize(n_q);
             // Zero for steady problems.
             dt_u[a].assign(n_q, 0.);
@@ -126,12 +120,11 @@ namespace VI
       PiolaDivergence<dim> divergence;
       std::vector<double>  sigma_coefficients, potential_coefficients,
         unused_divergences;
-      // (s_joined: the potentials s~ is built from, s or s_J)
-      std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], grad_s_joined[2],
-        sigma_disc[2], sigma_ahead[2], grad_G[2];
-      std::vector<double> u[2], s[2], s_joined[2], r_ahead[2], div_ahead[2],
-        dt_u[2], dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative,
-        lambda_ahead, s_coefficients;
+      std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], sigma_disc[2],
+        sigma_ahead[2], grad_G[2];
+      std::vector<double> u[2], s[2], r_ahead[2], div_ahead[2], dt_u[2],
+        dt_u_ahead[2], G[2], f, lambda, lambda_nonnegative, lambda_ahead,
+        s_coefficients;
       std::vector<std::unique_ptr<FEValues<dim>>> face_values;
     };
 
@@ -168,7 +161,6 @@ namespace VI
           , load_values{in.f1_values, in.f2_values}
           , dt_vectors{in.dt_u1, in.dt_u2}
           , dt_ahead_vectors{in.dt_u1_ahead, in.dt_u2_ahead}
-          , joined_potentials{in.s1_joined, in.s2_joined}
           , lifting(in.g1 && in.g2)
           , own_look_ahead(in.sigma1_ahead == in.sigma1_disc &&
                            in.sigma2_ahead == in.sigma2_disc &&
@@ -187,11 +179,9 @@ namespace VI
         Assert((in.dt_u1 && in.dt_u2 && in.dt_u1_ahead && in.dt_u2_ahead) ||
                  !(in.dt_u1 || in.dt_u2 || in.dt_u1_ahead || in.dt_u2_ahead),
                ExcMessage("Give all four time derivatives, or none."));
-        AssertThrow(!in.joined_cells ||
-                      (in.joined_cells_ahead && in.f1_values && in.f2_values &&
-                       in.s1_joined && in.s2_joined),
-                    ExcMessage("The transmitted load needs the loads' values "
-                               "and the joined potentials."));
+        AssertThrow(!in.transmitted_load == !in.transmitted_load_ahead,
+                    ExcMessage("Give the transmitted load of the iterate "
+                               "and of the look-ahead, or neither."));
         AssertThrow(with_fluxes ||
                       (own_look_ahead &&
                        !(in.dual_norm && in.dual_norm_undershoots)),
@@ -477,24 +467,9 @@ namespace VI
                              own_look_ahead ? nullptr : &lambda_ahead);
         if (own_look_ahead)
           lambda_ahead = lambda;
-
-        // The potentials of the cone reconstruction.
-        for (unsigned int a = 0; a < 2; ++a)
-          if (joined_potentials[a])
-            cell_function_values(potential_values,
-                                 potential_cell,
-                                 *joined_potentials[a],
-                                 potential_coefficients,
-                                 &scratch.s_joined[a],
-                                 &scratch.grad_s_joined[a]);
-          else
-            {
-              scratch.s_joined[a]      = s[a];
-              scratch.grad_s_joined[a] = grad_s[a];
-            }
       }
 
-      // On the joined cells, the transmitted load g (TransmittedLoad) is
+      // On the cells of J, the transmitted load g (TransmittedLoad) is
       // part of the multipliers.
       void
       add_transmitted_load(const unsigned int   index,
@@ -502,24 +477,16 @@ namespace VI
                            std::vector<double> &lambda_nonnegative,
                            std::vector<double> *lambda_ahead = nullptr) const
       {
-        if (!in.joined_cells)
+        if (!in.transmitted_load)
           return;
-        const bool here  = (*in.joined_cells)[index],
-                   ahead = lambda_ahead && (*in.joined_cells_ahead)[index];
-        if (!here && !ahead)
-          return;
-        std::vector<double> g(n_q);
-        TransmittedLoad<dim>::cell_values(
-          mu[0], mu[1], *load_values[0], *load_values[1], index, g);
+        const double *g       = in.transmitted_load->data() + index * n_q;
+        const double *g_ahead = in.transmitted_load_ahead->data() + index * n_q;
         for (unsigned int q = 0; q < n_q; ++q)
           {
-            if (here)
-              {
-                lambda[q] += g[q];
-                lambda_nonnegative[q] += g[q];
-              }
-            if (ahead)
-              (*lambda_ahead)[q] += g[q];
+            lambda[q] += g[q];
+            lambda_nonnegative[q] += g[q];
+            if (lambda_ahead)
+              (*lambda_ahead)[q] += g_ahead[q];
           }
       }
 
@@ -552,8 +519,6 @@ namespace VI
               grad_u[a][q] += grad_G[a][q];
               s[a][q] += G[a][q];
               grad_s[a][q] += grad_G[a][q];
-              scratch.s_joined[a][q] += G[a][q];
-              scratch.grad_s_joined[a][q] += grad_G[a][q];
             }
       }
 
@@ -637,26 +602,22 @@ namespace VI
       {
         const FEValues<dim> &potential_values = scratch.potential_values;
         const auto          &grad_u = scratch.grad_u, &grad_s = scratch.grad_s,
-                   &grad_G = scratch.grad_G;
-        const auto &u      = scratch.u;
-        const auto &s = scratch.s_joined, &grad_j = scratch.grad_s_joined;
+                   &grad_G           = scratch.grad_G;
+        const auto                &u = scratch.u, &s = scratch.s;
         const std::vector<double> &lambda = scratch.lambda;
-        // Non-conformity: s~ = s_J + (theta w, -(1 - theta) w), w = (s_J,2 -
-        // s_J,1)^+, is in the cone (s_J = s_h without joined cells); s_h -
-        // u_h vanishes once Newton has converged, s~ - s_h is a
-        // discretisation term.
+        // Non-conformity: s~ = s_h + (theta w, -(1 - theta) w), w = (s2 -
+        // s1)^+, is in the cone; s_h - u_h vanishes once Newton has
+        // converged, s~ - s_h is a discretisation term.
         for (unsigned int q = 0; q < n_q; ++q)
           {
             const double         dx     = potential_values.JxW(q);
             const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
-                                            grad_j[1][q] - grad_j[0][q] :
+                                            grad_s[1][q] - grad_s[0][q] :
                                             Tensor<1, dim>();
             const Tensor<1, dim> d1     = grad_s[0][q] - grad_u[0][q],
                                  d2     = grad_s[1][q] - grad_u[1][q];
-            const Tensor<1, dim> j1 =
-                                   grad_j[0][q] - grad_s[0][q] + theta * grad_w,
-                                 j2 = grad_j[1][q] - grad_s[1][q] -
-                                      (1 - theta) * grad_w;
+            const Tensor<1, dim> j1     = theta * grad_w,
+                                 j2     = -(1 - theta) * grad_w;
             cell[ContactSum::nonc_total] += (mu[0] * (d1 + j1).norm_square() +
                                              mu[1] * (d2 + j2).norm_square()) *
                                             dx;
@@ -689,7 +650,6 @@ namespace VI
         *ahead_vectors[2];
       const std::vector<double>           *load_values[2];
       const TrilinosWrappers::MPI::Vector *dt_vectors[2], *dt_ahead_vectors[2];
-      const TrilinosWrappers::MPI::Vector *joined_potentials[2];
       // The lifting G of g - I_h g on the cells at the boundary (see
       // add_lifting()) needs the values of u_h, g and the mapping on
       // the boundary faces, at the points that share the tangential

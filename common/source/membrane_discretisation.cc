@@ -1,6 +1,8 @@
 // The conforming discretisation of two membranes shared by step-membranes
-// and step-parabolic: nodes, constraints, matrices and the cell assembly.
+// and step-parabolic: nodes, constraints, matrices and the cell assembly;
+// the loads, the multiplier and the fluxes its estimates take.
 
+#include <deal.II/base/parallel.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/mapping_q.h>
 #include <deal.II/grid/filtered_iterator.h>
@@ -10,6 +12,7 @@
 #include <deal.II/meshworker/scratch_data.h>
 #include <deal.II/numerics/vector_tools.h>
 
+#include <vi/cell_function_values.h>
 #include <vi/estimators.h>
 #include <vi/field_output.h>
 #include <vi/flux_reconstruction.h>
@@ -386,17 +389,175 @@ namespace VI
 
 
   template <int dim>
-  std::function<double(const unsigned int, const unsigned int)>
-  MembraneDiscretisation<dim>::lumped_sources(const Vector &lambda,
-                                              const Vector &r1,
-                                              const Vector &r2) const
+  void
+  MembraneDiscretisation<dim>::tabulate_loads(const Function<dim> &f1,
+                                              const Function<dim> &f2)
   {
-    return [this, &lambda, r = std::array<const Vector *, 2>{{&r1, &r2}}](
-             const unsigned int vertex, const unsigned int alpha) {
-      const types::global_dof_index node = vertex_dofs[vertex];
-      const double                  sign = alpha == 0 ? -1. : 1.; // (-1)^alpha
-      return -sign * lambda(node) - (*r[alpha])(node);
-    };
+    const unsigned int n_q = quadrature.size();
+    for (unsigned int a = 0; a < 2; ++a)
+      load_values[a].assign(triangulation.n_active_cells() * n_q, 0.);
+    std::vector<CellIterator> cells;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        cells.push_back(cell);
+    // (a parsed expression costs more than the rest of a cell's work in an
+    // estimate: the threads share the cells)
+    parallel::apply_to_subranges(
+      std::size_t(0),
+      cells.size(),
+      [&](const std::size_t begin, const std::size_t end) {
+        const Function<dim> *f[2] = {&f1, &f2};
+        FEValues<dim> where(*mapping, fe, quadrature, update_quadrature_points);
+        std::vector<double> values(n_q);
+        for (std::size_t c = begin; c < end; ++c)
+          {
+            where.reinit(cells[c]);
+            for (unsigned int a = 0; a < 2; ++a)
+              {
+                f[a]->value_list(where.get_quadrature_points(), values);
+                std::copy(values.begin(),
+                          values.end(),
+                          load_values[a].begin() +
+                            cells[c]->active_cell_index() * n_q);
+              }
+          }
+      },
+      /*grainsize=*/1024);
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::loads_of_step(
+    const Vector *const (&dt_u)[2],
+    std::vector<double> (&loads)[2]) const
+  {
+    const unsigned int  n_q = quadrature.size();
+    FEValues<dim>       values(*mapping, fe, quadrature, update_values);
+    std::vector<double> time_derivative(n_q);
+    for (unsigned int a = 0; a < 2; ++a)
+      loads[a] = load_values[a];
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          values.reinit(cell);
+          const std::size_t first = cell->active_cell_index() * n_q;
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              values.get_function_values(*dt_u[a], time_derivative);
+              for (unsigned int q = 0; q < n_q; ++q)
+                loads[a][first + q] -= time_derivative[q];
+            }
+        }
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::setup_estimate_multiplier(
+    const EstimatorParameters &parameters,
+    const double               mu1,
+    const double               mu2,
+    const Quadrature<dim>     &points)
+  {
+    // (the transmitted load distributes the moments the cellwise way, on
+    // the cells of J, also for p = 1)
+    const bool transmitted =
+      parameters.uses_transmitted_load(mu1, mu2, fe.degree);
+    cell_multiplier.reset();
+    if ((fe.degree > 1 && parameters.multiplier ==
+                            EstimatorParameters::Multiplier::contact_cells) ||
+        transmitted)
+      {
+        cell_multiplier = std::make_unique<CellMultiplier<dim>>();
+        cell_multiplier->reinit(*mapping, dof_handler, u1_constraints, points);
+      }
+    transmitted_load.reset();
+    if (transmitted)
+      {
+        transmitted_load = std::make_unique<TransmittedLoad<dim>>();
+        transmitted_load->reinit(*mapping,
+                                 dof_handler,
+                                 u1_constraints,
+                                 points,
+                                 friedrichs_constant(geometry));
+      }
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::contact_nodes(
+    const ContactSystem &contact_system,
+    const Vector        &X,
+    Vector              &indicator) const
+  {
+    Vector owned(owned_nodes, comm);
+    contact_system.contact_rows().contact_set(X, owned);
+    indicator.reinit(owned_nodes, relevant_nodes, comm);
+    indicator = owned;
+  }
+
+
+  template <int dim>
+  void
+  MembraneDiscretisation<dim>::describe_multiplier(
+    const ContactSystem      &contact_system,
+    const MultiplierFunction &multiplier_function,
+    const Vector             &X,
+    const Vector (&owned)[4],
+    const Vector &contact,
+    const std::vector<double> (&loads)[2],
+    const double     mu1,
+    const double     mu2,
+    MembraneIterate &it) const
+  {
+    // lambda_h: <lambda_h, psi_i>_h = D_i X3_i = m_i.
+    Vector moments(owned_nodes, comm);
+    NodalFields::extract(X, NodalFields::multiplier, moments);
+    moments.scale(contact_system.coupling());
+
+    // The transmitted load g on the cells J takes its moments G from
+    // lambda_h.
+    typename TransmittedLoad<dim>::Split split;
+    const Vector                        *offset = nullptr;
+    Vector                               load_nodes;
+    it.transmitted_load.clear();
+    if (transmitted_load)
+      {
+        transmitted_load->split(
+          mu1, mu2, loads[0], loads[1], contact, it.s1, it.s2, split);
+        offset              = &split.node_moments;
+        it.transmitted_load = std::move(split.values);
+        // (the moments shared on the cells of J)
+        ghosted_nodes.copy(split.load_nodes, load_nodes);
+      }
+
+    if (!cell_multiplier)
+      {
+        multiplier_function.with_nonnegative_part(moments,
+                                                  it.lambda,
+                                                  it.lambda_nonnegative,
+                                                  offset);
+        return;
+      }
+    // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i).
+    Vector gap(owned[0]);
+    gap -= owned[1];
+    it.complementarity = 2. * (moments * gap);
+    Vector m, shifted(moments);
+    if (offset)
+      shifted -= *offset;
+    ghosted_nodes.copy(shifted, m);
+    // (on the cells of J with the transmitted load)
+    const Vector &share_on = transmitted_load ? load_nodes : contact;
+    cell_multiplier->distribute(m, share_on, it.lambda_cells);
+    for (double &value : moments)
+      value = std::max(value, 0.);
+    if (offset)
+      moments -= *offset;
+    ghosted_nodes.copy(moments, m);
+    cell_multiplier->distribute(m, share_on, it.lambda_nonnegative_cells);
   }
 
 
@@ -406,62 +567,88 @@ namespace VI
     const FluxReconstruction<dim> &fluxes,
     const double                   mu1,
     const double                   mu2,
-    const Function<dim> *const (&f)[2],
     const Vector *const (&dt_u)[2],
     MembraneIterate &it) const
   {
-    const bool                          lumped = fe.degree == 1;
-    const std::array<const Vector *, 2> potential{{&it.u1, &it.u2}};
-    const std::array<const Vector *, 2> residual{{&it.r1, &it.r2}};
-    const std::array<double, 2>         mu{{mu1, mu2}};
+    // p = 1 lumps the residual, and lambda_h unless it is cellwise.
+    const bool          lumped               = fe.degree == 1;
+    const bool          multiplier_at_points = cell_multiplier || !lumped;
+    const Vector *const u[2]                 = {&it.u1, &it.u2};
+    const Vector *const r[2]                 = {&it.r1, &it.r2};
+    const double        mu[2]                = {mu1, mu2};
+    const double        sign[2]              = {-1., 1.}; // (-1)^alpha
+    const unsigned int  n_q                  = quadrature.size();
+    Assert(fluxes.get_quadrature().size() == n_q, ExcInternalError());
 
     typename FluxReconstruction<dim>::Sources sources;
     sources.n_fields = 2;
     // Per thread: the potential's FEValues at the fluxes' quadrature points
-    // and the values of lambda_h, r_alpha,h and d_t u_alpha,h there.
+    // and the values of lambda~ (with g 1_J), r_alpha,h and d_t u_alpha,h
+    // there.
     sources.make_cell_values = [&]() {
-      const Quadrature<dim> &points = fluxes.get_quadrature();
-      auto                   fe_values =
-        std::make_shared<FEValues<dim>>(*mapping,
-                                        fe,
-                                        points,
-                                        update_values | update_gradients |
-                                          update_quadrature_points);
-      std::vector<double> work(points.size());
-      return [&,
-              fe_values,
-              multiplier      = work,
-              residual_values = work,
-              time_derivative =
-                work](const auto &cell, auto &flux, auto &source) mutable {
-        fe_values->reinit(typename DoFHandler<dim>::active_cell_iterator(
-          &triangulation, cell->level(), cell->index(), &dof_handler));
-        if (!lumped)
-          fe_values->get_function_values(it.lambda, multiplier);
-        for (unsigned int alpha = 0; alpha < 2; ++alpha)
-          {
-            fe_values->get_function_gradients(*potential[alpha], flux[alpha]);
-            for (Tensor<1, dim> &F : flux[alpha])
-              F *= mu[alpha];
-            std::vector<double> &s = source[alpha];
-            f[alpha]->value_list(fe_values->get_quadrature_points(), s);
-            if (dt_u[alpha])
-              fe_values->get_function_values(*dt_u[alpha], time_derivative);
-            if (!lumped)
-              fe_values->get_function_values(*residual[alpha], residual_values);
-            const double sign = alpha == 0 ? -1. : 1.; // (-1)^alpha
-            for (unsigned int q = 0; q < s.size(); ++q)
-              {
-                if (dt_u[alpha])
-                  s[q] -= time_derivative[q];
-                if (!lumped)
-                  s[q] -= sign * multiplier[q] + residual_values[q];
-              }
-          }
-      };
+      return
+        [&,
+         values_of =
+           std::make_shared<FEValues<dim>>(*mapping,
+                                           fe,
+                                           fluxes.get_quadrature(),
+                                           update_values | update_gradients),
+         lambda       = std::vector<double>(n_q),
+         work         = std::vector<double>(n_q),
+         coefficients = std::vector<double>()](const auto &cell,
+                                               auto       &flux,
+                                               auto       &source) mutable {
+          const CellIterator dof_cell(&triangulation,
+                                      cell->level(),
+                                      cell->index(),
+                                      &dof_handler);
+          FEValues<dim>     &values = *values_of;
+          values.reinit(dof_cell);
+          const unsigned int index = cell->active_cell_index();
+          std::fill(lambda.begin(), lambda.end(), 0.);
+          if (cell_multiplier)
+            cell_multiplier->values(it.lambda_cells, index, lambda);
+          else if (!lumped)
+            cell_function_values(
+              values, dof_cell, it.lambda, coefficients, &lambda);
+          if (transmitted_load)
+            for (unsigned int q = 0; q < n_q; ++q)
+              lambda[q] += it.transmitted_load[index * n_q + q];
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              cell_function_values(
+                values, dof_cell, *u[a], coefficients, nullptr, &flux[a]);
+              for (auto &F : flux[a])
+                F *= mu[a];
+              std::copy_n(load_values[a].begin() + index * n_q,
+                          n_q,
+                          source[a].begin());
+              for (unsigned int q = 0; q < n_q; ++q)
+                source[a][q] -= sign[a] * lambda[q];
+              if (!lumped)
+                {
+                  cell_function_values(
+                    values, dof_cell, *r[a], coefficients, &work);
+                  for (unsigned int q = 0; q < n_q; ++q)
+                    source[a][q] -= work[q];
+                }
+              if (dt_u[a])
+                {
+                  cell_function_values(
+                    values, dof_cell, *dt_u[a], coefficients, &work);
+                  for (unsigned int q = 0; q < n_q; ++q)
+                    source[a][q] -= work[q];
+                }
+            }
+        };
     };
     if (lumped)
-      sources.vertex_source = lumped_sources(it.lambda, it.r1, it.r2);
+      sources.vertex_source = [&](const unsigned int vertex,
+                                  const unsigned int alpha) {
+        const types::global_dof_index node = vertex_dofs[vertex];
+        return -(*r[alpha])(node) -
+               (multiplier_at_points ? 0. : sign[alpha] * it.lambda(node));
+      };
     fluxes.reconstruct(sources, {&it.sigma1, &it.sigma2});
   }
 

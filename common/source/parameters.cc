@@ -613,13 +613,14 @@ namespace VI
       "Transmitted load",
       "auto",
       Selection(all_spellings(transmitted_load_spellings)),
-      "step-membranes, FEM (for p >= 2 with Multiplier = contact cells): "
-      "whether the multiplier of the estimate carries, on the cells at the "
+      "Whether the multiplier of the estimate carries, on the cells at the "
       "contact set, the load the contact transmits where the membranes "
-      "move together, (mu1 f2 - mu2 f1) / (mu1 + mu2), the cone "
-      "reconstruction joining the membranes across the free boundary. "
-      "This makes the bound robust in the tension ratio (doc/reference.md, "
-      "'A bound robust in the tensions'); with equal tensions the bound is "
+      "move together, (mu1 l2 - mu2 l1) / (mu1 + mu2) with the loads l = "
+      "f (l = f - d_t u_h in step-parabolic); for FEM of degree p >= 2 "
+      "only with Multiplier = contact cells; the dG methods also join the "
+      "membranes of the cone reconstruction at the free boundary. This "
+      "makes the bound robust in the tension ratio (doc/reference.md, 'A "
+      "bound robust in the tensions'); with equal tensions the bound is "
       "about the same on fine meshes, less sharp on the coarsest. 'auto': "
       "when the tensions are more than 10 times apart.");
   }
@@ -649,17 +650,23 @@ namespace VI
 
 
   bool
+  EstimatorParameters::transmits_load(const double mu1, const double mu2) const
+  {
+    return transmitted_load == TransmittedLoad::always ||
+           (transmitted_load == TransmittedLoad::automatic &&
+            std::max(mu1, mu2) > 10. * std::min(mu1, mu2));
+  }
+
+
+  bool
   EstimatorParameters::uses_transmitted_load(const double       mu1,
                                              const double       mu2,
                                              const unsigned int p) const
   {
     // (p >= 2: with the cellwise multiplier, on whose contact cells the
     // moments are shared)
-    if (transmitted_load == TransmittedLoad::never ||
-        (p > 1 && multiplier != Multiplier::contact_cells))
-      return false;
-    return transmitted_load == TransmittedLoad::always ||
-           std::max(mu1, mu2) > 10. * std::min(mu1, mu2);
+    return (p == 1 || multiplier == Multiplier::contact_cells) &&
+           transmits_load(mu1, mu2);
   }
 
 

@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 namespace VI
 {
@@ -16,28 +15,19 @@ namespace VI
   TransmittedLoad<dim>::reinit(const Mapping<dim>              &mapping,
                                const DoFHandler<dim>           &dof_handler,
                                const AffineConstraints<double> &no_moment,
-                               const Quadrature<dim>           &quadrature)
+                               const Quadrature<dim>           &quadrature,
+                               const double friedrichs_constant)
   {
-    this->mapping     = &mapping;
-    this->dof_handler = &dof_handler;
-    this->no_moment   = &no_moment;
-    this->quadrature  = quadrature;
+    this->mapping             = &mapping;
+    this->dof_handler         = &dof_handler;
+    this->no_moment           = &no_moment;
+    this->quadrature          = quadrature;
+    this->friedrichs_constant = friedrichs_constant;
   }
 
 
   namespace
   {
-    // What a cell at the contact set (not a contact cell) costs the
-    // estimate, in squared energy, for each way of treating it:
-    // - left out of J: lambda~ carries a cell mean of g at best, and the
-    //   residuals of the membranes the rest, (h_K / pi)^2 / m |g - mean_K
-    //   g|_K^2 (m = mu1 mu2 / (mu1 + mu2));
-    // - in J: the contact term of the nodal cone reconstruction s_h,
-    //   2 (g^+, (s1 - s2)^+)_K;
-    // - in J and joined: the energy of the gap's nodal values taken off,
-    //   m sum_i gap_i^2 |grad phi_i|^2 (the cell's part of |grad phi_i|^2
-    //   times the number of cells at x_i).
-    // `values` is reinitialised on the cell, `g` holds g at its points.
     // A constrained node with parents (a hanging node), not a Dirichlet
     // one.
     bool
@@ -66,69 +56,52 @@ namespace VI
     }
 
 
-    struct CellChoice
-    {
-      double left_out = 0, in_j = 0, joined = 0;
-    };
-
+    // Whether a cell at the contact set (not a contact cell) goes into J,
+    // comparing what it costs the estimate in squared energy:
+    // - left out: lambda~ carries a cell mean of g at best, and the
+    //   residuals of the membranes the rest, (h_K / pi)^2 / m |g - mean_K
+    //   g|_K^2 (m = mu1 mu2 / (mu1 + mu2));
+    // - in J: the contact term of the cone reconstruction,
+    //   2 (g^+, (s1 - s2)^+)_K, and the undershoot g^- as the estimate
+    //   weighs it, (|(g^- - mean_K g^-)|_K^2 (h_K / pi)^2 + C_F^2 |K|
+    //   (mean_K g^-)^2) / m.
+    // `values` is reinitialised on the cell, `g` holds g at its points.
     template <int dim>
-    CellChoice
-    cell_choice(const FEValues<dim>                        &values,
-                const std::vector<types::global_dof_index> &dofs,
-                const AffineConstraints<double>            &no_moment,
-                const std::vector<double>                  &g,
-                const double                                m,
-                const double                                h,
-                const TrilinosWrappers::MPI::Vector        &s1,
-                const TrilinosWrappers::MPI::Vector        &s2,
-                std::vector<double>                        &gap,
-                std::vector<double>                        &s2_values)
+    bool
+    takes_load(const FEValues<dim>                 &values,
+               const std::vector<double>           &g,
+               const double                         m,
+               const double                         h,
+               const double                         friedrichs_constant,
+               const TrilinosWrappers::MPI::Vector &s1,
+               const TrilinosWrappers::MPI::Vector &s2,
+               std::vector<double>                 &s1_values,
+               std::vector<double>                 &s2_values)
     {
-      CellChoice choice;
-      values.get_function_values(s1, gap);
+      values.get_function_values(s1, s1_values);
       values.get_function_values(s2, s2_values);
-      double measure = 0, mean = 0;
-      for (unsigned int q = 0; q < gap.size(); ++q)
+      double measure = 0, mean = 0, mean_negative = 0, in_j = 0;
+      for (unsigned int q = 0; q < g.size(); ++q)
         {
           measure += values.JxW(q);
           mean += g[q] * values.JxW(q);
-          choice.in_j += 2. * std::max(g[q], 0.) *
-                         std::max(gap[q] - s2_values[q], 0.) * values.JxW(q);
+          mean_negative += std::min(g[q], 0.) * values.JxW(q);
+          in_j += 2. * std::max(g[q], 0.) *
+                  std::max(s1_values[q] - s2_values[q], 0.) * values.JxW(q);
         }
       mean /= measure;
-      for (unsigned int q = 0; q < gap.size(); ++q)
-        choice.left_out += std::pow(g[q] - mean, 2) * values.JxW(q);
-      choice.left_out *= std::pow(h / numbers::PI, 2) / m;
-
-      const FiniteElement<dim> &fe = values.get_fe();
-      for (unsigned int i = 0; i < dofs.size(); ++i)
+      mean_negative /= measure;
+      const double local    = std::pow(h / numbers::PI, 2) / m;
+      double       left_out = 0, undershoot = 0;
+      for (unsigned int q = 0; q < g.size(); ++q)
         {
-          const double gap_i = s1(dofs[i]) - s2(dofs[i]);
-          if (gap_i == 0.)
-            continue;
-          // (a Dirichlet node keeps its gap: the cell cannot be joined; a
-          // hanging node follows its parents)
-          if (no_moment.is_constrained(dofs[i]))
-            {
-              if (!is_hanging(no_moment, dofs[i]))
-                {
-                  choice.joined = std::numeric_limits<double>::infinity();
-                  break;
-                }
-              continue;
-            }
-          const GeometryPrimitive primitive =
-            fe.get_associated_geometry_primitive(i);
-          const double cells_at_node =
-            primitive == GeometryPrimitive::vertex          ? (1U << dim) :
-            primitive == GeometryPrimitive::line && dim > 1 ? 2. :
-                                                              1.;
-          double stiffness = 0;
-          for (unsigned int q = 0; q < gap.size(); ++q)
-            stiffness += values.shape_grad(i, q).norm_square() * values.JxW(q);
-          choice.joined += m * gap_i * gap_i * stiffness * cells_at_node;
+          left_out += std::pow(g[q] - mean, 2) * values.JxW(q);
+          undershoot +=
+            std::pow(std::min(g[q], 0.) - mean_negative, 2) * values.JxW(q);
         }
-      return choice;
+      in_j += local * undershoot + std::pow(friedrichs_constant, 2) / m *
+                                     measure * mean_negative * mean_negative;
+      return local * left_out > in_j;
     }
   } // namespace
 
@@ -137,31 +110,30 @@ namespace VI
   void
   TransmittedLoad<dim>::split(const double               mu1,
                               const double               mu2,
-                              const std::vector<double> &f1,
-                              const std::vector<double> &f2,
+                              const std::vector<double> &l1,
+                              const std::vector<double> &l2,
                               const Vector              &contact,
                               const Vector              &s1,
                               const Vector              &s2,
                               Split                     &split) const
   {
-    const MPI_Comm  comm  = dof_handler->get_communicator();
-    const IndexSet &owned = dof_handler->locally_owned_dofs();
-    const auto     &tria  = dof_handler->get_triangulation();
-    split.joined_cells.assign(tria.n_active_cells(), 0);
+    const MPI_Comm     comm  = dof_handler->get_communicator();
+    const IndexSet    &owned = dof_handler->locally_owned_dofs();
+    const unsigned int n_q   = quadrature.size();
+    split.values.assign(dof_handler->get_triangulation().n_active_cells() * n_q,
+                        0.);
     split.node_moments.reinit(owned, comm);
     split.load_nodes.reinit(owned, comm);
-    split.joined_nodes.reinit(owned, comm);
 
-    const unsigned int                   n_q = quadrature.size();
     FEValues<dim>                        values(*mapping,
                          dof_handler->get_fe(),
                          quadrature,
-                         update_values | update_gradients | update_JxW_values);
-    std::vector<double>                  g(n_q), gap(n_q), s2_values(n_q);
+                         update_values | update_JxW_values);
+    std::vector<double>                  g(n_q), s1_values(n_q), s2_values(n_q);
     const double                         m = mu1 * mu2 / (mu1 + mu2);
     std::vector<types::global_dof_index> dofs(
       dof_handler->get_fe().n_dofs_per_cell());
-    std::vector<types::global_dof_index> load_nodes, joined_nodes;
+    std::vector<types::global_dof_index> load_nodes;
     dealii::Vector<double>               cell_moments(dofs.size());
 
     for (const auto &cell : dof_handler->active_cell_iterators())
@@ -181,28 +153,22 @@ namespace VI
 
         // J: the contact cells, and the cells at the contact set where g
         // varies too much to be left out (across the free boundary, where
-        // the data jump), joined where the contact term would cost more.
+        // the data jump).
         const auto index = cell->active_cell_index();
-        cell_values(mu1, mu2, f1, f2, index, g);
+        for (unsigned int q = 0; q < n_q; ++q)
+          g[q] = value(mu1, mu2, l1[index * n_q + q], l2[index * n_q + q]);
         values.reinit(cell);
-        if (n_in_contact < n_nodes)
-          {
-            const CellChoice choice = cell_choice(values,
-                                                  dofs,
-                                                  *no_moment,
+        if (n_in_contact < n_nodes && !takes_load(values,
                                                   g,
                                                   m,
                                                   cell->diameter(),
+                                                  friedrichs_constant,
                                                   s1,
                                                   s2,
-                                                  gap,
-                                                  s2_values);
-            if (choice.left_out <= std::min(choice.in_j, choice.joined))
-              continue;
-            if (choice.joined < choice.in_j)
-              add_free_nodes(*no_moment, dofs, joined_nodes);
-          }
-        split.joined_cells[index] = 1;
+                                                  s1_values,
+                                                  s2_values))
+          continue;
+        std::copy(g.begin(), g.end(), split.values.begin() + index * n_q);
         add_free_nodes(*no_moment, dofs, load_nodes);
         // (g 1_J, phi_i) for the conforming basis functions: a hanging
         // node's part goes to its parents, a Dirichlet node's is dropped
@@ -222,28 +188,6 @@ namespace VI
     split.load_nodes.add(load_nodes,
                          std::vector<double>(load_nodes.size(), 1.));
     split.load_nodes.compress(VectorOperation::add);
-    split.joined_nodes.add(joined_nodes,
-                           std::vector<double>(joined_nodes.size(), 1.));
-    split.joined_nodes.compress(VectorOperation::add);
-  }
-
-
-  void
-  join_at_nodes(const double                         mu1,
-                const double                         mu2,
-                const TrilinosWrappers::MPI::Vector &joined,
-                TrilinosWrappers::MPI::Vector       &s1,
-                TrilinosWrappers::MPI::Vector       &s2)
-  {
-    for (const types::global_dof_index i : s1.locally_owned_elements())
-      if (joined(i) > 0)
-        {
-          const double mean = (mu1 * s1(i) + mu2 * s2(i)) / (mu1 + mu2);
-          s1(i)             = mean;
-          s2(i)             = mean;
-        }
-    s1.compress(VectorOperation::insert);
-    s2.compress(VectorOperation::insert);
   }
 
 

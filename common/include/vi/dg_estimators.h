@@ -64,6 +64,11 @@ namespace VI
     const Vector *r1 = nullptr, *r2 = nullptr;
     /// On `flux`: the equilibrated fluxes.
     const Vector *sigma1 = nullptr, *sigma2 = nullptr;
+    /// Optional (TransmittedLoad): g 1_J at the points of `quadrature` on
+    /// the locally owned cells, [active cell index * n_q + q], added to
+    /// lambda and lambda_nonnegative (which then carry the rest of the
+    /// moments).
+    const std::vector<double> *transmitted_load = nullptr;
   };
 
 

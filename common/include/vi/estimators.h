@@ -166,16 +166,13 @@ namespace VI
                               *lambda_ahead_cells       = nullptr;
     double complementarity                              = 0;
 
-    /// Optional (TransmittedLoad): the cells J, by active cell index, on
-    /// which the multiplier of the estimate is g plus the one above,
-    /// g = (mu1 f2 - mu2 f1) / (mu1 + mu2) from f1_values and f2_values,
-    /// and those of the look-ahead (J depends on the iterate); and the
-    /// joined potentials s_J (s_h with the tension-weighted mean at the
-    /// nodes of the joined cells), from which the cone reconstruction s~ is
-    /// built instead of s_h. |||s~ - s_h||| is a discretisation term.
-    const std::vector<std::uint8_t> *joined_cells       = nullptr,
-                                    *joined_cells_ahead = nullptr;
-    const Vector *s1_joined = nullptr, *s2_joined = nullptr;
+    /// Optional (TransmittedLoad): g 1_J, the part of the estimate's
+    /// multiplier that the data carry on the cells J, at the points of
+    /// `quadrature` on the locally owned cells, [active cell index * n_q +
+    /// q], added to the multipliers above; and the look-ahead's (J depends
+    /// on the iterate).
+    const std::vector<double> *transmitted_load       = nullptr,
+                              *transmitted_load_ahead = nullptr;
 
     // The look-ahead.
     const Vector *lambda_ahead = nullptr;

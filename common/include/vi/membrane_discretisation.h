@@ -13,11 +13,13 @@
 #include <deal.II/meshworker/copy_data.h>
 #include <deal.II/numerics/vector_tools_common.h>
 
+#include <vi/cell_multiplier.h>
 #include <vi/contact_system.h>
 #include <vi/estimators.h>
 #include <vi/geometry.h>
 #include <vi/ghosted_copy.h>
 #include <vi/multiplier_function.h>
+#include <vi/transmitted_load.h>
 
 #include <array>
 #include <functional>
@@ -32,6 +34,7 @@ namespace VI
   class FluxReconstruction;
   struct DomainParameters;
   struct DiscretizationParameters;
+  struct EstimatorParameters;
 
 
   /**
@@ -48,6 +51,14 @@ namespace VI
     Vector       u1, u2, s1, s2, lambda, lambda_nonnegative, r1, r2;
     Vector       sigma1, sigma2;
     unsigned int linear_iteration = 0;
+    /// With the cellwise multiplier (CellMultiplier): lambda_h and its part
+    /// from the nonnegative coefficients on the cells (then `lambda` and
+    /// `lambda_nonnegative` stay empty), and 2 <lambda_h, u1h - u2h>_h.
+    std::vector<double> lambda_cells, lambda_nonnegative_cells;
+    double              complementarity = 0;
+    /// With the transmitted load (TransmittedLoad): g 1_J at the quadrature
+    /// points of the owned cells.
+    std::vector<double> transmitted_load;
   };
 
 
@@ -194,28 +205,75 @@ namespace VI
                  const dealii::Function<dim>        &exact,
                  const dealii::VectorTools::NormType norm) const;
 
-    /// For p = 1 the multiplier and the residual enter each patch of the
-    /// flux equilibration as the constants of its vertex (lumping): the
-    /// source -/+ lambda_h - r_alpha,h at the vertex (a
-    /// FluxReconstruction::Sources::vertex_source; `lambda`, `r1`, `r2` are
-    /// read when it is called).
-    std::function<double(const unsigned int vertex, const unsigned int alpha)>
-    lumped_sources(const Vector &lambda,
-                   const Vector &r1,
-                   const Vector &r2) const;
+    /// f1, f2 at the points of `quadrature` on the owned cells into
+    /// load_values (for the assembly, the fluxes and the estimates).
+    void
+    tabulate_loads(const dealii::Function<dim> &f1,
+                   const dealii::Function<dim> &f2);
+
+    /// The loads l_alpha = f_alpha - d_t u_alpha,h of a backward Euler step
+    /// at the points of load_values.
+    void
+    loads_of_step(const Vector *const (&dt_u)[2],
+                  std::vector<double> (&loads)[2]) const;
+
+    /// The multiplier the estimates take on this mesh (after the flux
+    /// reconstruction's reinit): lambda_h as a finite element function, or
+    /// cellwise (CellMultiplier: p >= 2 and Estimators/Multiplier =
+    /// contact cells), with the transmitted load of
+    /// Estimators/Transmitted load (TransmittedLoad, cellwise also for
+    /// p = 1).
+    void
+    setup_estimate_multiplier(const EstimatorParameters     &parameters,
+                              const double                   mu1,
+                              const double                   mu2,
+                              const dealii::Quadrature<dim> &points);
+
+    /// Whether the estimate's multiplier depends on the contact set (the
+    /// cellwise multiplier, the transmitted load).
+    bool
+    multiplier_needs_contact_set() const
+    {
+      return cell_multiplier || transmitted_load;
+    }
+
+    /// The indicator (with ghosts) of the nodes in the contact set of X.
+    void
+    contact_nodes(const ContactSystem &contact_system,
+                  const Vector        &X,
+                  Vector              &indicator) const;
+
+    /// lambda_h of X as the estimate takes it into `it`: it.lambda and
+    /// it.lambda_nonnegative, or the cellwise ones and
+    /// it.complementarity, and g 1_J. `owned` holds u1h, u2h, s1, s2 of X
+    /// (potentials()); `contact` indicates the contact set the cellwise
+    /// multiplier and J follow, `loads` are the loads of the balance
+    /// equations at the points of load_values (load_values itself for a
+    /// steady problem).
+    void
+    describe_multiplier(const ContactSystem      &contact_system,
+                        const MultiplierFunction &multiplier_function,
+                        const Vector             &X,
+                        const Vector (&owned)[4],
+                        const Vector &contact,
+                        const std::vector<double> (&loads)[2],
+                        const double     mu1,
+                        const double     mu2,
+                        MembraneIterate &it) const;
 
     /// The fluxes sigma_alpha ~ -mu_alpha grad u_alpha,h of `it`,
-    /// equilibrated with f_alpha - d_t u_alpha,h -/+ lambda_h - r_alpha,h
-    /// into it.sigma1, it.sigma2. The loads and the discrete time
+    /// equilibrated with f_alpha - d_t u_alpha,h -/+ lambda~ - r_alpha,h
+    /// into it.sigma1, it.sigma2 (lambda~ the multiplier of
+    /// describe_multiplier()). The loads (load_values) and the discrete time
     /// derivative (`dt_u`, null for a steady problem) enter at the
     /// quadrature points, as in the assembly, so that the patch problems
-    /// stay compatible; for p = 1 the multiplier and the residual enter as
-    /// lumped_sources().
+    /// stay compatible; for p = 1 the residual enters each patch as the
+    /// constant of its vertex (lumping), and so does lambda_h when it is
+    /// not cellwise.
     void
     equilibrate_fluxes(const FluxReconstruction<dim> &fluxes,
                        const double                   mu1,
                        const double                   mu2,
-                       const dealii::Function<dim> *const (&f)[2],
                        const Vector *const (&dt_u)[2],
                        MembraneIterate &it) const;
 
@@ -242,6 +300,21 @@ namespace VI
       // p = 1: the whole contact term is a discretisation term.
       in.mass_lumped  = fe.degree == 1;
       in.lambda_ahead = &ahead.lambda;
+      in.f1_values    = &load_values[0];
+      in.f2_values    = &load_values[1];
+      if (cell_multiplier)
+        {
+          in.cell_multiplier          = cell_multiplier.get();
+          in.lambda_cells             = &it.lambda_cells;
+          in.lambda_nonnegative_cells = &it.lambda_nonnegative_cells;
+          in.lambda_ahead_cells       = &ahead.lambda_cells;
+          in.complementarity          = it.complementarity;
+        }
+      if (transmitted_load)
+        {
+          in.transmitted_load       = &it.transmitted_load;
+          in.transmitted_load_ahead = &ahead.transmitted_load;
+        }
       in.r1_ahead     = &ahead.r1;
       in.r2_ahead     = &ahead.r2;
       in.sigma1_ahead = &ahead.sigma1;
@@ -290,6 +363,13 @@ namespace VI
     dealii::TrilinosWrappers::SparseMatrix mass_matrix;
     /// Global vertex index -> DoF of the vertex (make_vertex_dofs()).
     std::vector<dealii::types::global_dof_index> vertex_dofs;
+    /// f1, f2 at the points of `quadrature` (the flux quadrature) of the
+    /// owned cells, [active cell index * n_q + q] (tabulate_loads()).
+    std::vector<double> load_values[2];
+    /// The multiplier of the estimate on the contact cells, and the
+    /// transmitted load (setup_estimate_multiplier(); null if not used).
+    std::unique_ptr<CellMultiplier<dim>>  cell_multiplier;
+    std::unique_ptr<TransmittedLoad<dim>> transmitted_load;
 
     // The discrete solution as finite element functions (with ghosts).
     Vector u1_h, u2_h, gap_h, lambda_h, contact_set;
@@ -321,6 +401,12 @@ namespace VI
     Discretisation::vertex_dofs, Discretisation::u1_h, Discretisation::u2_h,   \
     Discretisation::gap_h, Discretisation::lambda_h,                           \
     Discretisation::contact_set;                                               \
+  /* the loads and the estimate's multiplier */                                \
+  using Discretisation::load_values, Discretisation::cell_multiplier,          \
+    Discretisation::transmitted_load, Discretisation::tabulate_loads,          \
+    Discretisation::loads_of_step, Discretisation::setup_estimate_multiplier,  \
+    Discretisation::multiplier_needs_contact_set,                              \
+    Discretisation::contact_nodes, Discretisation::describe_multiplier;        \
   /* what is done on the mesh */                                               \
   using Discretisation::make_grid, Discretisation::distribute_nodes,           \
     Discretisation::make_constraints, Discretisation::reinit_matrices,         \
@@ -329,5 +415,4 @@ namespace VI
     Discretisation::residual_functions, Discretisation::make_solution_fields;  \
   using Discretisation::make_multiplier_function,                              \
     Discretisation::solution_output, Discretisation::global_error,             \
-    Discretisation::lumped_sources, Discretisation::equilibrate_fluxes,        \
-    Discretisation::estimator_input;
+    Discretisation::equilibrate_fluxes, Discretisation::estimator_input;

@@ -251,13 +251,17 @@ namespace VI
     /// norms bounded by equilibration; the smaller bound is reported.
     bool sharpen_final = false;
     /// Estimators/Transmitted load: whether the estimate's multiplier
-    /// carries the transmitted load on the joined cells (TransmittedLoad).
+    /// carries the transmitted load on cells at the contact set
+    /// (TransmittedLoad).
     enum class TransmittedLoad
     {
       automatic, ///< for tensions more than 10 times apart
       always,
       never
     } transmitted_load = TransmittedLoad::automatic;
+    /// Whether Estimators/Transmitted load takes it for tensions mu1, mu2.
+    bool
+    transmits_load(const double mu1, const double mu2) const;
     /// Whether an estimate of FEM of degree p with tensions mu1, mu2 uses
     /// the transmitted load (for p >= 2 only with the cellwise multiplier).
     bool

@@ -45,21 +45,19 @@ namespace VI
    * f1 + g = mu1 (f1 + f2) / (mu1 + mu2) and f2 - g = mu2 (f1 + f2) /
    * (mu1 + mu2), each of the size of its own tension.
    *
-   * The contact term 2 (lambda~, s~1 - s~2) asks for a cone
-   * reconstruction without gap where g is large: the joined potentials
-   * (join_at_nodes()) replace both values by their tension-weighted mean at
-   * every node of a cell of J where the contact term of the nodal cone
-   * reconstruction s_h, 2 (g^+, (s1 - s2)^+)_K, exceeds what joining costs
-   * there, m |grad(s1 - s2)|_K^2. That changes only the gap, at the cost
-   * m^(1/2) |grad (gap)| over the cells at the free boundary: of the size
-   * of the error in the gap, whatever the tensions. On a mesh fitted to
-   * the free boundary no cell is joined (the gap vanishes where g is
-   * large); across cut cells, where the data jump, they are.
+   * J holds the contact cells and, among the cells with some nodes in the
+   * contact set, those where leaving g out would cost the estimate more
+   * than taking it in: the contact term 2 (g^+, (s1 - s2)^+)_K, and the
+   * undershoot g^- where the loads pull the membranes apart (in a time
+   * step, where d_t u_h < 0 at the free boundary).
    *
    * On meshes with hanging nodes phi_i is the conforming basis function of
    * an unconstrained node (a hanging node's part of the moments goes to its
-   * parents, as in the assembly), and joining a cell joins the parents of
-   * its hanging nodes.
+   * parents, as in the assembly).
+   *
+   * In a time step of backward Euler the loads are f_alpha - d_t u_alpha,h:
+   * the balance rows then carry the discrete time derivative, and g is
+   * taken of those loads.
    */
   template <int dim>
   class TransmittedLoad
@@ -67,41 +65,44 @@ namespace VI
   public:
     using Vector = dealii::TrilinosWrappers::MPI::Vector;
 
-    /// What an iterate's estimate needs: J and the vertex moments G.
+    /// What an iterate's estimate needs: g 1_J and its moments G.
     struct Split
     {
-      /// 1 on the locally owned cells of J, by active cell index.
-      std::vector<std::uint8_t> joined_cells;
+      /// g 1_J at the quadrature points of the locally owned cells,
+      /// [active cell index * n_q + q]: zero off J.
+      std::vector<double> values;
       /// G_i = (g 1_J, phi_i) at the nodes that carry a moment, on the
       /// locally owned nodes.
       Vector node_moments;
-      /// 1 at the locally owned nodes of the cells of J, and of its joined
-      /// cells.
-      Vector load_nodes, joined_nodes;
+      /// 1 at the locally owned nodes of the cells of J.
+      Vector load_nodes;
     };
 
     /**
      * Per mesh: `no_moment` marks the nodes that carry no moment
-     * (constrained ones); `quadrature` is that of the loads' values.
+     * (constrained ones); `quadrature` is that of the loads' values;
+     * `friedrichs_constant` that of the domain (the estimate's weight of
+     * the multiplier's undershoots).
      */
     void
     reinit(const dealii::Mapping<dim>              &mapping,
            const dealii::DoFHandler<dim>           &dof_handler,
            const dealii::AffineConstraints<double> &no_moment,
-           const dealii::Quadrature<dim>           &quadrature);
+           const dealii::Quadrature<dim>           &quadrature,
+           const double                             friedrichs_constant);
 
     /**
-     * J and G for the tensions, the loads f1, f2 at the quadrature points
-     * of the locally owned cells ([active cell index * n_q + q]) and the
-     * contact indicator `contact` (> 0 at the nodes of the contact set),
-     * and the nodes to join for the nodal cone reconstruction s1, s2 (all
-     * three with ghost entries).
+     * J, g 1_J and G for the tensions, the loads l1, l2 at the quadrature
+     * points of the locally owned cells ([active cell index * n_q + q]),
+     * the contact indicator `contact` (> 0 at the nodes of the contact set)
+     * and the nodal cone reconstruction s1, s2 (all three with ghost
+     * entries).
      */
     void
     split(const double               mu1,
           const double               mu2,
-          const std::vector<double> &f1,
-          const std::vector<double> &f2,
+          const std::vector<double> &l1,
+          const std::vector<double> &l2,
           const Vector              &contact,
           const Vector              &s1,
           const Vector              &s2,
@@ -109,24 +110,9 @@ namespace VI
 
     /// g at one point.
     static double
-    value(const double mu1, const double mu2, const double f1, const double f2)
+    value(const double mu1, const double mu2, const double l1, const double l2)
     {
-      return (mu1 * f2 - mu2 * f1) / (mu1 + mu2);
-    }
-
-    /// g at the g.size() quadrature points of the cell of active index
-    /// `index`, from the loads tabulated as split() takes them.
-    static void
-    cell_values(const double               mu1,
-                const double               mu2,
-                const std::vector<double> &f1,
-                const std::vector<double> &f2,
-                const unsigned int         index,
-                std::vector<double>       &g)
-    {
-      const std::size_t n_q = g.size();
-      for (std::size_t q = 0; q < n_q; ++q)
-        g[q] = value(mu1, mu2, f1[index * n_q + q], f2[index * n_q + q]);
+      return (mu1 * l2 - mu2 * l1) / (mu1 + mu2);
     }
 
   private:
@@ -134,18 +120,6 @@ namespace VI
     const dealii::DoFHandler<dim>           *dof_handler = nullptr;
     const dealii::AffineConstraints<double> *no_moment   = nullptr;
     dealii::Quadrature<dim>                  quadrature;
+    double                                   friedrichs_constant = 0;
   };
-
-
-  /**
-   * The joined potentials: at the nodes where `joined` > 0, both values of
-   * s1, s2 (locally owned vectors) replaced by their tension-weighted mean
-   * (mu1 s1 + mu2 s2) / (mu1 + mu2); Dirichlet nodes must not be marked.
-   */
-  void
-  join_at_nodes(const double                                 mu1,
-                const double                                 mu2,
-                const dealii::TrilinosWrappers::MPI::Vector &joined,
-                dealii::TrilinosWrappers::MPI::Vector       &s1,
-                dealii::TrilinosWrappers::MPI::Vector       &s2);
 } // namespace VI
