@@ -19,12 +19,15 @@ iterate in the run with the continuation (Benchmark/Compare with PETSc VI).
 
 Meshes of about 3e3 to 6.6e4 unknowns per field (--fine adds 2.6e5 for
 seed-smooth: a quarter of an hour more); about 25 minutes on two cores.
-Writes doc/data/cold_start.{csv,md}. Usage, from the repository root after
-./demo.sh or ./test.sh:
-  bench/cold_start.py [--fine] [--reuse]
+--method sipg solves the same scenes with SIPG Q1 (step-membranes), --method
+hho with HHO of degree 1 (step-hho, direct solves of the condensed face
+system, from zero only); neither has the PETSc peer. Writes doc/data/cold_start.{csv,md}
+(fem) or doc/data/cold_start_<method>.{csv,md}. Usage, from the repository
+root after ./demo.sh or ./test.sh:
+  bench/cold_start.py [--method fem|sipg|hho] [--fine] [--reuse]
 --reuse takes the runs whose summary.json the last run left in
-output/bench-cold-start.
-STEP_MEMBRANES names another binary.
+output/bench-cold-start[-<method>].
+STEP_MEMBRANES and STEP_HHO name other binaries.
 """
 import json
 import os
@@ -33,8 +36,11 @@ import sys
 
 from vi_bench import ROOT, program, run, write_table
 
-PROGRAM = program("membranes")
-OUT = os.path.join(ROOT, "output", "bench-cold-start")
+METHOD = (sys.argv[sys.argv.index("--method") + 1]
+          if "--method" in sys.argv else "fem")
+PROGRAM = program("hho" if METHOD == "hho" else "membranes")
+SUFFIX = "" if METHOD == "fem" else "_" + METHOD
+OUT = os.path.join(ROOT, "output", "bench-cold-start" + SUFFIX.replace("_", "-"))
 FINE = "--fine" in sys.argv
 REUSE = "--reuse" in sys.argv
 
@@ -44,6 +50,11 @@ SCENES = [("seed-smooth", "membranes-seed-smooth.prm", [6, 7, 8]),
           ("L-shape", "membranes-l-shape.prm", [5, 6, 7])]
 if FINE:
     SCENES[0][2].append(9)
+# (the broken and hybrid spaces have about four times the unknowns of Q1 on
+# a mesh: one refinement less)
+if METHOD != "fem":
+    SCENES = [(scene, prm, [r - 1 for r in meshes])
+              for scene, prm, meshes in SCENES]
 
 
 def solve(scene, prm, refinements, guess, c_function, continuation):
@@ -59,11 +70,13 @@ def solve(scene, prm, refinements, guess, c_function, continuation):
                 "Nonlinear solver/Strategy": "exact",
                 "Nonlinear solver/Continuation": continuation,
                 "Linear solver/Solver": "direct",
-                "Estimators/Enabled": "false",
-                "Output/Write VTU": "false",
-                "Benchmark/Compare with PETSc VI":
-                    "true" if c_function == "min" and continuation == "true"
-                    else "false"}
+                "Output/Write VTU": "false"}
+    if METHOD != "hho":
+        settings["Discretization/Method"] = METHOD
+        settings["Estimators/Enabled"] = "false"
+        settings["Benchmark/Compare with PETSc VI"] = (
+            "true" if METHOD == "fem" and c_function == "min"
+            and continuation == "true" else "false")
     if REUSE and os.path.exists(os.path.join(directory, "summary.json")):
         with open(os.path.join(directory, "summary.json")) as f:
             return json.load(f)
@@ -91,15 +104,16 @@ def row(scene, guess, c_function, plain, summary):
                 "continuation_from": "", "seconds": "",
                 "petsc_newton": "", "petsc_seconds": ""}
     c = summary["cycles"][0]
-    smoothed = [s["k"] for s in c["newton_steps"] if "smoothing" in s]
+    smoothed = [s["k"] for s in c.get("newton_steps", []) if "smoothing" in s]
     peer = c.get("petsc_vi", {})
     return {"scene": scene, "guess": guess, "c_function": c_function,
-            "dofs_per_field": c["dofs_per_field"],
+            # (step-hho reports all its unknowns)
+            "dofs_per_field": c.get("dofs_per_field", c.get("dofs")),
             "plain": steps(plain),
             "newton": c["newton_iterations"],
             # the continuation starts after the last plain step
             "continuation_from": smoothed[0] - 1 if smoothed else "",
-            "seconds": round(c["solve_seconds"], 2),
+            "seconds": round(c.get("solve_seconds", c["wall_seconds"]), 2),
             "petsc_newton": peer.get("newton_iterations",
                                      "failed" if peer else ""),
             "petsc_seconds": round(peer["seconds"], 2) if "seconds" in peer else ""}
@@ -108,7 +122,8 @@ def row(scene, guess, c_function, plain, summary):
 rows = []
 for scene, prm, meshes in SCENES:
     for refinements in meshes:
-        for guess in ["zero", "data"]:
+        # (step-hho starts from zero only)
+        for guess in ["zero"] if METHOD == "hho" else ["zero", "data"]:
             for c_function in ["min", "fischer-burmeister"]:
                 plain = solve(scene, prm, refinements, guess, c_function, "false")
                 summary = solve(scene, prm, refinements, guess, c_function, "true")
@@ -122,12 +137,14 @@ for scene, prm, meshes in SCENES:
                       + (f", PETSc RSLS {r['petsc_newton']}" if r["petsc_newton"] != "" else ""),
                       flush=True)
 
-write_table("cold_start", rows,
-            ["scene", "start", "C-function", "unknowns per field", "plain Newton",
+write_table("cold_start" + SUFFIX, rows,
+            ["scene", "start", "C-function",
+             "unknowns" if METHOD == "hho" else "unknowns per field",
+             "plain Newton",
              "with continuation", "continuation after step", "seconds",
              "PETSc RSLS steps", "PETSc seconds"],
             [("scene", "{}"), ("guess", "{}"), ("c_function", "{}"),
              ("dofs_per_field", "{}"), ("plain", "{}"), ("newton", "{}"),
              ("continuation_from", "{}"),
              ("seconds", "{}"), ("petsc_newton", "{}"), ("petsc_seconds", "{}")])
-print("wrote doc/data/cold_start.{csv,md}")
+print(f"wrote doc/data/cold_start{SUFFIX}.{{csv,md}}")

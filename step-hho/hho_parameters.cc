@@ -90,6 +90,10 @@ namespace StepHHO
     linear_solver.parse(prm);
     output.parse(prm);
 
+    if (nonlinear_solver.initial_guess == "data")
+      throw VI::InputError(
+        "Nonlinear solver/Initial guess = data is implemented for "
+        "step-membranes; step-hho starts from zero (set it to zero)");
     if (linear_solver.solver == VI::LinearSolverType::cg &&
         !static_condensation)
       throw VI::InputError(
