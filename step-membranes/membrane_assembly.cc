@@ -2,7 +2,6 @@
 // constraints, sparsity, assembly of E, F and the coupling D) and the
 // initial iterate.
 
-#include <deal.II/base/parallel.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/lac/trilinos_index_access.h>

@@ -1,15 +1,8 @@
 // step-membranes, conforming Q_p: an iterate as the estimators see it (fields,
 // residual, equilibrated fluxes) and its guaranteed estimate.
 
-#include <deal.II/base/parallel.h>
-#include <deal.II/fe/fe_values.h>
-
-#include <vi/cell_function_values.h>
-#include <vi/nodal_fields.h>
-
 #include "membrane_problem.h"
 
-#include <algorithm>
 #include <cmath>
 
 namespace StepMembranes

@@ -17,7 +17,6 @@
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <vi/adaptive_stopping.h>
-#include <vi/cell_multiplier.h>
 #include <vi/complementarity.h>
 #include <vi/contact_system.h>
 #include <vi/dual_norm.h>
@@ -36,7 +35,6 @@
 #include <vi/stationary_problem.h>
 #include <vi/summary.h>
 #include <vi/test_cases.h>
-#include <vi/transmitted_load.h>
 
 #include <functional>
 #include <map>
