@@ -218,8 +218,17 @@ namespace StepMembranes
     Vector moments(owned_nodes, comm);
     VI::NodalFields::extract(X, multiplier, moments);
     moments.scale(contact_system.coupling());
-    if (parameters.estimators.transmits_load(data.mu1, data.mu2))
-      join_at_contact_cells(X, moments, s_averaged);
+    // (the contact set of X decides the cells of the transmitted load)
+    const bool transmits =
+      parameters.estimators.transmits_load(data.mu1, data.mu2);
+    Vector contact;
+    if (transmits)
+      {
+        Vector owned(owned_nodes, comm);
+        contact_system.contact_rows().contact_set(X, owned);
+        ghosted_nodes.copy(owned, contact);
+        join_at_contact_cells(contact, moments, s_averaged);
+      }
     for (unsigned int a = 0; a < 2; ++a)
       {
         s[a].reinit(owned_continuous, relevant_continuous, comm);
@@ -240,7 +249,8 @@ namespace StepMembranes
     Vector lambda_source, nonnegative(moments), G(owned_nodes, comm);
     for (double &m : nonnegative)
       m = std::max(m, 0.);
-    const std::vector<double> transmitted = transmitted_load(X, s, G);
+    const std::vector<double> transmitted =
+      transmits ? transmitted_load(contact, s, G) : std::vector<double>();
     moments -= G;
     nonnegative -= G;
     function_from_moments(moments, lambda_source);
@@ -342,13 +352,11 @@ namespace StepMembranes
   // boundary data. `moments` are those of lambda_h.
   template <int dim>
   void
-  DGMembraneProblem<dim>::join_at_contact_cells(const Vector &X,
+  DGMembraneProblem<dim>::join_at_contact_cells(const Vector &contact,
                                                 const Vector &moments,
                                                 Vector (&s)[2]) const
   {
-    Vector owned(owned_nodes, comm), contact, m;
-    contact_system.contact_rows().contact_set(X, owned);
-    ghosted_nodes.copy(owned, contact);
+    Vector m;
     ghosted_nodes.copy(moments, m);
     Vector gap(s[0]);
     gap -= s[1];
@@ -433,20 +441,16 @@ namespace StepMembranes
   }
 
 
-  // g 1_J and G = (g 1_J, psi_I)_K of VI::TransmittedLoad for the iterate X
-  // with the cone reconstruction s (continuous, ghosted) when
-  // Estimators/Transmitted load takes it (else empty, and G = 0): J holds
-  // the cells all of whose nodes are in contact, and those at the contact
-  // set that the data decide.
+  // g 1_J and G = (g 1_J, psi_I)_K of VI::TransmittedLoad for an iterate
+  // with the contact set `contact` and the cone reconstruction s
+  // (continuous; both ghosted): J holds the cells all of whose nodes are in
+  // contact, and those at the contact set that the data decide.
   template <int dim>
   std::vector<double>
-  DGMembraneProblem<dim>::transmitted_load(const Vector &X,
+  DGMembraneProblem<dim>::transmitted_load(const Vector &contact,
                                            const Vector (&s)[2],
                                            Vector &G) const
   {
-    G = 0;
-    if (!parameters.estimators.transmits_load(data.mu1, data.mu2))
-      return {};
     const Quadrature<dim> &points = flux_reconstruction->get_quadrature();
     const unsigned int     n_q    = points.size();
     std::vector<double>    loads[2];
@@ -468,15 +472,12 @@ namespace StepMembranes
             }
         }
 
-    Vector owned(owned_nodes, comm), contact;
-    contact_system.contact_rows().contact_set(X, owned);
-    ghosted_nodes.copy(owned, contact);
     // (no node of the broken space is constrained: the boundary data are
     // imposed weakly)
     AffineConstraints<double> none;
     none.close();
     // (s on the broken nodes, for the cost of the contact term on a cell)
-    Vector s_broken[2];
+    Vector s_broken[2], owned(owned_nodes, comm);
     for (unsigned int a = 0; a < 2; ++a)
       {
         owned = 0;
@@ -678,11 +679,11 @@ namespace StepMembranes
   template VI::DGContactEstimate
   DGMembraneProblem<2>::estimate(const Vector &X) const;
   template void
-  DGMembraneProblem<2>::join_at_contact_cells(const Vector &X,
+  DGMembraneProblem<2>::join_at_contact_cells(const Vector &contact,
                                               const Vector &moments,
                                               Vector (&s)[2]) const;
   template std::vector<double>
-  DGMembraneProblem<2>::transmitted_load(const Vector &X,
+  DGMembraneProblem<2>::transmitted_load(const Vector &contact,
                                          const Vector (&s)[2],
                                          Vector &G) const;
   template void

@@ -116,11 +116,13 @@ namespace StepMembranes
     VI::DGContactEstimate
     estimate(const Vector &X) const;
     void
-    join_at_contact_cells(const Vector &X,
+    join_at_contact_cells(const Vector &contact,
                           const Vector &moments,
                           Vector (&s)[2]) const;
     std::vector<double>
-    transmitted_load(const Vector &X, const Vector (&s)[2], Vector &G) const;
+    transmitted_load(const Vector &contact,
+                     const Vector (&s)[2],
+                     Vector &G) const;
     void
     postprocess() override;
     void
