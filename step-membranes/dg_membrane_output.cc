@@ -235,27 +235,14 @@ namespace StepMembranes
         s[a] = s_averaged[a];
       }
 
-    // The multiplier of the estimate: on every cell, the nodal function
-    // lambda_N(x_I) = <lambda_h, psi_I>_h / (psi_I, 1)_K (the discrete
-    // lambda_h itself for p = 1), scaled towards its cell mean where it is
-    // negative at a quadrature point (positivity-preserving limiter). It has
-    // the cell means of the L2 representative lambda* = M_K^{-1}
-    // (<lambda_h, psi_I>_h)_I, which the fluxes equilibrate (compatibility),
-    // and that is all the theorem needs (doc/step-membranes.md).
-    // With tensions far apart, the transmitted load g 1_J on the cells at
-    // the contact set takes its moments G off the multiplier (see the
-    // conforming method and VI::TransmittedLoad: the broken nodes are the
-    // cells' own, so J and G are cellwise).
-    Vector lambda_source, nonnegative(moments), G(owned_nodes, comm);
-    for (double &m : nonnegative)
-      m = std::max(m, 0.);
+    Vector                    lambda_source;
     const std::vector<double> transmitted =
-      transmits ? transmitted_load(contact, s, G) : std::vector<double>();
-    moments -= G;
-    nonnegative -= G;
-    function_from_moments(moments, lambda_source);
-    limited_nodal_function(moments, lambda);
-    limited_nodal_function(nonnegative, lambda_nonnegative);
+      estimate_multiplier(moments,
+                          transmits ? &contact : nullptr,
+                          s,
+                          lambda,
+                          lambda_nonnegative,
+                          lambda_source);
 
     const double         epsilon = penalty.symmetry();
     const double         mu[2]   = {data.mu1, data.mu2};
@@ -335,6 +322,41 @@ namespace StepMembranes
     if (!transmitted.empty())
       in.transmitted_load = &transmitted;
     return VI::estimate_dg_contact_error(in);
+  }
+
+
+  // The multiplier of the estimate: on every cell, the nodal function
+  // lambda_N(x_I) = <lambda_h, psi_I>_h / (psi_I, 1)_K (the discrete
+  // lambda_h itself for p = 1), scaled towards its cell mean where it is
+  // negative at a quadrature point (positivity-preserving limiter). It has
+  // the cell means of the L2 representative lambda* = M_K^{-1}
+  // (<lambda_h, psi_I>_h)_I, which the fluxes equilibrate (compatibility),
+  // and that is all the theorem needs (doc/step-membranes.md).
+  // With tensions far apart, the transmitted load g 1_J on the cells at
+  // the contact set takes its moments G off the multiplier (see the
+  // conforming method and VI::TransmittedLoad: the broken nodes are the
+  // cells' own, so J and G are cellwise).
+  // Returns g 1_J (empty without `contact`).
+  template <int dim>
+  std::vector<double>
+  DGMembraneProblem<dim>::estimate_multiplier(Vector        moments,
+                                              const Vector *contact,
+                                              const Vector (&s)[2],
+                                              Vector &lambda,
+                                              Vector &lambda_nonnegative,
+                                              Vector &lambda_source) const
+  {
+    Vector nonnegative(moments), G(owned_nodes, comm);
+    for (double &m : nonnegative)
+      m = std::max(m, 0.);
+    const std::vector<double> transmitted =
+      contact ? transmitted_load(*contact, s, G) : std::vector<double>();
+    moments -= G;
+    nonnegative -= G;
+    function_from_moments(moments, lambda_source);
+    limited_nodal_function(moments, lambda);
+    limited_nodal_function(nonnegative, lambda_nonnegative);
+    return transmitted;
   }
 
 
@@ -678,6 +700,13 @@ namespace StepMembranes
       &local) const;
   template VI::DGContactEstimate
   DGMembraneProblem<2>::estimate(const Vector &X) const;
+  template std::vector<double>
+  DGMembraneProblem<2>::estimate_multiplier(Vector        moments,
+                                            const Vector *contact,
+                                            const Vector (&s)[2],
+                                            Vector &lambda,
+                                            Vector &lambda_nonnegative,
+                                            Vector &lambda_source) const;
   template void
   DGMembraneProblem<2>::join_at_contact_cells(const Vector &contact,
                                               const Vector &moments,

@@ -115,6 +115,17 @@ namespace StepMembranes
     solve() override;
     VI::DGContactEstimate
     estimate(const Vector &X) const;
+    /// The multiplier of the estimate from the moments of lambda_h: the
+    /// limited nodal one, its part from the nonnegative moments and the L2
+    /// representative the fluxes equilibrate, with the transmitted load of
+    /// the contact set `contact` if given (then returned as g 1_J).
+    std::vector<double>
+    estimate_multiplier(Vector        moments,
+                        const Vector *contact,
+                        const Vector (&s)[2],
+                        Vector &lambda,
+                        Vector &lambda_nonnegative,
+                        Vector &lambda_source) const;
     void
     join_at_contact_cells(const Vector &contact,
                           const Vector &moments,
