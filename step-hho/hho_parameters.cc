@@ -90,7 +90,7 @@ namespace StepHHO
     linear_solver.parse(prm);
     output.parse(prm);
 
-    if (nonlinear_solver.initial_guess == "data")
+    if (nonlinear_solver.initial_guess == VI::InitialGuess::data)
       throw VI::InputError(
         "Nonlinear solver/Initial guess = data is implemented for "
         "step-membranes; step-hho starts from zero (set it to zero)");

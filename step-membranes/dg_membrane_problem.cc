@@ -407,7 +407,8 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::initialize_iterate()
   {
-    const bool from_data = parameters.nonlinear_solver.initial_guess == "data";
+    const bool from_data =
+      parameters.nonlinear_solver.initial_guess == VI::InitialGuess::data;
     // X3: the nodal values of lambda_h (p = 1), its moments (p >= 2).
     const auto dual_coefficients = [this](const Vector &lambda, Vector &X3) {
       if (mass_lumped())

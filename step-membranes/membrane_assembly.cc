@@ -225,7 +225,8 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::initialize_iterate()
   {
-    const bool from_data = parameters.nonlinear_solver.initial_guess == "data";
+    const bool from_data =
+      parameters.nonlinear_solver.initial_guess == VI::InitialGuess::data;
     VI::initial_nodal_iterate(
       solution_transfer,
       [this](const Vector &lambda, Vector &X3) {

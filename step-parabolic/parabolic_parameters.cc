@@ -41,7 +41,9 @@ namespace StepParabolic
     VI::DiscretizationParameters::declare(prm, "fem");
     // (Its entries "Nested iteration" and "Initial guess" do not apply here:
     // Newton starts every step from the previous step's solution.)
-    VI::NonlinearSolverParameters::declare(prm, "exact|inexact|adaptive");
+    VI::NonlinearSolverParameters::declare(prm,
+                                           "exact|inexact|adaptive",
+                                           /*mesh_starts=*/false);
     VI::LinearSolverParameters::declare(prm, "direct|gmres", "gmres");
     VI::EstimatorParameters::declare(prm);
     // Long runs: only the accepted iterates are estimated unless asked.
@@ -156,7 +158,7 @@ namespace StepParabolic
   void
   Parameters::parse(ParameterHandler &prm)
   {
-    VI::parse_shared_sections(*this, prm);
+    VI::parse_shared_sections(*this, prm, /*mesh_starts=*/false);
     prm.enter_subsection("Problem");
     prm.enter_subsection("Expression");
     problem.u1_0 = prm.get("u1_0");

@@ -260,7 +260,9 @@ namespace StepTwoPhase
     void
     declare_nonlinear_solver(ParameterHandler &prm)
     {
-      VI::NonlinearSolverParameters::declare(prm, "exact|inexact|adaptive");
+      VI::NonlinearSolverParameters::declare(prm,
+                                             "exact|inexact|adaptive",
+                                             /*mesh_starts=*/false);
       prm.enter_subsection("Nonlinear solver");
       prm.set("Tolerance", "1e-8");
       prm.declare_entry("Solver",
@@ -503,7 +505,7 @@ namespace StepTwoPhase
                            VI::NonlinearSolverParameters &nonlinear_solver,
                            std::string                   &package)
     {
-      nonlinear_solver.parse(prm);
+      nonlinear_solver.parse(prm, /*mesh_starts=*/false);
       prm.enter_subsection("Nonlinear solver");
       package = prm.get("Solver");
       prm.leave_subsection();

@@ -37,6 +37,8 @@ namespace VI
       {Strategy::exact, "exact"},
       {Strategy::inexact, "inexact"},
       {Strategy::adaptive, "adaptive"}};
+    const Spellings<InitialGuess> initial_guess_spellings =
+      {{InitialGuess::zero, "zero"}, {InitialGuess::data, "data"}};
     const Spellings<LinearSolverType> linear_solver_spellings = {
       {LinearSolverType::direct, "direct"},
       {LinearSolverType::gmres, "gmres"},
@@ -318,7 +320,8 @@ namespace VI
 
   void
   NonlinearSolverParameters::declare(ParameterHandler  &prm,
-                                     const std::string &strategies)
+                                     const std::string &strategies,
+                                     const bool         mesh_starts)
   {
     const ParameterSubsection section(prm, "Nonlinear solver");
     prm.declare_entry("C-function",
@@ -391,6 +394,8 @@ namespace VI
                       "Fischer-Burmeister keeps its line search (the "
                       "continuation costs it steps, doc/stress.md), and "
                       "step-twophase has no smoothed rows.");
+    if (!mesh_starts)
+      return;
     prm.declare_entry("Nested iteration",
                       "true",
                       Bool(),
@@ -409,21 +414,26 @@ namespace VI
 
 
   void
-  NonlinearSolverParameters::parse(ParameterHandler &prm)
+  NonlinearSolverParameters::parse(ParameterHandler &prm,
+                                   const bool        mesh_starts)
   {
     const ParameterSubsection section(prm, "Nonlinear solver");
     c_function =
       ComplementarityFunction::from_name(prm.get("C-function")).type();
-    strategy         = parse_choice(strategy_spellings, prm.get("Strategy"));
-    gamma_lin        = prm.get_double("gamma_lin");
-    gamma_alg        = prm.get_double("gamma_alg");
-    forcing_term     = prm.get_double("Forcing term");
-    max_iterations   = prm.get_integer("Maximum iterations");
-    tolerance        = prm.get_double("Tolerance");
-    watchdog_steps   = prm.get_integer("Watchdog steps");
-    continuation     = prm.get_bool("Continuation");
-    nested_iteration = prm.get_bool("Nested iteration");
-    initial_guess    = prm.get("Initial guess");
+    strategy       = parse_choice(strategy_spellings, prm.get("Strategy"));
+    gamma_lin      = prm.get_double("gamma_lin");
+    gamma_alg      = prm.get_double("gamma_alg");
+    forcing_term   = prm.get_double("Forcing term");
+    max_iterations = prm.get_integer("Maximum iterations");
+    tolerance      = prm.get_double("Tolerance");
+    watchdog_steps = prm.get_integer("Watchdog steps");
+    continuation   = prm.get_bool("Continuation");
+    if (mesh_starts)
+      {
+        nested_iteration = prm.get_bool("Nested iteration");
+        initial_guess =
+          parse_choice(initial_guess_spellings, prm.get("Initial guess"));
+      }
     require_positive(tolerance, "Nonlinear solver/Tolerance");
     require_positive(gamma_lin, "Nonlinear solver/gamma_lin");
     require_positive(gamma_alg, "Nonlinear solver/gamma_alg");

@@ -31,6 +31,13 @@ namespace VI
     adaptive, ///< until the estimators say the algebraic error is small
   };
 
+  /// Nonlinear solver/Initial guess: where Newton starts on a first mesh.
+  enum class InitialGuess
+  {
+    zero, ///< zero interior values and multiplier, the boundary data imposed
+    data, ///< u1h, u2h interpolate g1, g2 in the whole domain, multiplier 0
+  };
+
   /// Linear solver/Solver.
   enum class LinearSolverType
   {
@@ -169,7 +176,7 @@ namespace VI
     unsigned int watchdog_steps   = 8;
     bool         continuation     = true;
     bool         nested_iteration = true;
-    std::string  initial_guess    = "zero";
+    InitialGuess initial_guess    = InitialGuess::zero;
 
     /// The stopping tests of the adaptive strategy [DMV20]: the algebraic
     /// error is small enough when eta_alg <= gamma_alg max(eta_disc,
@@ -184,11 +191,16 @@ namespace VI
                               const double eta_lin) const;
 
     /// `strategies`: the accepted values of "Strategy", e.g. "exact" or
-    /// "exact|inexact|adaptive".
+    /// "exact|inexact|adaptive". `mesh_starts`: whether the program lets
+    /// the user choose where Newton starts on each mesh ("Nested
+    /// iteration", "Initial guess"); step-parabolic and step-twophase start
+    /// every time step from the previous one and do not declare them.
     static void
-    declare(dealii::ParameterHandler &prm, const std::string &strategies);
+    declare(dealii::ParameterHandler &prm,
+            const std::string        &strategies,
+            const bool                mesh_starts = true);
     void
-    parse(dealii::ParameterHandler &prm);
+    parse(dealii::ParameterHandler &prm, const bool mesh_starts = true);
   };
 
 
