@@ -3,6 +3,7 @@
 #include <vi/membrane_errors.h>
 #include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
+#include <vi/summary.h>
 
 #include "hho_problem.h"
 
@@ -162,18 +163,10 @@ namespace StepHHO
     record["dofs"]           = numbers.dofs;
     record["dofs_condensed"] = *numbers.dofs_condensed;
     record["dofs_cell"]      = n_fields * cell_dof_handler.n_dofs();
-    // The TimerOutput sections of this cycle.
-    record["timing"] = run_record.cycle_timing();
-
-    VI::Json iterations = VI::Json::array();
-    for (const VI::NewtonStep &step : newton_report.steps)
-      iterations.push_back(VI::Json::object(
-        {{"k", step.iteration},
-         {"i", step.linear_iterations},
-         {"residual_equations", step.residual.equations},
-         {"residual_complementarity", step.residual.complementarity},
-         {"step_length", step.step_length}}));
-    record["iterations"] = iterations;
+    // The TimerOutput sections of this cycle, and the Newton steps (with
+    // their active sets and, during the continuation, the smoothing).
+    record["timing"]       = run_record.cycle_timing();
+    record["newton_steps"] = VI::newton_steps(newton_report);
     run_record.add(record);
   }
 
