@@ -346,13 +346,17 @@ namespace StepMembranes
                                               Vector &lambda_nonnegative,
                                               Vector &lambda_source) const
   {
-    Vector nonnegative(moments), G(owned_nodes, comm);
+    Vector nonnegative(moments);
     for (double &m : nonnegative)
       m = std::max(m, 0.);
-    const std::vector<double> transmitted =
-      contact ? transmitted_load(*contact, s, G) : std::vector<double>();
-    moments -= G;
-    nonnegative -= G;
+    std::vector<double> transmitted;
+    if (contact)
+      {
+        Vector G(owned_nodes, comm);
+        transmitted = transmitted_load(*contact, s, G);
+        moments -= G;
+        nonnegative -= G;
+      }
     function_from_moments(moments, lambda_source);
     limited_nodal_function(moments, lambda);
     limited_nodal_function(nonnegative, lambda_nonnegative);
