@@ -789,15 +789,10 @@ namespace VI
       e.nonc_3                     = 2. * C * lambda_positive * e.nonc_1;
       e.contact_pos                = total[ContactSum::contact_total];
       e.contact_cone               = total[ContactSum::contact_cone];
-      if (in.cell_multiplier)
+      if (in.cell_multiplier || in.mass_lumped)
         {
           e.contact_lin  = in.complementarity;
           e.contact_disc = e.contact_cone - e.contact_lin;
-        }
-      else if (in.mass_lumped)
-        {
-          e.contact_disc = e.contact_cone;
-          e.contact_lin  = 0;
         }
       else
         {

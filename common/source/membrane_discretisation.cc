@@ -533,6 +533,17 @@ namespace VI
         ghosted_nodes.copy(split.load_nodes, load_nodes);
       }
 
+    // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i): zero once
+    // Newton has converged (and at every iterate of Newton-min, whose rows
+    // set one factor to zero), not on the smoothed path of the continuation
+    // or at Fischer-Burmeister's iterates. Below 1e-12 of its scale
+    // 2 sum |m_i| max |u_h| it is the rounding of a converged iterate: zero.
+    Vector gap(owned[0]);
+    gap -= owned[1];
+    const double product = moments * gap;
+    const double scale   = moments.l1_norm() * std::max(owned[0].linfty_norm(),
+                                                      owned[1].linfty_norm());
+    it.complementarity = std::abs(product) > 1e-12 * scale ? 2. * product : 0.;
     if (!cell_multiplier)
       {
         multiplier_function.with_nonnegative_part(moments,
@@ -541,10 +552,6 @@ namespace VI
                                                   offset);
         return;
       }
-    // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i).
-    Vector gap(owned[0]);
-    gap -= owned[1];
-    it.complementarity = 2. * (moments * gap);
     Vector m, shifted(moments);
     if (offset)
       shifted -= *offset;

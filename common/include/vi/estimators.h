@@ -147,7 +147,8 @@ namespace VI
     /// owned cells, [active cell index * n_q + q] (tabulated once per mesh,
     /// they spare every estimate the evaluation of the load functions).
     const std::vector<double> *f1_values = nullptr, *f2_values = nullptr;
-    /// p = 1: the whole contact term is a discretisation term (mass lumping).
+    /// p = 1, mass lumping: the linearisation part of the contact term is
+    /// `complementarity` (below).
     bool mass_lumped = true;
 
     using Vector              = typename ContactEstimatorData<dim>::Vector;
@@ -156,15 +157,18 @@ namespace VI
     /// Optional: the multipliers (lambda_h, its part from the nonnegative
     /// coefficients and the look-ahead's) as the cellwise functions of a
     /// CellMultiplier, [cell * 2^dim + v], instead of the finite element
-    /// functions lambda, lambda_nonnegative and lambda_ahead. The
-    /// linearisation part of the contact term is then `complementarity` =
-    /// 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i), which
-    /// vanishes with the discrete complementarity.
+    /// functions lambda, lambda_nonnegative and lambda_ahead.
     const CellMultiplier<dim> *cell_multiplier          = nullptr;
     const std::vector<double> *lambda_cells             = nullptr,
                               *lambda_nonnegative_cells = nullptr,
                               *lambda_ahead_cells       = nullptr;
-    double complementarity                              = 0;
+    /// With mass lumping or the cellwise multiplier: the linearisation part
+    /// of the contact term, 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h -
+    /// u2h)(x_i), which vanishes with the discrete complementarity (at every
+    /// node lambda_h or the gap is zero), but not on the smoothed path of
+    /// the continuation or at Fischer-Burmeister's iterates: there it keeps
+    /// Newton's complementarity error out of eta_disc.
+    double complementarity = 0;
 
     /// Optional (TransmittedLoad): g 1_J, the part of the estimate's
     /// multiplier that the data carry on the cells J, at the points of

@@ -53,9 +53,10 @@ namespace VI
     unsigned int linear_iteration = 0;
     /// With the cellwise multiplier (CellMultiplier): lambda_h and its part
     /// from the nonnegative coefficients on the cells (then `lambda` and
-    /// `lambda_nonnegative` stay empty), and 2 <lambda_h, u1h - u2h>_h.
+    /// `lambda_nonnegative` stay empty).
     std::vector<double> lambda_cells, lambda_nonnegative_cells;
-    double              complementarity = 0;
+    /// 2 <lambda_h, u1h - u2h>_h, the nodal complementarity of the iterate.
+    double complementarity = 0;
     /// With the transmitted load (TransmittedLoad): g 1_J at the quadrature
     /// points of the owned cells.
     std::vector<double> transmitted_load;
@@ -297,18 +298,17 @@ namespace VI
       in.lambda_nonnegative         = &it.lambda_nonnegative;
       in.sigma1_disc                = &it.sigma1;
       in.sigma2_disc                = &it.sigma2;
-      // p = 1: the whole contact term is a discretisation term.
-      in.mass_lumped  = fe.degree == 1;
-      in.lambda_ahead = &ahead.lambda;
-      in.f1_values    = &load_values[0];
-      in.f2_values    = &load_values[1];
+      in.mass_lumped                = fe.degree == 1;
+      in.complementarity            = it.complementarity;
+      in.lambda_ahead               = &ahead.lambda;
+      in.f1_values                  = &load_values[0];
+      in.f2_values                  = &load_values[1];
       if (cell_multiplier)
         {
           in.cell_multiplier          = cell_multiplier.get();
           in.lambda_cells             = &it.lambda_cells;
           in.lambda_nonnegative_cells = &it.lambda_nonnegative_cells;
           in.lambda_ahead_cells       = &ahead.lambda_cells;
-          in.complementarity          = it.complementarity;
         }
       if (transmitted_load)
         {
