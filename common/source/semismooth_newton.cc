@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -79,12 +80,29 @@ namespace VI
     const auto &steps = report.steps;
     if (steps.size() < data.stall_steps + 1)
       return false;
-    for (std::size_t n = steps.size() - data.stall_steps; n < steps.size(); ++n)
-      if (!steps[n].has_active_set || steps[n].active_set.switched == 0 ||
-          steps[n].residual.complementarity <
-            data.stall_ratio * steps[n - 1].residual.complementarity)
-        return false;
-    return true;
+    // Over the last stall_steps steps, each of which switched rows: a ring
+    // crawl shrinks the complementarity residual by less than stall_ratio
+    // at every step; a cycle of active sets (inexact directions can bring
+    // one about) does not even shrink its smallest value by stall_ratio.
+    const std::size_t first       = steps.size() - data.stall_steps;
+    bool              crawl       = true;
+    double            best_before = std::numeric_limits<double>::infinity(),
+           best_since             = best_before;
+    for (std::size_t n = 0; n < steps.size(); ++n)
+      {
+        const double r = steps[n].residual.complementarity;
+        if (n < first)
+          {
+            best_before = std::min(best_before, r);
+            continue;
+          }
+        if (!steps[n].has_active_set || steps[n].active_set.switched == 0)
+          return false;
+        crawl = crawl &&
+                r >= data.stall_ratio * steps[n - 1].residual.complementarity;
+        best_since = std::min(best_since, r);
+      }
+    return crawl || best_since >= data.stall_ratio * best_before;
   }
 
 

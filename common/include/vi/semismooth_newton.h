@@ -154,11 +154,12 @@ namespace VI
       /// Used in failure messages, e.g. "semismooth Newton-min".
       std::string name = "semismooth Newton";
       /// The active set stalls when `stall_steps` steps in a row switch
-      /// rows and shrink the complementarity residual by less than
-      /// `stall_ratio` each (superlinear convergence shrinks it by far
-      /// more). Six steps: no plain run of the test suite is touched (cold
-      /// starts on coarse meshes converge while still slow, e.g. the disk
-      /// of 768 cells in 8 steps).
+      /// rows and either shrink the complementarity residual by less than
+      /// `stall_ratio` each (a ring crawl; superlinear convergence shrinks
+      /// it by far more) or leave its smallest value above `stall_ratio`
+      /// times the smallest before them (a cycle). Six steps: no plain run
+      /// of the test suite is touched (cold starts on coarse meshes
+      /// converge while still slow, e.g. the disk of 768 cells in 8 steps).
       double       stall_ratio = 0.5;
       unsigned int stall_steps = 6;
       /// Whether a stalled active set starts the continuation (if the
@@ -291,7 +292,7 @@ namespace VI
               const unsigned int k) const;
 
     /// Whether the last stall_steps steps switched rows of the active set
-    /// without shrinking the complementarity residual by stall_ratio.
+    /// and crawled or cycled (AdditionalData::stall_ratio).
     bool
     stalled(const NewtonReport &report) const;
 
