@@ -256,6 +256,18 @@ namespace VI
     settings.krylov_dimension   = linear.krylov_dimension;
     settings.check_interval     = linear.check_interval;
     settings.relative_tolerance = linear_tolerance(nonlinear, linear);
+    // On the continuation's path the rows are those of C_mu, which the
+    // estimators do not see: an iterate whose estimate would stop GMRES
+    // (eta_alg small against eta_lin, which holds the distance from
+    // complementarity) need not be a usable direction of the smoothed
+    // system, and Newton would stall on it. GMRES then stops at the forcing
+    // term of the inexact strategy, and the estimators judge only the Newton
+    // iterates.
+    const bool smoothed = rows.smoothing() > 0 && monitor &&
+                          nonlinear.strategy == Strategy::adaptive;
+    if (smoothed)
+      settings.relative_tolerance =
+        std::max(settings.relative_tolerance, nonlinear.forcing_term);
 
     const auto A = [&](Vector &dst, const Vector &src) {
       matrix.vmult(dst, src);
@@ -274,10 +286,10 @@ namespace VI
     };
 
     TimerOutput::Scope t(timer, "newton: linear solve");
-    dX = 0;
-    const LinearSolveReport report =
-      Gmres<Vector>(settings).solve(A, P, dX, weighted_b, monitor);
-    if (accepted_update)
+    dX                             = 0;
+    const LinearSolveReport report = Gmres<Vector>(settings).solve(
+      A, P, dX, weighted_b, smoothed ? Gmres<Vector>::Monitor() : monitor);
+    if (accepted_update && !smoothed)
       accepted_update(dX);
     return report.iterations;
   }

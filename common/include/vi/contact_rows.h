@@ -76,6 +76,13 @@ namespace VI
                   const dealii::TrilinosWrappers::MPI::Vector &X,
                   const double multiplier_scale);
 
+    /// The smoothing parameter mu of the rows (0: the rows of C).
+    double
+    smoothing() const
+    {
+      return mu;
+    }
+
     /// The row function at one node, C(a, b) or U C_mu(a / U, b / B).
     double
     row_value(const ComplementarityFunction &C,
