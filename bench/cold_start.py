@@ -34,7 +34,7 @@ import os
 import subprocess
 import sys
 
-from vi_bench import ROOT, program, run, write_table
+from vi_bench import ROOT, cold_start_settings, program, run, write_table
 
 METHOD = (sys.argv[sys.argv.index("--method") + 1]
           if "--method" in sys.argv else "fem")
@@ -61,16 +61,10 @@ def solve(scene, prm, refinements, guess, c_function, continuation):
     """One run's summary (also of a failed run)."""
     directory = os.path.join(
         OUT, f"{scene}-{refinements}-{guess}-{c_function}-{continuation}")
-    settings = {"Mesh/Initial refinements": refinements,
-                "Mesh/Cycles": 1,
-                "Discretization/Polynomial degree": 1,
-                "Nonlinear solver/Nested iteration": "false",
-                "Nonlinear solver/Initial guess": guess,
-                "Nonlinear solver/C-function": c_function,
-                "Nonlinear solver/Strategy": "exact",
-                "Nonlinear solver/Continuation": continuation,
-                "Linear solver/Solver": "direct",
-                "Output/Write VTU": "false"}
+    settings = cold_start_settings(refinements, guess, c_function)
+    settings.update({"Nonlinear solver/Strategy": "exact",
+                     "Nonlinear solver/Continuation": continuation,
+                     "Linear solver/Solver": "direct"})
     if METHOD != "hho":
         settings["Discretization/Method"] = METHOD
         settings["Estimators/Enabled"] = "false"

@@ -29,7 +29,7 @@ import os
 import subprocess
 import sys
 
-from vi_bench import ROOT, program, run, write_table
+from vi_bench import ROOT, cold_start_settings, program, run, write_table
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cold-start-adaptive")
@@ -48,16 +48,10 @@ def solve(scene, prm, refinements, guess, c_function):
     if REUSE and os.path.exists(os.path.join(directory, "summary.json")):
         with open(os.path.join(directory, "summary.json")) as f:
             return json.load(f)
-    settings = {"Mesh/Initial refinements": refinements,
-                "Mesh/Cycles": 1,
-                "Discretization/Polynomial degree": 1,
-                "Nonlinear solver/Nested iteration": "false",
-                "Nonlinear solver/Initial guess": guess,
-                "Nonlinear solver/C-function": c_function,
-                "Nonlinear solver/Strategy": "adaptive",
-                "Linear solver/Solver": "gmres",
-                "Estimators/Enabled": "true",
-                "Output/Write VTU": "false"}
+    settings = cold_start_settings(refinements, guess, c_function)
+    settings.update({"Nonlinear solver/Strategy": "adaptive",
+                     "Linear solver/Solver": "gmres",
+                     "Estimators/Enabled": "true"})
     try:
         return run(PROGRAM, prm, settings, directory)
     except subprocess.CalledProcessError:

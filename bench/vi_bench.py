@@ -41,6 +41,18 @@ def run(binary, prm, settings, directory, np=1, threads=None, environment=None,
         return json.load(f)
 
 
+def cold_start_settings(refinements, guess, c_function):
+    """One Q1 mesh without nested iteration, Newton from the initial guess
+    `guess` (bench/cold_start.py, bench/cold_start_adaptive.py)."""
+    return {"Mesh/Initial refinements": refinements,
+            "Mesh/Cycles": 1,
+            "Discretization/Polynomial degree": 1,
+            "Nonlinear solver/Nested iteration": "false",
+            "Nonlinear solver/Initial guess": guess,
+            "Nonlinear solver/C-function": c_function,
+            "Output/Write VTU": "false"}
+
+
 def cost_study_settings(c_function, flux_degree, initial_refinements):
     """The contact solve of the cost study (bench/membranes_cost.py) on
     parameters/estimators-disk-p1.prm: adaptive inexact Newton with the
