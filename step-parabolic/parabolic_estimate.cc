@@ -275,8 +275,9 @@ namespace StepParabolic
             in.s1 = &s1;
             in.s2 = &s2;
           }
-        // (the linearisation part of the contact term of the cellwise
-        // multiplier, linear in t as u_ht)
+        // (the linearisation part of the contact term, linear in t as u_ht;
+        // with mass lumping only that of the step's end, previous_
+        // complementarity being computed for the cellwise multiplier only)
         in.complementarity = (1. - theta) * it.previous_complementarity +
                              theta * it.complementarity;
         VI::ContactEstimate c = VI::estimate_contact_error(in);

@@ -39,8 +39,8 @@ namespace StepParabolic
                                   "the mesh is the same at all time steps.");
 
     VI::DiscretizationParameters::declare(prm, "fem");
-    // (Its entries "Nested iteration" and "Initial guess" do not apply here:
-    // Newton starts every step from the previous step's solution.)
+    // (without "Nested iteration" and "Initial guess": Newton starts every
+    // step from the previous step's solution)
     VI::NonlinearSolverParameters::declare(prm,
                                            "exact|inexact|adaptive",
                                            /*mesh_starts=*/false);
