@@ -16,6 +16,7 @@ for prm in "$@"; do
   esac
   work=$(mktemp -d)
   cp "$prm" "$work/"
+  [[ -e $dir/meshes ]] && ln -s "$dir/meshes" "$work/meshes"
   np=1
   [[ $name =~ \.mpirun=([0-9]+) ]] && np=${BASH_REMATCH[1]}
   runner=()

@@ -80,7 +80,7 @@ namespace StepHHO
     const bool  by_vertices =
       mapping_q != nullptr && mapping_q->get_degree() == 1;
     // Vertex offsets rounded to 1e-12 of the domain's diameter.
-    const double quantum = 1e-12 * VI::geometry_diameter(geometry);
+    const double quantum = 1e-12 * domain.diameter();
     using Key            = std::vector<std::int64_t>;
     std::map<Key, unsigned int> shapes;
     std::vector<CellIterator>   first_cells;

@@ -108,7 +108,7 @@ namespace StepHHO
 
     VI::FieldOutput<dim>(
       *mapping,
-      geometry,
+      domain.has_curved_cells(),
       cell_dof_handler,
       {u1_h, u2_h, gap_h, lambda_h, nullptr, &contact_fraction})
       .write(parameters.output.directory, cycle, 2, comm);

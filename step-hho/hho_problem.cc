@@ -7,6 +7,7 @@
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/sparsity_tools.h>
 
+#include <vi/errors.h>
 #include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
@@ -76,13 +77,12 @@ namespace StepHHO
       : StationaryProblem("step-hho", parameters, prm, comm)
       , parameters(parameters)
       , comm(comm)
-      , geometry(VI::geometry_from_name(parameters.mesh.geometry))
-      , data(VI::make_membrane_data<dim>(parameters.problem,
-                                         VI::geometry_center<dim>(geometry)))
+      , domain(parameters.mesh, parameters.problem.boundary)
+      , data(
+          VI::make_membrane_data<dim>(parameters.problem, domain.center<dim>()))
       , C(parameters.nonlinear_solver.c_function)
       , triangulation(comm)
-      , mapping(
-          VI::make_mapping<dim>(geometry, parameters.discretization.degree))
+      , mapping(domain.make_mapping<dim>(parameters.discretization.degree))
       , degree(parameters.discretization.degree)
       , cell_fe(degree)
       , face_fe(degree - 1)
@@ -92,6 +92,10 @@ namespace StepHHO
     static_assert(dim == 2,
                   "The contact nodes are those of the square "
                   "(local_operators.h).");
+    if (!domain.clamped_everywhere())
+      throw VI::InputError("Problem/Dirichlet boundary ids: free edges are "
+                           "implemented for step-membranes' Method = fem "
+                           "only; use all with step-hho");
     // The nodal basis phi_I = sum_j T_jI P_j of P_p at the contact nodes of
     // the reference cell, in terms of FE_DGP's Legendre basis P_j.
     V = LocalOperators::vandermonde_matrix(
@@ -199,6 +203,7 @@ namespace StepHHO
         }
     VI::check_membrane_data(data,
                             triangulation,
+                            domain,
                             *mapping,
                             QGauss<dim>(degree + 2).get_points(),
                             boundary_points,
@@ -210,7 +215,7 @@ namespace StepHHO
   void
   HHOProblem<dim>::make_grid()
   {
-    VI::make_coarse_mesh(geometry, triangulation);
+    domain.make_coarse_mesh(triangulation);
     triangulation.refine_global(parameters.mesh.initial_refinements);
   }
 
@@ -581,7 +586,7 @@ namespace StepHHO
   {
     const auto        &linear = parameters.linear_solver;
     std::ostringstream line;
-    line << "Test case " << data.name << " on the " << parameters.mesh.geometry
+    line << "Test case " << data.name << " on the " << domain.name()
          << ", HHO cells P" << degree << " / faces P" << degree - 1
          << ", Newton-" << C.name()
          << (parameters.nonlinear_solver.nested_iteration ? " with" :

@@ -16,7 +16,7 @@
 
 #include <vi/complementarity.h>
 #include <vi/contact_rows.h>
-#include <vi/geometry.h>
+#include <vi/domain.h>
 #include <vi/ghosted_copy.h>
 #include <vi/nodal_fields.h>
 #include <vi/parameters.h>
@@ -205,7 +205,7 @@ namespace StepHHO
 
     const Parameters            parameters;
     const MPI_Comm              comm;
-    const VI::Geometry          geometry;
+    const VI::Domain            domain;
     VI::MembraneData<dim>       data;
     VI::ComplementarityFunction C;
 

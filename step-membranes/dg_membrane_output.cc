@@ -307,7 +307,7 @@ namespace StepMembranes
     in.f2                  = data.f2.get();
     in.g1                  = data.g1.get();
     in.g2                  = data.g2.get();
-    in.friedrichs_constant = VI::friedrichs_constant(geometry);
+    in.friedrichs_constant = domain.friedrichs_constant();
     in.mass_lumped         = true; // the nodal multiplier, see above
     in.u1                  = &u[0];
     in.u2                  = &u[1];
@@ -512,7 +512,7 @@ namespace StepMembranes
       }
     VI::TransmittedLoad<dim> load;
     load.reinit(
-      *mapping, dof_handler, none, points, VI::friedrichs_constant(geometry));
+      *mapping, dof_handler, none, points, domain.friedrichs_constant());
     typename VI::TransmittedLoad<dim>::Split split;
     load.split(data.mu1,
                data.mu2,
@@ -588,7 +588,7 @@ namespace StepMembranes
     // The broken functions of the nodes, with the indicators of the
     // guaranteed estimate.
     VI::FieldOutput<dim> output(*mapping,
-                                geometry,
+                                domain.has_curved_cells(),
                                 dof_handler,
                                 {u1_h, u2_h, gap_h, lambda_h, &contact_set});
     output.add_indicators(final_estimate ? &*final_estimate : nullptr);

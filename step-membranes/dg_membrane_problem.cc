@@ -76,9 +76,9 @@ namespace StepMembranes
       : StationaryProblem("step-membranes", parameters, prm, comm)
       , parameters(parameters)
       , comm(comm)
-      , geometry(VI::geometry_from_name(parameters.mesh.geometry))
-      , data(VI::make_membrane_data<dim>(parameters.problem,
-                                         VI::geometry_center<dim>(geometry)))
+      , domain(parameters.mesh, parameters.problem.boundary)
+      , data(
+          VI::make_membrane_data<dim>(parameters.problem, domain.center<dim>()))
       , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
       , penalty(VI::InteriorPenalty::from_name(
           VI::to_string(parameters.discretization.method),
@@ -86,7 +86,7 @@ namespace StepMembranes
           parameters.discretization.degree))
       , triangulation(comm)
       , geometry_mapping(
-          VI::make_mapping<dim>(geometry, parameters.discretization.degree))
+          domain.make_mapping<dim>(parameters.discretization.degree))
       , mapping(std::make_unique<MappingQCache<dim>>(
           dynamic_cast<const MappingQ<dim> &>(*geometry_mapping).get_degree()))
       , fe(QGaussLobatto<1>(parameters.discretization.degree + 1))
@@ -135,6 +135,11 @@ namespace StepMembranes
         "Linear solver/Preconditioner = " +
         VI::to_string(parameters.linear_solver.preconditioner) + method +
         "; use ilu with Method = " + penalty.name());
+    if (!domain.clamped_everywhere())
+      throw VI::InputError(
+        "Problem/Dirichlet boundary ids: free edges are implemented for "
+        "Method = fem only; use all with Method = " +
+        penalty.name());
   }
 
 
@@ -145,7 +150,8 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::check_data() const
   {
-    VI::check_membrane_data(data, triangulation, *mapping, fe, quadrature);
+    VI::check_membrane_data(
+      data, triangulation, domain, *mapping, fe, quadrature);
   }
 
 
@@ -153,7 +159,7 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::make_grid()
   {
-    VI::make_coarse_mesh(geometry, triangulation);
+    domain.make_coarse_mesh(triangulation);
     triangulation.refine_global(parameters.mesh.initial_refinements);
     mapping->initialize(*geometry_mapping, triangulation);
   }
@@ -450,8 +456,8 @@ namespace StepMembranes
   DGMembraneProblem<dim>::description() const
   {
     std::ostringstream line;
-    line << "Test case " << data.name << " on the " << parameters.mesh.geometry
-         << ", " << penalty.label() << " Q" << fe.degree << " (penalty "
+    line << "Test case " << data.name << " on the " << domain.name() << ", "
+         << penalty.label() << " Q" << fe.degree << " (penalty "
          << penalty.penalty_constant() << " p (p + 1) / h_F), Newton-"
          << C.name() << " "
          << VI::describe_solvers(parameters.nonlinear_solver,

@@ -21,8 +21,8 @@
 #include <vi/contact_system.h>
 #include <vi/dg_estimators.h>
 #include <vi/dg_reconstruction.h>
+#include <vi/domain.h>
 #include <vi/flux_reconstruction.h>
-#include <vi/geometry.h>
 #include <vi/ghosted_copy.h>
 #include <vi/interior_penalty.h>
 #include <vi/linear_solvers.h>
@@ -181,7 +181,7 @@ namespace StepMembranes
 
     const Parameters            parameters;
     const MPI_Comm              comm;
-    const VI::Geometry          geometry;
+    const VI::Domain            domain;
     VI::MembraneData<dim>       data;
     VI::ComplementarityFunction C;
     const VI::InteriorPenalty   penalty;

@@ -56,7 +56,7 @@ namespace StepMembranes
           *mapping,
           parameters.estimators.flux_degree_for(fe.degree),
           fe.degree);
-        flux_reconstruction->reinit(dof_handler);
+        flux_reconstruction->reinit(dof_handler, domain.free_boundary_ids());
         if (parameters.output.verbose)
           {
             const auto [n_patches, n_matrices] =
@@ -72,11 +72,8 @@ namespace StepMembranes
         dual_norm.reset();
         if (parameters.estimators.needs_dual_norm_bound())
           {
-            dual_norm =
-              std::make_unique<VI::DualNormBound<dim>>(*mapping,
-                                                       *flux_reconstruction,
-                                                       VI::friedrichs_constant(
-                                                         geometry));
+            dual_norm = std::make_unique<VI::DualNormBound<dim>>(
+              *mapping, *flux_reconstruction, domain.friedrichs_constant());
             dual_norm->reinit(triangulation);
           }
         make_vertex_dofs();

@@ -112,7 +112,8 @@ namespace StepMembranes
     in.f2                    = data.f2.get();
     in.g1                    = data.g1.get();
     in.g2                    = data.g2.get();
-    in.friedrichs_constant   = VI::friedrichs_constant(geometry);
+    in.friedrichs_constant   = domain.friedrichs_constant();
+    in.domain                = &domain;
     in.dual_norm             = dual_norm.get();
     in.dual_norm_undershoots = undershoots;
     in.dual_norm_remainder   = remainder;

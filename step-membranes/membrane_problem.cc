@@ -21,10 +21,12 @@ namespace StepMembranes
                                         ParameterHandler &prm,
                                         const MPI_Comm    comm)
       : StationaryProblem("step-membranes", parameters, prm, comm)
-      , Discretisation(parameters.mesh, parameters.discretization, comm)
+      , Discretisation(VI::Domain(parameters.mesh, parameters.problem.boundary),
+                       parameters.discretization.degree,
+                       comm)
       , parameters(parameters)
       , data(VI::make_membrane_data<dim>(parameters.problem,
-                                         VI::geometry_center<dim>(geometry)))
+                                         domain.template center<dim>()))
       , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
       , contact_system(C, parameters, timer)
       , multiplier_function(make_multiplier_function(contact_system))
@@ -51,7 +53,8 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::check_data() const
   {
-    VI::check_membrane_data(data, triangulation, *mapping, fe, quadrature);
+    VI::check_membrane_data(
+      data, triangulation, domain, *mapping, fe, quadrature);
   }
 
 
@@ -60,8 +63,8 @@ namespace StepMembranes
   MembraneProblem<dim>::description() const
   {
     std::ostringstream line;
-    line << "Test case " << data.name << " on the " << parameters.mesh.geometry
-         << ", Q" << fe.degree << " elements, " << solver_name() << " "
+    line << "Test case " << data.name << " on the " << domain.name() << ", Q"
+         << fe.degree << " elements, " << solver_name() << " "
          << VI::describe_solvers(parameters.nonlinear_solver,
                                  parameters.linear_solver)
          << (parameters.estimators.enabled ? ", estimators on" : "");

@@ -19,10 +19,10 @@
 #include <vi/adaptive_stopping.h>
 #include <vi/complementarity.h>
 #include <vi/contact_system.h>
+#include <vi/domain.h>
 #include <vi/dual_norm.h>
 #include <vi/estimators.h>
 #include <vi/flux_reconstruction.h>
-#include <vi/geometry.h>
 #include <vi/linear_solvers.h>
 #include <vi/marking.h>
 #include <vi/membrane_discretisation.h>

@@ -42,7 +42,7 @@ namespace StepParabolic
           *mapping,
           parameters.estimators.flux_degree_for(fe.degree),
           fe.degree);
-        flux_reconstruction->reinit(dof_handler);
+        flux_reconstruction->reinit(dof_handler, domain.free_boundary_ids());
         make_vertex_dofs();
         setup_estimate_multiplier(parameters.estimators,
                                   data.mu1,

@@ -215,7 +215,7 @@ namespace StepParabolic
     if (!std::filesystem::exists(mesh))
       throw VI::InputError("the checkpoint <" + file + "> names the mesh <" +
                            mesh + ">, which does not exist");
-    VI::make_coarse_mesh(geometry, triangulation);
+    domain.make_coarse_mesh(triangulation);
     triangulation.load(mesh);
     mapping->initialize(*geometry_mapping, triangulation);
     check_data();
@@ -286,7 +286,7 @@ namespace StepParabolic
       }
 
     parallel::distributed::Triangulation<dim> other_mesh(comm);
-    VI::make_coarse_mesh(geometry, other_mesh);
+    domain.make_coarse_mesh(other_mesh);
     other_mesh.load(other_directory + "/" + mesh_name);
     DoFHandler<dim> other_dofs(other_mesh);
     other_dofs.distribute_dofs(fe);

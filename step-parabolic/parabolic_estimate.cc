@@ -235,6 +235,7 @@ namespace StepParabolic
     VI::ContactEstimatorInput<dim> in =
       estimator_input(*flux_reconstruction, it, ahead);
     in.friedrichs_constant = friedrichs_constant;
+    in.domain              = &domain;
     in.mu1                 = data.mu1;
     in.mu2                 = data.mu2;
     in.f1                  = data.f1.get();

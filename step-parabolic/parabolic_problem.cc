@@ -73,15 +73,17 @@ namespace StepParabolic
   ParabolicProblem<dim>::ParabolicProblem(const Parameters &parameters,
                                           ParameterHandler &prm,
                                           const MPI_Comm    comm)
-      : Discretisation(parameters.mesh, parameters.discretization, comm)
+      : Discretisation(VI::Domain(parameters.mesh, parameters.problem.boundary),
+                       parameters.discretization.degree,
+                       comm)
       , parameters(parameters)
       , prm(prm)
       , pcout(std::cout, Utilities::MPI::this_mpi_process(comm) == 0)
       , timer(pcout, TimerOutput::never, TimerOutput::wall_times)
-      , center(VI::geometry_center<dim>(geometry))
+      , center(domain.template center<dim>())
       , data(make_parabolic_data<dim>(parameters.problem, center))
       , C(VI::ComplementarityFunction(parameters.nonlinear_solver.c_function))
-      , friedrichs_constant(VI::friedrichs_constant(geometry))
+      , friedrichs_constant(domain.friedrichs_constant())
       , contact_system(C, parameters, timer)
       , multiplier_function(make_multiplier_function(contact_system))
       , stopping(parameters.nonlinear_solver,
@@ -145,7 +147,8 @@ namespace StepParabolic
                     report(message.str());
                 }
               for (const unsigned int f : cell->face_indices())
-                if (cell->face(f)->at_boundary())
+                if (cell->face(f)->at_boundary() &&
+                    domain.is_clamped(cell->face(f)->boundary_id()))
                   for (const auto &unit_point : fe.get_unit_support_points())
                     {
                       // Face 2d + s of the unit cell is {x_d = s}.
@@ -259,8 +262,8 @@ namespace StepParabolic
     const auto        &linear = parameters.linear_solver;
     const auto        &ts     = parameters.time;
     std::ostringstream line;
-    line << "Test case " << data.name << " on the " << parameters.mesh.geometry
-         << ", Q" << fe.degree << " elements, backward Euler with "
+    line << "Test case " << data.name << " on the " << domain.name() << ", Q"
+         << fe.degree << " elements, backward Euler with "
          << (ts.adaptive ? "adaptive dt from " : "dt = ") << ts.time_step
          << " to T = " << ts.final_time << ", Newton-" << C.name() << " ("
          << VI::to_string(parameters.nonlinear_solver.strategy) << "), "

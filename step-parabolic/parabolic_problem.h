@@ -18,9 +18,9 @@
 #include <vi/adaptive_stopping.h>
 #include <vi/complementarity.h>
 #include <vi/contact_system.h>
+#include <vi/domain.h>
 #include <vi/estimators.h>
 #include <vi/flux_reconstruction.h>
-#include <vi/geometry.h>
 #include <vi/linear_solvers.h>
 #include <vi/membrane_discretisation.h>
 #include <vi/multiplier_function.h>

@@ -3,14 +3,19 @@
 # their -P scripts.
 
 # A fresh WORKDIR with a copy of PRM (so that messages name the file without
-# a machine's path; sets prm_name), and a session directory of its own for
-# OpenMPI: two MPI processes started at the same moment race on creating a
-# shared one under /tmp.
+# a machine's path; sets prm_name) and a link to the meshes/ folder beside
+# it, if any (mesh files are named relative to the parameter file), and a
+# session directory of its own for OpenMPI: two MPI processes started at the
+# same moment race on creating a shared one under /tmp.
 macro(prepare_work_directory)
   file(REMOVE_RECURSE ${WORKDIR})
   file(MAKE_DIRECTORY ${WORKDIR})
   get_filename_component(prm_name ${PRM} NAME)
+  get_filename_component(prm_directory ${PRM} DIRECTORY)
   configure_file(${PRM} ${WORKDIR}/${prm_name} COPYONLY)
+  if(EXISTS ${prm_directory}/meshes)
+    file(CREATE_LINK ${prm_directory}/meshes ${WORKDIR}/meshes SYMBOLIC)
+  endif()
   set(ENV{TMPDIR} ${WORKDIR})
 endmacro()
 

@@ -237,6 +237,7 @@ namespace VI
                            face_values,
                            pairs.s,
                            pairs.g,
+                           in.domain,
                            G,
                            grad_G);
       }

@@ -6,6 +6,7 @@
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/fe/fe_values.h>
 
+#include <vi/domain.h>
 #include <vi/estimators.h>
 
 #include <algorithm>
@@ -83,6 +84,7 @@ namespace VI
     const std::vector<std::unique_ptr<FEValues<dim>>>    &face_values,
     const TrilinosWrappers::MPI::Vector *const            v[2],
     const Function<dim> *const                            g[2],
+    const Domain                                         *domain,
     std::vector<double>                                   G[2],
     std::vector<Tensor<1, dim>>                           grad_G[2])
   {
@@ -93,7 +95,9 @@ namespace VI
       }
     if (g[0] && g[1] && cell->at_boundary())
       for (const unsigned int f : cell->face_indices())
-        if (cell->face(f)->at_boundary())
+        if (cell->face(f)->at_boundary() &&
+            (domain == nullptr ||
+             domain->is_clamped(cell->face(f)->boundary_id())))
           {
             FEValues<dim> &on_face = *face_values[f];
             on_face.reinit(cell);
@@ -204,6 +208,7 @@ namespace VI
                         const std::vector<std::unique_ptr<FEValues<2>>> &,
                         const TrilinosWrappers::MPI::Vector *const[2],
                         const Function<2> *const[2],
+                        const Domain *,
                         std::vector<double>[2],
                         std::vector<Tensor<1, 2>>[2]);
 } // namespace VI

@@ -508,6 +508,7 @@ namespace VI
                            scratch.face_values,
                            pairs.u,
                            pairs.g,
+                           in.domain,
                            G,
                            grad_G);
         // From here on u_h stands for u_h + G, and s for s + G (s - u_h is

@@ -13,7 +13,7 @@ namespace VI
   struct FieldOutput<dim>::Data
   {
     const Mapping<dim> &mapping;
-    const Geometry      geometry;
+    const bool          curved_cells;
     /// Of the patches: the element's, whose functions they show.
     const unsigned int degree;
     /// The cell fields this object owns (the partition, the indicators),
@@ -22,10 +22,10 @@ namespace VI
     DataOut<dim>                     data_out;
 
     Data(const Mapping<dim>    &mapping,
-         const Geometry         geometry,
+         const bool             curved_cells,
          const DoFHandler<dim> &dof_handler)
         : mapping(mapping)
-        , geometry(geometry)
+        , curved_cells(curved_cells)
         , degree(dof_handler.get_fe().degree)
     {
     }
@@ -40,10 +40,10 @@ namespace VI
 
   template <int dim>
   FieldOutput<dim>::FieldOutput(const Mapping<dim>    &mapping,
-                                const Geometry         geometry,
+                                const bool             curved_cells,
                                 const DoFHandler<dim> &dof_handler,
                                 const MembraneFields  &fields)
-      : data(std::make_unique<Data>(mapping, geometry, dof_handler))
+      : data(std::make_unique<Data>(mapping, curved_cells, dof_handler))
   {
     Assert((fields.contact_set == nullptr) !=
              (fields.contact_fraction == nullptr),
@@ -103,7 +103,7 @@ namespace VI
     DataOut<dim> &data_out = data->data_out;
     data_out.build_patches(data->mapping,
                            data->degree,
-                           has_curved_cells(data->geometry) ?
+                           data->curved_cells ?
                              DataOut<dim>::curved_inner_cells :
                              DataOut<dim>::curved_boundary);
     if (time)

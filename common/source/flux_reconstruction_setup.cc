@@ -15,12 +15,11 @@
 #include <vi/same_cell.h>
 
 #include "flux_reconstruction_internal.h"
+#include "flux_reconstruction_shares.h"
 
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <boost/serialization/utility.hpp>
-#include <boost/serialization/vector.hpp>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -30,66 +29,6 @@
 namespace VI
 {
   using namespace dealii;
-
-  // What a patch needs to know of one of its cells, computed by the cell's
-  // owner: its center (which orders the cells of a patch), how its
-  // Raviart-Thomas dofs expand across hanging faces (the constraint's
-  // entries, or the dof itself), the Piola signs of those dofs, its metric
-  // J^T J / det J and the integrals (phi_v, q_k)_K of the Q1 shape functions
-  // phi_v against Q_p. The rank that solves a patch needs nothing else of a
-  // cell, so it need not see it.
-  template <int dim>
-  struct FluxReconstruction<dim>::CellData
-  {
-    double                    center[dim] = {};
-    std::vector<unsigned int> expansion_start; ///< per local dof, and the end
-    std::vector<std::pair<types::global_dof_index, double>> expansion;
-    std::vector<std::int8_t>                                signs;
-    std::vector<double>                                     metric;
-    std::vector<double> vertex_mass; ///< [v n_q + k]
-    CellIterator        cell;        ///< on the owner only
-
-    template <class Archive>
-    void
-    serialize(Archive &ar, const unsigned int)
-    {
-      ar &center &expansion_start &expansion &signs &metric &vertex_mass;
-    }
-  };
-
-
-  // (patch, cell) pairs: share i says that psi_a of the patch numbered by
-  // the degree of freedom patch[i] does not vanish on cells[cell[i]], with
-  // the values hat[i n_v ... (i + 1) n_v - 1] at its vertices. What one
-  // rank sends another.
-  template <int dim>
-  struct FluxReconstruction<dim>::Shares
-  {
-    static constexpr unsigned int n_v = GeometryInfo<dim>::vertices_per_cell;
-
-    std::vector<CellData>                cells;
-    std::vector<types::global_dof_index> patch;
-    std::vector<unsigned int>            cell;
-    std::vector<double>                  hat;
-
-    void
-    add(const types::global_dof_index j,
-        const unsigned int            c,
-        const double                 *values)
-    {
-      patch.push_back(j);
-      cell.push_back(c);
-      hat.insert(hat.end(), values, values + n_v);
-    }
-
-    template <class Archive>
-    void
-    serialize(Archive &ar, const unsigned int)
-    {
-      ar &cells &patch &cell &hat;
-    }
-  };
-
 
   // The phases of reinit(), in their order, and what each hands on to the
   // next: the Raviart-Thomas space and the hat functions, the data of the
@@ -187,9 +126,11 @@ namespace VI
       std::size_t                               storage_start = 0;
     };
 
-    Setup(FluxReconstruction<dim> &reconstruction,
-          const DoFHandler<dim>   &potential)
+    Setup(FluxReconstruction<dim>            &reconstruction,
+          const DoFHandler<dim>              &potential,
+          const std::set<types::boundary_id> &free_boundary_ids)
         : reconstruction(reconstruction)
+        , free_boundary_ids(free_boundary_ids)
         , tria(potential.get_triangulation())
         , comm(potential.get_communicator())
         , rank(Utilities::MPI::this_mpi_process(comm))
@@ -199,8 +140,9 @@ namespace VI
     {
     }
 
-    // The Raviart-Thomas space with its hanging node constraints, the
-    // previous mesh's patches cleared, and the hat functions.
+    // The Raviart-Thomas space with its constraints (hanging nodes, and
+    // sigma . n = 0 on the free boundary), the previous mesh's patches
+    // cleared, and the hat functions.
     void
     distribute_dofs()
     {
@@ -210,10 +152,27 @@ namespace VI
       r.owned_dofs = r.dof_handler.locally_owned_dofs();
       DoFTools::extract_locally_relevant_dofs(r.dof_handler, r.relevant_dofs);
       r.ghosted_fluxes.reinit(r.owned_dofs, r.relevant_dofs, comm);
-      hanging_constraints.reinit(r.relevant_dofs);
-      DoFTools::make_hanging_node_constraints(r.dof_handler,
-                                              hanging_constraints);
-      hanging_constraints.close();
+      flux_constraints.reinit(r.relevant_dofs);
+      DoFTools::make_hanging_node_constraints(r.dof_handler, flux_constraints);
+      // Where the membranes are free, the fluxes carry their zero normal
+      // derivative: the face dofs (normal moments) there are zero. A patch
+      // whose boundary faces are all free is then closed like an interior
+      // one, and compatible, since its vertex is not a Dirichlet node.
+      std::vector<types::global_dof_index> face_dofs(
+        r.fe_flux.n_dofs_per_face());
+      if (!free_boundary_ids.empty())
+        for (const auto &cell : r.dof_handler.active_cell_iterators())
+          if (!cell->is_artificial())
+            for (const unsigned int f : cell->face_indices())
+              if (cell->face(f)->at_boundary() &&
+                  free_boundary_ids.count(cell->face(f)->boundary_id()))
+                {
+                  cell->face(f)->get_dof_indices(face_dofs);
+                  for (const types::global_dof_index i : face_dofs)
+                    if (!flux_constraints.is_constrained(i))
+                      flux_constraints.add_line(i);
+                }
+      flux_constraints.close();
 
       r.patches.clear();
       r.hat_masses.clear();
@@ -286,10 +245,9 @@ namespace VI
               for (unsigned int k = 0; k < n_tau; ++k)
                 {
                   data.expansion_start.push_back(data.expansion.size());
-                  if (hanging_constraints.is_constrained(rt_dofs[k]))
+                  if (flux_constraints.is_constrained(rt_dofs[k]))
                     for (const auto &entry :
-                         *hanging_constraints.get_constraint_entries(
-                           rt_dofs[k]))
+                         *flux_constraints.get_constraint_entries(rt_dofs[k]))
                       data.expansion.push_back(entry);
                   else
                     data.expansion.emplace_back(rt_dofs[k], 1.);
@@ -892,7 +850,7 @@ namespace VI
       r.constrained_dofs.clear();
       r.constraint_start.assign(1, 0);
       r.constraint_entries.clear();
-      for (const auto &line : hanging_constraints.get_lines())
+      for (const auto &line : flux_constraints.get_lines())
         if (r.owned_dofs.is_element(line.index))
           {
             r.constrained_dofs.push_back(
@@ -913,13 +871,14 @@ namespace VI
       hats.clear();
     }
 
-    FluxReconstruction<dim>  &reconstruction;
-    const Triangulation<dim> &tria;
-    const MPI_Comm            comm;
-    const unsigned int        rank, n_rank;
-    const unsigned int        n_tau, n_q;
+    FluxReconstruction<dim>            &reconstruction;
+    const std::set<types::boundary_id> &free_boundary_ids;
+    const Triangulation<dim>           &tria;
+    const MPI_Comm                      comm;
+    const unsigned int                  rank, n_rank;
+    const unsigned int                  n_tau, n_q;
 
-    AffineConstraints<double> hanging_constraints;
+    AffineConstraints<double> flux_constraints;
     DoFHandler<dim>           hats;
     IndexSet                  relevant_hats;
     AffineConstraints<double> hat_constraints;
@@ -954,9 +913,11 @@ namespace VI
 
   template <int dim>
   void
-  FluxReconstruction<dim>::reinit(const DoFHandler<dim> &potential)
+  FluxReconstruction<dim>::reinit(
+    const DoFHandler<dim>              &potential,
+    const std::set<types::boundary_id> &free_boundary_ids)
   {
-    Setup setup(*this, potential);
+    Setup setup(*this, potential, free_boundary_ids);
     setup.distribute_dofs();
     setup.compute_cell_data();
     setup.compute_hat_shares();
@@ -973,5 +934,6 @@ namespace VI
   // The class itself is instantiated in flux_reconstruction.cc (before this
   // file in a unity build): here only what this file defines.
   template void
-  FluxReconstruction<2>::reinit(const DoFHandler<2> &);
+  FluxReconstruction<2>::reinit(const DoFHandler<2> &,
+                                const std::set<types::boundary_id> &);
 } // namespace VI

@@ -28,13 +28,13 @@ namespace VI
 
 
   template <int dim>
-  MembraneDiscretisation<dim>::MembraneDiscretisation(const Geometry geometry,
+  MembraneDiscretisation<dim>::MembraneDiscretisation(const Domain      &domain,
                                                       const unsigned int degree,
                                                       const MPI_Comm     comm)
       : comm(comm)
-      , geometry(geometry)
+      , domain(domain)
       , triangulation(comm)
-      , geometry_mapping(make_mapping<dim>(geometry, degree))
+      , geometry_mapping(domain.make_mapping<dim>(degree))
       , mapping(std::make_unique<MappingQCache<dim>>(
           dynamic_cast<const MappingQ<dim> &>(*geometry_mapping).get_degree()))
       , fe(degree)
@@ -45,22 +45,10 @@ namespace VI
 
 
   template <int dim>
-  MembraneDiscretisation<dim>::MembraneDiscretisation(
-    const DomainParameters         &mesh,
-    const DiscretizationParameters &discretization,
-    const MPI_Comm                  comm)
-      : MembraneDiscretisation(geometry_from_name(mesh.geometry),
-                               discretization.degree,
-                               comm)
-  {
-  }
-
-
-  template <int dim>
   void
   MembraneDiscretisation<dim>::make_grid(const unsigned int refinements)
   {
-    make_coarse_mesh(geometry, triangulation);
+    domain.make_coarse_mesh(triangulation);
     triangulation.refine_global(refinements);
     mapping->initialize(*geometry_mapping, triangulation);
   }
@@ -101,7 +89,8 @@ namespace VI
       constraints.merge(hanging_node_constraints);
       std::map<types::boundary_id, const Function<dim> *> boundary_data;
       for (const types::boundary_id id : triangulation.get_boundary_ids())
-        boundary_data[id] = &g;
+        if (domain.is_clamped(id))
+          boundary_data[id] = &g;
       VectorTools::interpolate_boundary_values(*mapping,
                                                dof_handler,
                                                boundary_data,
@@ -363,7 +352,7 @@ namespace VI
   MembraneDiscretisation<dim>::solution_output() const
   {
     return FieldOutput<dim>(*mapping,
-                            geometry,
+                            domain.has_curved_cells(),
                             dof_handler,
                             {u1_h, u2_h, gap_h, lambda_h, &contact_set});
   }
@@ -480,7 +469,7 @@ namespace VI
                                  dof_handler,
                                  u1_constraints,
                                  points,
-                                 friedrichs_constant(geometry));
+                                 domain.friedrichs_constant());
       }
   }
 

@@ -2,8 +2,8 @@
 #include <deal.II/base/utilities.h>
 #include <deal.II/grid/tria.h>
 
+#include <vi/domain.h>
 #include <vi/errors.h>
-#include <vi/geometry.h>
 #include <vi/memory_budget.h>
 #include <vi/parameters.h>
 
@@ -124,7 +124,7 @@ namespace VI
   MemoryBudget::MemoryBudget(const MeshParameters           &mesh,
                              const DiscretizationParameters &discretization,
                              const MPI_Comm                  comm)
-      : MemoryBudget(mesh.geometry,
+      : MemoryBudget(static_cast<const DomainParameters &>(mesh),
                      mesh.initial_refinements +
                        (mesh.refinement == "global" ? mesh.cycles - 1 : 0),
                      discretization,
@@ -137,21 +137,18 @@ namespace VI
   MemoryBudget::MemoryBudget(const DomainParameters         &mesh,
                              const DiscretizationParameters &discretization,
                              const MPI_Comm                  comm)
-      : MemoryBudget(mesh.geometry,
-                     mesh.initial_refinements,
-                     discretization,
-                     comm)
+      : MemoryBudget(mesh, mesh.initial_refinements, discretization, comm)
   {
   }
 
 
-  MemoryBudget::MemoryBudget(const std::string              &geometry,
+  MemoryBudget::MemoryBudget(const DomainParameters         &mesh,
                              const unsigned int              levels,
                              const DiscretizationParameters &discretization,
                              const MPI_Comm                  comm)
   {
     Triangulation<2> coarse;
-    make_coarse_mesh(geometry_from_name(geometry), coarse);
+    Domain(mesh).make_coarse_mesh(coarse);
     const unsigned int p = discretization.degree;
     cells                = coarse.n_active_cells() * std::pow(4., levels);
     unknowns             = cells * unknowns_per_cell(discretization.method, p);

@@ -1,13 +1,21 @@
+#include <deal.II/base/utilities.h>
+
 #include <vi/errors.h>
 #include <vi/parameters.h>
 #include <vi/spellings.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <sstream>
 
 namespace VI
 {
   using dealii::ParameterHandler;
+  namespace numbers   = dealii::numbers;
+  namespace types     = dealii::types;
+  namespace Utilities = dealii::Utilities;
   // The patterns of the declarations: Double(), Selection("a|b"), ...
   using namespace dealii::Patterns;
 
@@ -22,6 +30,29 @@ namespace VI
   ParameterSubsection::~ParameterSubsection()
   {
     prm.leave_subsection();
+  }
+
+
+  namespace
+  {
+    std::string parameter_directory;
+  }
+
+
+  void
+  set_parameter_directory(const std::string &directory)
+  {
+    parameter_directory = directory;
+  }
+
+
+  std::string
+  parameter_path(const std::string &path)
+  {
+    if (path.empty() || parameter_directory.empty() ||
+        std::filesystem::path(path).is_absolute())
+      return path;
+    return (std::filesystem::path(parameter_directory) / path).string();
   }
 
 
@@ -177,6 +208,7 @@ namespace VI
                       "1",
                       Double(),
                       "Tension of the second membrane (> 0).");
+    BoundaryParameters::declare(prm);
     {
       const ParameterSubsection expression_section(prm, "Expression");
       const std::string         variables =
@@ -202,11 +234,68 @@ namespace VI
     mu2       = prm.get_double("mu2");
     require_positive(mu1, "Problem/mu1");
     require_positive(mu2, "Problem/mu2");
+    boundary.parse(prm);
     {
       const ParameterSubsection expression_section(prm, "Expression");
       for (const ExpressionEntry &entry : expression_entries)
         expression.*entry.field = prm.get(entry.name);
     }
+  }
+
+
+  void
+  BoundaryParameters::declare(ParameterHandler &prm)
+  {
+    prm.declare_entry("Dirichlet boundary ids",
+                      "all",
+                      Anything(),
+                      "Where the membranes are clamped (u_alpha = g_alpha): "
+                      "all, or a comma-separated list of boundary ids; they "
+                      "are free (zero normal derivative) on the other "
+                      "boundary faces. The ids of each geometry are listed "
+                      "in doc/step-membranes.md (a mesh file's: its "
+                      "physical line tags).");
+    prm.declare_entry("Friedrichs constant",
+                      "auto",
+                      Anything(),
+                      "An upper bound of C_F, |v| <= C_F |grad v| for v "
+                      "vanishing on the clamped boundary, which the "
+                      "estimates take: auto (known for every geometry "
+                      "clamped on its whole boundary, and for the square "
+                      "clamped on some sides), or a number > 0.");
+  }
+
+
+  void
+  BoundaryParameters::parse(ParameterHandler &prm)
+  {
+    const std::string ids = Utilities::trim(prm.get("Dirichlet boundary ids"));
+    clamped_everywhere    = ids == "all";
+    dirichlet_ids.clear();
+    if (!clamped_everywhere)
+      for (const std::string &id : Utilities::split_string_list(ids, ','))
+        {
+          char      *end   = nullptr;
+          const long value = std::strtol(id.c_str(), &end, 10);
+          if (id.empty() || *end != '\0' || value < 0 ||
+              value >= numbers::internal_face_boundary_id)
+            throw InputError("Problem/Dirichlet boundary ids: <" + ids +
+                             "> is not 'all' nor a list of boundary ids "
+                             "(integers from 0 to 254)");
+          dirichlet_ids.push_back(static_cast<types::boundary_id>(value));
+        }
+    const std::string constant =
+      Utilities::trim(prm.get("Friedrichs constant"));
+    friedrichs_constant = 0;
+    if (constant != "auto")
+      {
+        char *end           = nullptr;
+        friedrichs_constant = std::strtod(constant.c_str(), &end);
+        if (constant.empty() || *end != '\0' || !(friedrichs_constant > 0) ||
+            !std::isfinite(friedrichs_constant))
+          throw InputError("Problem/Friedrichs constant: <" + constant +
+                           "> is not 'auto' nor a number > 0");
+      }
   }
 
 
@@ -219,13 +308,22 @@ namespace VI
     const ParameterSubsection section(prm, "Mesh");
     prm.declare_entry("Geometry",
                       default_geometry,
-                      Selection("square|disk|L-shape|square-circle"),
+                      Selection("square|disk|L-shape|square-circle|file"),
                       "square: (0,1)^2; disk: unit disk centred at the "
                       "origin (curved boundary); L-shape: (-1,1)^2 without "
                       "(0,1)^2; square-circle: (0,1)^2 with the circle of "
                       "radius 1/3 about (0.5, 0.5), where the seed tests' "
                       "contact set ends, as a line of the mesh (curved "
-                      "cells).");
+                      "cells); file: the mesh of Mesh/File.");
+    prm.declare_entry("File",
+                      "",
+                      Anything(),
+                      "With Geometry = file: the mesh, relative to the "
+                      "parameter file's folder; Gmsh .msh (its physical "
+                      "line tags become boundary ids, its physical surface "
+                      "tags material ids), or another format deal.II's "
+                      "GridIn reads (.inp, .vtk, .unv, ...), with "
+                      "straight-sided quadrilaterals.");
     prm.declare_entry("Initial refinements",
                       default_refinements,
                       Integer(0, 20),
@@ -238,7 +336,10 @@ namespace VI
   {
     const ParameterSubsection section(prm, "Mesh");
     geometry            = prm.get("Geometry");
+    file                = parameter_path(prm.get("File"));
     initial_refinements = prm.get_integer("Initial refinements");
+    if (geometry == "file" && file.empty())
+      throw InputError("Mesh/File: Mesh/Geometry = file needs a mesh file");
   }
 
 

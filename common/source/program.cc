@@ -3,6 +3,7 @@
 #include <deal.II/base/utilities.h>
 
 #include <vi/errors.h>
+#include <vi/parameters.h>
 #include <vi/program.h>
 #include <vi/version.h>
 
@@ -300,6 +301,8 @@ namespace VI
       {
         if (!std::ifstream(file))
           throw InputError("cannot open parameter file <" + file + ">");
+        set_parameter_directory(
+          std::filesystem::path(file).parent_path().string());
         try
           {
             prm.parse_input(file);

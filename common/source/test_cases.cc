@@ -293,6 +293,7 @@ namespace VI
   void
   check_membrane_data(const MembraneData<dim>       &data,
                       const Triangulation<dim, dim> &triangulation,
+                      const Domain                  &domain,
                       const Mapping<dim, dim>       &mapping,
                       const std::vector<Point<dim>> &interior_points,
                       const std::vector<Point<dim>> &boundary_points,
@@ -324,7 +325,8 @@ namespace VI
                   }
             }
           for (const unsigned int f : cell->face_indices())
-            if (cell->face(f)->at_boundary())
+            if (cell->face(f)->at_boundary() &&
+                domain.is_clamped(cell->face(f)->boundary_id()))
               for (const auto &unit_point : boundary_points)
                 {
                   // Face 2d + s of the unit cell is {x_d = s}.
@@ -357,12 +359,14 @@ namespace VI
   void
   check_membrane_data(const MembraneData<dim>       &data,
                       const Triangulation<dim, dim> &triangulation,
+                      const Domain                  &domain,
                       const Mapping<dim, dim>       &mapping,
                       const FiniteElement<dim, dim> &fe,
                       const Quadrature<dim>         &quadrature)
   {
     check_membrane_data(data,
                         triangulation,
+                        domain,
                         mapping,
                         quadrature.get_points(),
                         fe.get_unit_support_points(),
@@ -373,6 +377,7 @@ namespace VI
   template void
   check_membrane_data(const MembraneData<2> &,
                       const Triangulation<2, 2> &,
+                      const Domain &,
                       const Mapping<2, 2> &,
                       const std::vector<Point<2>> &,
                       const std::vector<Point<2>> &,
@@ -380,6 +385,7 @@ namespace VI
   template void
   check_membrane_data(const MembraneData<2> &,
                       const Triangulation<2, 2> &,
+                      const Domain &,
                       const Mapping<2, 2> &,
                       const FiniteElement<2, 2> &,
                       const Quadrature<2> &);

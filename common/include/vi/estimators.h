@@ -17,6 +17,8 @@
 
 namespace VI
 {
+  class Domain;
+
   template <int dim>
   class CellMultiplier;
   template <int dim>
@@ -105,6 +107,9 @@ namespace VI
     const dealii::Function<dim> *f1 = nullptr, *f2 = nullptr;
     const dealii::Function<dim> *g1 = nullptr, *g2 = nullptr;
     double                       friedrichs_constant = 0;
+    /// Where the membranes are clamped (g_alpha is imposed); null: on the
+    /// whole boundary.
+    const Domain *domain = nullptr;
 
     using Vector     = dealii::TrilinosWrappers::MPI::Vector;
     const Vector *u1 = nullptr, *u2 = nullptr;
@@ -282,8 +287,9 @@ namespace VI
 
   /**
    * The lifting G (with its gradient) of both membranes on `cell`: zero,
-   * plus add_face_lifting() of g_a - v_a from each boundary face, or zero
-   * everywhere if g is null (the data are exactly represented).
+   * plus add_face_lifting() of g_a - v_a from each boundary face where
+   * `domain` clamps the membranes (every boundary face if it is null), or
+   * zero everywhere if g is null (the data are exactly represented).
    * `face_values[f]` are the FEValues of face f as for add_face_lifting(),
    * reinitialised here on `cell`.
    */
@@ -295,6 +301,7 @@ namespace VI
     const std::vector<std::unique_ptr<dealii::FEValues<dim>>>    &face_values,
     const dealii::TrilinosWrappers::MPI::Vector *const            v[2],
     const dealii::Function<dim> *const                            g[2],
+    const Domain                                                 *domain,
     std::vector<double>                                           G[2],
     std::vector<dealii::Tensor<1, dim>>                           grad_G[2]);
 

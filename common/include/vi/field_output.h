@@ -6,8 +6,6 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
 
-#include <vi/geometry.h>
-
 #include <memory>
 #include <optional>
 #include <string>
@@ -37,7 +35,8 @@ namespace VI
    * the same names (doc/ and ParaView states rely on them): u1, u2, gap,
    * lambda, contact, partition (the process that owns the cell), then cell
    * fields such as the estimators' indicators. Patches have the degree of
-   * the finite element, curved inner cells where the geometry is curved.
+   * the finite element, curved inner cells where the domain's cells are
+   * curved (`curved_cells`).
    * Fields given by reference must outlive write().
    */
   template <int dim>
@@ -45,7 +44,7 @@ namespace VI
   {
   public:
     FieldOutput(const dealii::Mapping<dim>    &mapping,
-                const Geometry                 geometry,
+                const bool                     curved_cells,
                 const dealii::DoFHandler<dim> &dof_handler,
                 const MembraneFields          &fields);
 

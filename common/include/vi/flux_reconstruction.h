@@ -19,6 +19,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <unordered_map>
 #include <vector>
 
@@ -154,10 +155,12 @@ namespace VI
      * hanging nodes). The cells' data, the patches (in chunks of
      * consecutive ones) and their factorisations are computed on the
      * threads of MultithreadInfo and gathered in a fixed order: the patches
-     * do not depend on the number of threads.
+     * do not depend on the number of threads. On the boundary faces of
+     * `free_boundary_ids` (where the membranes are free) sigma . n = 0.
      */
     void
-    reinit(const dealii::DoFHandler<dim> &potential);
+    reinit(const dealii::DoFHandler<dim>              &potential,
+           const std::set<dealii::types::boundary_id> &free_boundary_ids = {});
 
     /// sigma[c] = sum_a sigma_c^a for every field c, with ghost entries.
     /// The cells' right-hand sides and the patch problems are computed on

@@ -15,8 +15,8 @@
 
 #include <vi/cell_multiplier.h>
 #include <vi/contact_system.h>
+#include <vi/domain.h>
 #include <vi/estimators.h>
-#include <vi/geometry.h>
 #include <vi/ghosted_copy.h>
 #include <vi/multiplier_function.h>
 #include <vi/transmitted_load.h>
@@ -85,18 +85,13 @@ namespace VI
     using Vector       = dealii::TrilinosWrappers::MPI::Vector;
     using CellIterator = typename dealii::DoFHandler<dim>::active_cell_iterator;
 
-    /// Q_degree on `geometry` (its mapping of the same degree).
-    MembraneDiscretisation(const Geometry     geometry,
+    /// Q_degree on `domain` (its mapping of the same degree), clamped where
+    /// the domain says.
+    MembraneDiscretisation(const Domain      &domain,
                            const unsigned int degree,
                            const MPI_Comm     comm);
 
-    /// The same from the sections Mesh (its geometry) and Discretization
-    /// (its degree) of the program's parameters.
-    MembraneDiscretisation(const DomainParameters         &mesh,
-                           const DiscretizationParameters &discretization,
-                           const MPI_Comm                  comm);
-
-    /// The coarse mesh of the geometry, refined `refinements` times.
+    /// The coarse mesh of the domain, refined `refinements` times.
     void
     make_grid(const unsigned int refinements);
 
@@ -330,7 +325,7 @@ namespace VI
 
   protected:
     const MPI_Comm comm;
-    const Geometry geometry;
+    const Domain   domain;
 
     dealii::parallel::distributed::Triangulation<dim> triangulation;
     /// The geometry's mapping, and the one used everywhere: its support
@@ -386,7 +381,7 @@ namespace VI
 #define VI_MEMBRANE_DISCRETISATION_MEMBERS(dim)                                \
   using Discretisation = VI::MembraneDiscretisation<dim>;                      \
   /* the mesh and the elements */                                              \
-  using Discretisation::comm, Discretisation::geometry,                        \
+  using Discretisation::comm, Discretisation::domain,                          \
     Discretisation::triangulation, Discretisation::geometry_mapping,           \
     Discretisation::mapping, Discretisation::fe, Discretisation::dof_handler,  \
     Discretisation::quadrature;                                                \

@@ -62,8 +62,8 @@ namespace VI
     std::string to_lower = "Mesh/Initial refinements";
 
   private:
-    /// The budget of `levels` refinements of the coarse mesh of `geometry`.
-    MemoryBudget(const std::string              &geometry,
+    /// The budget of `levels` refinements of the coarse mesh of `mesh`.
+    MemoryBudget(const DomainParameters         &mesh,
                  const unsigned int              levels,
                  const DiscretizationParameters &discretization,
                  const MPI_Comm                  comm);

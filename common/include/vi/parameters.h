@@ -1,6 +1,7 @@
 #pragma once
 
 #include <deal.II/base/parameter_handler.h>
+#include <deal.II/base/types.h>
 
 #include <vi/complementarity.h>
 
@@ -91,11 +92,38 @@ namespace VI
   };
 
 
+  /**
+   * Paths in a parameter file (Mesh/File) are relative to the file's folder:
+   * run_program() records the folder of the file it reads, and
+   * parameter_path() resolves a path against it (absolute paths, and paths
+   * when no file was read, are left as they are).
+   */
+  void
+  set_parameter_directory(const std::string &directory);
+  std::string
+  parameter_path(const std::string &path);
+
+
   struct ExpressionParameters
   {
     std::string f1, f2, g1, g2;
     std::string u1, u2, lambda; ///< exact solution; empty = unknown
     std::string constants;      ///< "name=value, name=value"
+  };
+
+
+  /// Problem/Dirichlet boundary ids and Problem/Friedrichs constant: where
+  /// the membranes are clamped (VI::Domain checks them against the mesh).
+  struct BoundaryParameters
+  {
+    bool                                    clamped_everywhere = true;
+    std::vector<dealii::types::boundary_id> dirichlet_ids;
+    double friedrichs_constant = 0; ///< 0: the domain's own (auto)
+
+    static void
+    declare(dealii::ParameterHandler &prm);
+    void
+    parse(dealii::ParameterHandler &prm);
   };
 
 
@@ -105,6 +133,7 @@ namespace VI
     double               mu1       = 1.;
     double               mu2       = 1.;
     ExpressionParameters expression;
+    BoundaryParameters   boundary;
 
     /// `variables`: how the documentation names the variables of the
     /// expressions ("x, y"; "x, y, t" for time-dependent problems).
@@ -123,6 +152,7 @@ namespace VI
   struct DomainParameters
   {
     std::string  geometry            = "square";
+    std::string  file                = ""; ///< resolved, see parameter_path()
     unsigned int initial_refinements = 3;
 
     /// `refinements_doc`: what the initial refinements are to the program.

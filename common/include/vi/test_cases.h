@@ -3,6 +3,7 @@
 #include <deal.II/base/function.h>
 #include <deal.II/base/point.h>
 
+#include <vi/domain.h>
 #include <vi/parameters.h>
 
 #include <map>
@@ -82,14 +83,15 @@ namespace VI
    * anything is computed: f1 and f2 finite at `interior_points`, g1 and g2
    * finite with g1 >= g2 (otherwise the constraint u1 >= u2 contradicts
    * the boundary condition) at those of `boundary_points` that lie on a
-   * boundary face; both lists are points of the unit cell, mapped into
-   * every locally owned cell. Throws InputError naming the first violation
-   * on any process (collective over `comm`).
+   * boundary face where `domain` clamps the membranes; both lists are points of
+   * the unit cell, mapped into every locally owned cell. Throws InputError
+   * naming the first violation on any process (collective over `comm`).
    */
   template <int dim>
   void
   check_membrane_data(const MembraneData<dim>               &data,
                       const dealii::Triangulation<dim, dim> &triangulation,
+                      const Domain                          &domain,
                       const dealii::Mapping<dim, dim>       &mapping,
                       const std::vector<dealii::Point<dim>> &interior_points,
                       const std::vector<dealii::Point<dim>> &boundary_points,
@@ -101,6 +103,7 @@ namespace VI
   void
   check_membrane_data(const MembraneData<dim>               &data,
                       const dealii::Triangulation<dim, dim> &triangulation,
+                      const Domain                          &domain,
                       const dealii::Mapping<dim, dim>       &mapping,
                       const dealii::FiniteElement<dim, dim> &fe,
                       const dealii::Quadrature<dim>         &quadrature);
