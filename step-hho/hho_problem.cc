@@ -92,10 +92,6 @@ namespace StepHHO
     static_assert(dim == 2,
                   "The contact nodes are those of the square "
                   "(local_operators.h).");
-    if (!domain.clamped_everywhere())
-      throw VI::InputError("Problem/Dirichlet boundary ids: free edges are "
-                           "implemented for step-membranes' Method = fem "
-                           "only; use all with step-hho");
     // The nodal basis phi_I = sum_j T_jI P_j of P_p at the contact nodes of
     // the reference cell, in terms of FE_DGP's Legendre basis P_j.
     V = LocalOperators::vandermonde_matrix(
@@ -220,7 +216,7 @@ namespace StepHHO
   }
 
 
-  // Number the unknowns, project the Dirichlet data onto the boundary faces,
+  // Number the unknowns, project the Dirichlet data onto the clamped faces,
   // and make the sparsity of the matrices that are solved: the face systems
   // with static condensation, the whole Jacobian without.
   template <int dim>
@@ -328,7 +324,8 @@ namespace StepHHO
       for (const auto &cell : face_dof_handler.active_cell_iterators())
         if (cell->is_locally_owned())
           for (const unsigned int f : cell->face_indices())
-            if (cell->face(f)->at_boundary())
+            if (cell->face(f)->at_boundary() &&
+                domain.is_clamped(cell->face(f)->boundary_id()))
               {
                 cell->get_dof_indices(face_dofs);
                 face_values.reinit(cell, f);
@@ -469,7 +466,8 @@ namespace StepHHO
 
 
   // The face unknowns of X from its cell polynomials: on every interior
-  // face the average of the projections of the two traces onto P_{p-1}(F)
+  // face the average of the projections of the two traces onto P_{p-1}(F),
+  // on a free boundary face the projection of its trace
   // (used to start Newton on a refined mesh).
   template <int dim>
   void
@@ -501,8 +499,11 @@ namespace StepHHO
             get_values(*u[alpha], nodes, coefficients[alpha]);
           face_cell(cell)->get_dof_indices(face_dofs);
           for (const unsigned int f : cell->face_indices())
-            if (!cell->face(f)->at_boundary())
+            if (!cell->face(f)->at_boundary() ||
+                !domain.is_clamped(cell->face(f)->boundary_id()))
               {
+                // (a free boundary face has one trace, with weight 1)
+                const double weight = cell->face(f)->at_boundary() ? 1. : 0.5;
                 trace_values.reinit(cell, f);
                 // (the face element's values need only the geometry)
                 face_values.reinit(
@@ -523,8 +524,8 @@ namespace StepHHO
                       {
                         const types::global_dof_index i = face_unknown(
                           face_dofs[face_fe.face_to_cell_index(k, f)], alpha);
-                        const double half = 0.5 * projection(k);
-                        faces.add(1, &i, &half);
+                        const double share = weight * projection(k);
+                        faces.add(1, &i, &share);
                       }
                   }
               }
@@ -537,7 +538,7 @@ namespace StepHHO
   // The Newton iterate on a new mesh: the previous mesh's solution
   // transferred (nested iteration) as cell polynomials, with the face
   // unknowns from their traces; or zero cell, interior face and multiplier
-  // unknowns. Either way the boundary faces carry Pi_F g.
+  // unknowns. Either way the clamped boundary faces carry Pi_F g.
   template <int dim>
   void
   HHOProblem<dim>::initialize_iterate()

@@ -22,6 +22,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 namespace StepMembranes
 {
@@ -210,8 +211,9 @@ namespace StepMembranes
                                  u[a],
                                  continuous_dof_handler,
                                  g[a],
-                                 s_owned[a]);
-        lifting->compute(dof_handler, u[a], *g[a], L[a]);
+                                 s_owned[a],
+                                 &domain);
+        lifting->compute(dof_handler, u[a], *g[a], L[a], &domain);
       }
     VI::average_at_violated_nodes(
       data.mu1, data.mu2, s_owned[0], s_owned[1], s_averaged[0], s_averaged[1]);
@@ -308,6 +310,7 @@ namespace StepMembranes
     in.g1                  = data.g1.get();
     in.g2                  = data.g2.get();
     in.friedrichs_constant = domain.friedrichs_constant();
+    in.domain              = &domain;
     in.mass_lumped         = true; // the nodal multiplier, see above
     in.u1                  = &u[0];
     in.u2                  = &u[1];
@@ -452,8 +455,14 @@ namespace StepMembranes
     Vector joined(owned_continuous, comm);
     joined.add(marked, std::vector<double>(marked.size(), 1.));
     joined.compress(VectorOperation::add);
+    std::set<types::boundary_id> clamped;
+    for (const types::boundary_id id : triangulation.get_boundary_ids())
+      if (domain.is_clamped(id))
+        clamped.insert(id);
     const IndexSet boundary =
-      DoFTools::extract_boundary_dofs(continuous_dof_handler);
+      DoFTools::extract_boundary_dofs(continuous_dof_handler,
+                                      ComponentMask(),
+                                      clamped);
     const double theta = data.mu1 / (data.mu1 + data.mu2);
     for (const types::global_dof_index i : owned_continuous)
       if (joined(i) > 0 && !boundary.is_element(i))
@@ -571,7 +580,9 @@ namespace StepMembranes
                                    u1_h,
                                    u2_h,
                                    *data.g1,
-                                   *data.g2);
+                                   *data.g2,
+                                   nullptr,
+                                   &domain);
     error_energy =
       std::sqrt(error_broken * error_broken + error_jump * error_jump);
     error_multiplier = errors.multiplier;

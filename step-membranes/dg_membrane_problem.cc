@@ -135,11 +135,6 @@ namespace StepMembranes
         "Linear solver/Preconditioner = " +
         VI::to_string(parameters.linear_solver.preconditioner) + method +
         "; use ilu with Method = " + penalty.name());
-    if (!domain.clamped_everywhere())
-      throw VI::InputError(
-        "Problem/Dirichlet boundary ids: free edges are implemented for "
-        "Method = fem only; use all with Method = " +
-        penalty.name());
   }
 
 
@@ -203,7 +198,8 @@ namespace StepMembranes
           *mapping,
           parameters.estimators.flux_degree_for(fe.degree),
           fe.degree);
-        flux_reconstruction->reinit(continuous_dof_handler);
+        flux_reconstruction->reinit(continuous_dof_handler,
+                                    domain.free_boundary_ids());
         lifting = std::make_unique<VI::JumpLifting<dim>>(*mapping,
                                                          fe.degree,
                                                          quadrature,
@@ -292,11 +288,14 @@ namespace StepMembranes
       };
 
     // - (grad u.n, v) + epsilon (grad v.n, u) + gamma / h (u, v) on the
-    // boundary, and the data epsilon (grad v.n, g) + gamma / h (g, v).
+    // clamped boundary, and the data epsilon (grad v.n, g) + gamma / h (g,
+    // v); nothing where the membranes are free (zero normal derivative).
     const auto boundary_worker = [&](const Iterator               &cell,
                                      const unsigned int            face,
                                      MeshWorker::ScratchData<dim> &s,
                                      auto                         &c) {
+      if (!domain.is_clamped(cell->face(face)->boundary_id()))
+        return;
       const FEFaceValuesBase<dim> &values = s.reinit(cell, face);
       const double h_F = VI::InteriorPenalty::normal_extent<dim>(cell, face);
       penalty.add_boundary_matrix(values, h_F, c.matrix);

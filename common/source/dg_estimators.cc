@@ -4,6 +4,7 @@
 #include <deal.II/fe/fe_values.h>
 
 #include <vi/dg_estimators.h>
+#include <vi/domain.h>
 #include <vi/piola_divergence.h>
 #include <vi/same_cell.h>
 
@@ -29,7 +30,8 @@ namespace VI
                 const TrilinosWrappers::MPI::Vector &v2,
                 const Function<dim>                 &g1,
                 const Function<dim>                 &g2,
-                dealii::Vector<float>               *cellwise)
+                dealii::Vector<float>               *cellwise,
+                const Domain                        *domain)
   {
     FEInterfaceValues<dim>               interface(mapping,
                                      broken.get_fe(),
@@ -62,6 +64,9 @@ namespace VI
             // Each interior face is seen from both sides: half from each.
             double                       weight = 0.5;
             const FEFaceValuesBase<dim> *values;
+            if (cell->at_boundary(f) && domain &&
+                !domain->is_clamped(cell->face(f)->boundary_id()))
+              continue; // (free: no jump)
             if (cell->at_boundary(f))
               {
                 weight = 1.;
@@ -369,7 +374,8 @@ namespace VI
                              *in.u2,
                              *in.g1,
                              *in.g2,
-                             &cell_jumps);
+                             &cell_jumps,
+                             in.domain);
       for (unsigned int c = 0; c < cell_jumps.size(); ++c)
         e.cell_total(c) += cell_jumps(c);
 
@@ -481,5 +487,6 @@ namespace VI
                 const TrilinosWrappers::MPI::Vector &,
                 const Function<2> &,
                 const Function<2> &,
-                dealii::Vector<float> *);
+                dealii::Vector<float> *,
+                const Domain *);
 } // namespace VI

@@ -8,6 +8,7 @@
 #include <deal.II/numerics/vector_tools.h>
 
 #include <vi/dg_reconstruction.h>
+#include <vi/domain.h>
 #include <vi/same_cell.h>
 
 #include <map>
@@ -62,7 +63,8 @@ namespace VI
   JumpLifting<dim>::compute(const DoFHandler<dim> &broken,
                             const Vector          &u,
                             const Function<dim>   &g,
-                            Vector                &lifting) const
+                            Vector                &lifting,
+                            const Domain          *domain) const
   {
     const unsigned int n = fe.n_dofs_per_cell();
     FEValues<dim>      values(mapping,
@@ -127,6 +129,9 @@ namespace VI
         for (const unsigned int f : cell->face_indices())
           {
             double weight = 1.;
+            if (cell->at_boundary(f) && domain &&
+                !domain->is_clamped(cell->face(f)->boundary_id()))
+              continue; // (free: no jump to lift)
             if (cell->at_boundary(f))
               {
                 boundary_values.reinit(broken_cell, f);
@@ -209,7 +214,8 @@ namespace VI
                        const TrilinosWrappers::MPI::Vector &u,
                        const DoFHandler<dim>               &continuous,
                        const Function<dim>                 *g,
-                       TrilinosWrappers::MPI::Vector       &s)
+                       TrilinosWrappers::MPI::Vector       &s,
+                       const Domain                        *domain)
   {
     const auto &fe_broken     = broken.get_fe();
     const auto &fe_continuous = continuous.get_fe();
@@ -258,8 +264,9 @@ namespace VI
         std::map<types::global_dof_index, double> boundary;
         for (const types::boundary_id id :
              continuous.get_triangulation().get_boundary_ids())
-          VectorTools::interpolate_boundary_values(
-            mapping, continuous, id, *g, boundary);
+          if (domain == nullptr || domain->is_clamped(id))
+            VectorTools::interpolate_boundary_values(
+              mapping, continuous, id, *g, boundary);
         for (const auto &[i, value] : boundary)
           if (owned.is_element(i))
             s(i) = value;
@@ -275,5 +282,6 @@ namespace VI
                        const TrilinosWrappers::MPI::Vector &,
                        const DoFHandler<2> &,
                        const Function<2> *,
-                       TrilinosWrappers::MPI::Vector &);
+                       TrilinosWrappers::MPI::Vector &,
+                       const Domain *);
 } // namespace VI

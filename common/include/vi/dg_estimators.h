@@ -11,6 +11,8 @@
 
 namespace VI
 {
+  class Domain;
+
   /**
    * A posteriori estimate of a discontinuous Galerkin iterate of the
    * two-membrane problem (doc/step-membranes.md, dG section, has the
@@ -94,5 +96,6 @@ namespace VI
                 const dealii::TrilinosWrappers::MPI::Vector &v2,
                 const dealii::Function<dim>                 &g1,
                 const dealii::Function<dim>                 &g2,
-                dealii::Vector<float> *cellwise = nullptr);
+                dealii::Vector<float>                       *cellwise = nullptr,
+                const Domain                                *domain = nullptr);
 } // namespace VI

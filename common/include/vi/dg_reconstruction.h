@@ -15,6 +15,8 @@
 
 namespace VI
 {
+  class Domain;
+
   /**
    * The lifting of the jumps of a broken function u_h (with the Dirichlet
    * data g on the boundary): on every cell K, L_K in
@@ -66,7 +68,8 @@ namespace VI
     compute(const dealii::DoFHandler<dim> &broken,
             const Vector                  &u,
             const dealii::Function<dim>   &g,
-            Vector                        &lifting) const;
+            Vector                        &lifting,
+            const Domain                  *domain = nullptr) const;
 
     /// The FEValues that values() works with: one per thread.
     std::unique_ptr<dealii::FEValues<dim>>
@@ -109,5 +112,6 @@ namespace VI
                        const dealii::TrilinosWrappers::MPI::Vector &u,
                        const dealii::DoFHandler<dim>               &continuous,
                        const dealii::Function<dim>                 *g,
-                       dealii::TrilinosWrappers::MPI::Vector       &s);
+                       dealii::TrilinosWrappers::MPI::Vector       &s,
+                       const Domain *domain = nullptr);
 } // namespace VI
