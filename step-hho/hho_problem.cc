@@ -92,6 +92,10 @@ namespace StepHHO
     static_assert(dim == 2,
                   "The contact nodes are those of the square "
                   "(local_operators.h).");
+    if (parameters.problem.model == VI::Model::obstacle)
+      throw VI::InputError("Problem/Model = obstacle is implemented for "
+                           "step-membranes' Method = fem only; use "
+                           "two-membranes with step-hho");
     // The nodal basis phi_I = sum_j T_jI P_j of P_p at the contact nodes of
     // the reference cell, in terms of FE_DGP's Legendre basis P_j.
     V = LocalOperators::vandermonde_matrix(

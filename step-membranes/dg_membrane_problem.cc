@@ -129,6 +129,10 @@ namespace StepMembranes
       throw VI::InputError(
         "Nonlinear solver/Strategy = adaptive" + method +
         "; use exact or inexact with Method = " + penalty.name());
+    if (parameters.problem.model == VI::Model::obstacle)
+      throw VI::InputError(
+        "Problem/Model = obstacle" + method +
+        "; use two-membranes with Method = " + penalty.name());
     if (parameters.linear_solver.solver == VI::LinearSolverType::gmres &&
         parameters.linear_solver.preconditioner != VI::PreconditionerType::ilu)
       throw VI::InputError(

@@ -32,7 +32,7 @@ namespace StepMembranes
     TimerOutput::Scope t(timer, "setup");
 
     distribute_nodes();
-    make_constraints(*data.g1, *data.g2);
+    make_constraints(*data.g1, *data.g2, data.obstacle.get());
     VI::NodalFields::make_system_constraints(hanging_node_constraints,
                                              hanging_node_constraints,
                                              relevant_system,
@@ -153,7 +153,8 @@ namespace StepMembranes
     // of E X = F, and Newton updates vanish on the boundary.
     // (S's rows read through Epetra: deal.II's row iterators copy a row
     // at every step)
-    Assert(u1_constraints.n_constraints() == u2_constraints.n_constraints(),
+    Assert(this->obstacle != nullptr ||
+             u1_constraints.n_constraints() == u2_constraints.n_constraints(),
            ExcInternalError());
     const Epetra_CrsMatrix              &S = stiffness_matrix.trilinos_matrix();
     std::vector<types::global_dof_index> columns, system_columns;
@@ -172,13 +173,19 @@ namespace StepMembranes
             TrilinosWrappers::global_column_index(S, local_columns[k]);
         system_columns.resize(n_entries);
         scaled_values.resize(n_entries);
+        // Over an obstacle, u2 is fixed at every node that is not hanging:
+        // its row there reads d X_i = d psi_i alone.
+        const bool fixed_u2 = this->obstacle != nullptr &&
+                              !hanging_node_constraints.is_constrained(i);
         for (const unsigned int field :
              {VI::NodalFields::u1, VI::NodalFields::u2})
           {
+            const bool diagonal_only = fixed_u2 && field == VI::NodalFields::u2;
             for (int k = 0; k < n_entries; ++k)
               {
                 system_columns[k] = index(columns[k], field);
-                scaled_values[k]  = mu[field] * values[k];
+                scaled_values[k] =
+                  diagonal_only && columns[k] != i ? 0. : mu[field] * values[k];
               }
             const types::global_dof_index system_row = index(i, field);
             contact_system.matrix.set(system_row,

@@ -75,6 +75,11 @@ namespace StepParabolic
   make_parabolic_data(const ProblemParameters &problem,
                       const Point<dim>        &center)
   {
+    if (problem.model == VI::Model::obstacle ||
+        !Utilities::trim(problem.expression.obstacle).empty())
+      throw VI::InputError("Problem/Model = obstacle: step-parabolic solves "
+                           "two membranes only (the obstacle problem is "
+                           "step-membranes'); use two-membranes");
     ParabolicData<dim> data;
     data.name = problem.test_case;
     data.mu1  = problem.mu1;

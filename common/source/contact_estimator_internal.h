@@ -107,12 +107,14 @@ namespace VI
   // H^1_0, C_F Friedrichs' constant).
   struct MembraneConstants
   {
+    // Over a rigid obstacle (mu2 -> infinity): theta = 1, c_mu = mu1^(-1/2).
     MembraneConstants(const double mu1,
                       const double mu2,
-                      const double friedrichs_constant)
+                      const double friedrichs_constant,
+                      const bool   rigid_second = false)
         : mu{mu1, mu2}
-        , theta(mu2 / (mu1 + mu2))
-        , c_mu(std::sqrt(1. / mu1 + 1. / mu2))
+        , theta(rigid_second ? 1. : mu2 / (mu1 + mu2))
+        , c_mu(std::sqrt(1. / mu1 + (rigid_second ? 0. : 1. / mu2)))
         , C(friedrichs_constant * c_mu)
     {
     }

@@ -82,7 +82,8 @@ namespace VI
   void
   ContactSystem::set_coupling(
     const std::function<double(types::global_dof_index)> &coupling_of,
-    const std::vector<types::global_dof_index>           &constrained_nodes)
+    const std::vector<types::global_dof_index>           &constrained_nodes,
+    const bool                                            fixed_second_field)
   {
     using NodalFields::multiplier;
     coupling_vector = 0;
@@ -91,7 +92,8 @@ namespace VI
         const double D     = coupling_of(i);
         coupling_vector(i) = D;
         matrix.set(index(i, NodalFields::u1), index(i, multiplier), -D);
-        matrix.set(index(i, NodalFields::u2), index(i, multiplier), +D);
+        if (!fixed_second_field)
+          matrix.set(index(i, NodalFields::u2), index(i, multiplier), +D);
       }
     for (const types::global_dof_index i : constrained_nodes)
       matrix.set(index(i, multiplier), index(i, multiplier), 1.);
@@ -107,11 +109,12 @@ namespace VI
     double local[2] = {0., 0.};
     for (const types::global_dof_index i : rows.nodes())
       for (const unsigned int field : {NodalFields::u1, NodalFields::u2})
-        {
-          const double F = rhs(index(i, field));
-          local[0] += F * F;
-          local[1] = std::max(local[1], std::abs(F));
-        }
+        if (field == NodalFields::u1 || !fixed_second_field)
+          {
+            const double F = rhs(index(i, field));
+            local[0] += F * F;
+            local[1] = std::max(local[1], std::abs(F));
+          }
     load_norm        = std::sqrt(Utilities::MPI::sum(local[0], comm));
     multiplier_scale = Utilities::MPI::max(local[1], comm) /
                        std::max(coupling_vector.linfty_norm(),

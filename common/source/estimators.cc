@@ -148,7 +148,10 @@ namespace VI
 
       ContactCellTerms(const ContactEstimatorInput<dim> &in,
                        ContactEstimate                  &estimate)
-          : MembraneConstants(in.mu1, in.mu2, in.friedrichs_constant)
+          : MembraneConstants(in.mu1,
+                              in.mu2,
+                              in.friedrichs_constant,
+                              in.obstacle != nullptr)
           , in(in)
           , estimate(estimate)
           , tria(in.potential->get_triangulation())
@@ -212,6 +215,8 @@ namespace VI
           }
         read_values(potential_cell, scratch);
         add_lifting(potential_cell, scratch);
+        if (in.obstacle)
+          set_obstacle_values(scratch);
 
         const double h_K   = potential_cell->diameter();
         const auto   index = potential_cell->active_cell_index();
@@ -309,7 +314,7 @@ namespace VI
                                &at_points);
         };
         cell.clear();
-        for (unsigned int a = 0; a < 2; ++a)
+        for (unsigned int a = 0; a < n_membranes; ++a)
           {
             std::vector<double> &r = scratch.r_ahead[a];
             values(*r_vectors[a], r);
@@ -523,8 +528,27 @@ namespace VI
             }
       }
 
-      // The flux, residual and algebraic terms of both membranes and the
-      // remainder; flux_total = eta_F of each.
+      // Over an obstacle, its values and gradient in place of membrane 2's
+      // u2h and s2 (and no lifting of its boundary data): the gap, the
+      // contact term and the cone reconstruction s~1 = max(s1, psi) are then
+      // those of the obstacle itself, not of its interpolant.
+      void
+      set_obstacle_values(ContactScratch<dim> &scratch) const
+      {
+        const auto &points = scratch.potential_values.get_quadrature_points();
+        for (unsigned int q = 0; q < n_q; ++q)
+          {
+            scratch.u[1][q] = scratch.s[1][q] = in.obstacle->value(points[q]);
+            scratch.grad_u[1][q]              = scratch.grad_s[1][q] =
+              in.obstacle->gradient(points[q]);
+            scratch.G[1][q]      = 0;
+            scratch.grad_G[1][q] = Tensor<1, dim>();
+          }
+      }
+
+      // The flux, residual and algebraic terms of both membranes (of
+      // membrane 1 over an obstacle) and the remainder; flux_total = eta_F
+      // of each.
       void
       add_flux_residual_terms(const unsigned int   index,
                               const double         h_K,
@@ -542,7 +566,7 @@ namespace VI
         std::vector<double> &f                  = scratch.f;
         double               flux_disc[2] = {}, residual[2] = {}, algebraic = 0;
 
-        for (unsigned int a = 0; a < 2; ++a)
+        for (unsigned int a = 0; a < n_membranes; ++a)
           {
             // (-1)^alpha for alpha = a + 1: the multiplier pulls membrane 1
             // up and membrane 2 down.
@@ -669,6 +693,8 @@ namespace VI
       const bool          remainder;
       std::vector<double> remainders[2];
       const bool          contact_linearised_needed;
+      // The membranes with a flux: both, or membrane 1 over an obstacle.
+      const unsigned int n_membranes = in.obstacle ? 1 : 2;
     };
 
 

@@ -80,8 +80,10 @@ namespace VI
   template <int dim>
   void
   MembraneDiscretisation<dim>::make_constraints(const Function<dim> &g1,
-                                                const Function<dim> &g2)
+                                                const Function<dim> &g2,
+                                                const Function<dim> *obstacle)
   {
+    this->obstacle            = obstacle;
     const auto make_dirichlet = [&](const Function<dim>       &g,
                                     AffineConstraints<double> &constraints) {
       constraints.clear();
@@ -98,7 +100,25 @@ namespace VI
       constraints.close();
     };
     make_dirichlet(g1, u1_constraints);
-    make_dirichlet(g2, u2_constraints);
+    if (obstacle)
+      {
+        // u2 = I_h obstacle: every node but the hanging ones, which follow.
+        Vector owned(owned_nodes, comm), values;
+        VectorTools::interpolate(*mapping, dof_handler, *obstacle, owned);
+        ghosted_nodes.copy(owned, values);
+        u2_constraints.clear();
+        u2_constraints.reinit(relevant_nodes);
+        u2_constraints.merge(hanging_node_constraints);
+        for (const types::global_dof_index i : relevant_nodes)
+          if (!u2_constraints.is_constrained(i))
+            {
+              u2_constraints.add_line(i);
+              u2_constraints.set_inhomogeneity(i, values(i));
+            }
+        u2_constraints.close();
+      }
+    else
+      make_dirichlet(g2, u2_constraints);
     NodalFields::make_system_constraints(u1_constraints,
                                          u2_constraints,
                                          relevant_system,
@@ -249,7 +269,8 @@ namespace VI
       [&](const types::global_dof_index i) {
         return fe.degree == 1 ? lumped_mass(i) : 1.;
       },
-      constrained_nodes);
+      constrained_nodes,
+      /*fixed_second_field=*/obstacle != nullptr);
   }
 
 
@@ -269,7 +290,12 @@ namespace VI
     NodalFields::extract(X, NodalFields::u2, u2);
     hanging_node_constraints.distribute(u1);
     hanging_node_constraints.distribute(u2);
-    average_at_violated_nodes(mu1, mu2, u1, u2, s1, s2);
+    // (a rigid obstacle does not give way: the weights 0 and 1 of the
+    // limit mu2 -> infinity put both at the obstacle)
+    if (obstacle)
+      average_at_violated_nodes(0., 1., u1, u2, s1, s2);
+    else
+      average_at_violated_nodes(mu1, mu2, u1, u2, s1, s2);
     hanging_node_constraints.distribute(s1);
     hanging_node_constraints.distribute(s2);
     for (unsigned int k = 0; k < 4; ++k)
@@ -451,8 +477,9 @@ namespace VI
   {
     // (the transmitted load distributes the moments the cellwise way, on
     // the cells of J, also for p = 1)
+    // (not over an obstacle: it transmits the load of no second membrane)
     const bool transmitted =
-      parameters.uses_transmitted_load(mu1, mu2, fe.degree);
+      !obstacle && parameters.uses_transmitted_load(mu1, mu2, fe.degree);
     cell_multiplier.reset();
     if ((fe.degree > 1 && parameters.multiplier ==
                             EstimatorParameters::Multiplier::contact_cells) ||

@@ -179,6 +179,12 @@ namespace VI
        "",
        "Exact multiplier, or empty if unknown.",
        false},
+      {"obstacle",
+       &ExpressionParameters::obstacle,
+       "",
+       "With Model = obstacle: the rigid obstacle under membrane 1 (u1 >= "
+       "obstacle). A function, not necessarily continuous.",
+       true},
       {"Constants",
        &ExpressionParameters::constants,
        "",
@@ -200,6 +206,14 @@ namespace VI
                       "Data and (where known) exact solution: the seed's "
                       "tests, or 'expression' for the formulas of the "
                       "subsection Expression.");
+    prm.declare_entry("Model",
+                      "two-membranes",
+                      Selection("two-membranes|obstacle"),
+                      "two-membranes: membrane 1 over membrane 2; obstacle: "
+                      "membrane 1 (mu1, f1, g1, exact u1 and lambda) over "
+                      "the rigid obstacle Expression/obstacle (Test case = "
+                      "expression); membrane 2's entries are then not "
+                      "used.");
     prm.declare_entry("mu1",
                       "1",
                       Double(),
@@ -230,8 +244,10 @@ namespace VI
   {
     const ParameterSubsection section(prm, "Problem");
     test_case = prm.get("Test case");
-    mu1       = prm.get_double("mu1");
-    mu2       = prm.get_double("mu2");
+    model =
+      prm.get("Model") == "obstacle" ? Model::obstacle : Model::two_membranes;
+    mu1 = prm.get_double("mu1");
+    mu2 = prm.get_double("mu2");
     require_positive(mu1, "Problem/mu1");
     require_positive(mu2, "Problem/mu2");
     boundary.parse(prm);

@@ -13,6 +13,7 @@
 #include <functional>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 namespace VI
 {
@@ -218,6 +219,44 @@ namespace VI
   }
 
 
+  // Model = obstacle: membrane 1 over the obstacle, which takes membrane
+  // 2's place (fixed to it, with no error of its own). Membrane 2's entries
+  // must be left as they are: a value there would be silently unused.
+  template <int dim>
+  void
+  make_obstacle_data(const ProblemParameters &problem,
+                     const Point<dim>        &center,
+                     MembraneData<dim>       &data)
+  {
+    const ExpressionParameters &e = problem.expression;
+    if (problem.test_case != "expression")
+      throw InputError("Problem/Model = obstacle needs Test case = "
+                       "expression (the obstacle is Expression/obstacle)");
+    if (Utilities::trim(e.obstacle).empty())
+      throw InputError("Problem/Expression/obstacle is empty; Model = "
+                       "obstacle needs a formula");
+    for (const auto &[name, value, unset] :
+         {std::tuple<std::string, std::string, std::string>{"f2", e.f2, "0"},
+          {"g2", e.g2, "0"},
+          {"u2", e.u2, ""}})
+      if (Utilities::trim(value) != unset)
+        throw InputError("Problem/Expression/" + name +
+                         " is not used with Model = obstacle (membrane 2 is "
+                         "the obstacle); remove it");
+    if (problem.mu2 != 1.)
+      throw InputError("Problem/mu2 is not used with Model = obstacle "
+                       "(membrane 2 is the obstacle); remove it");
+    data.name += " (obstacle)";
+    data.obstacle = parse_expression<dim>(
+      "obstacle", e.obstacle, parse_expression_constants(e.constants), center);
+    data.g2  = data.obstacle;
+    data.f2  = std::make_shared<Functions::ZeroFunction<dim>>();
+    data.mu2 = data.mu1;
+    if (data.exact_u1)
+      data.exact_u2 = data.obstacle;
+  }
+
+
   template <int dim>
   MembraneData<dim>
   make_membrane_data(const ProblemParameters &problem, const Point<dim> &center)
@@ -254,13 +293,15 @@ namespace VI
 
         const bool has_u1 = !Utilities::trim(e.u1).empty();
         const bool has_u2 = !Utilities::trim(e.u2).empty();
-        if (has_u1 != has_u2)
+        // (over an obstacle, exact u2 is the obstacle)
+        if (problem.model == Model::two_membranes && has_u1 != has_u2)
           throw InputError("Problem/Expression: give both exact solutions u1 "
                            "and u2, or neither");
         if (has_u1)
           {
             data.exact_u1 = parse("u1", e.u1);
-            data.exact_u2 = parse("u2", e.u2);
+            if (problem.model == Model::two_membranes)
+              data.exact_u2 = parse("u2", e.u2);
           }
         if (!Utilities::trim(e.lambda).empty())
           data.exact_lambda = parse("lambda", e.lambda);
@@ -269,6 +310,11 @@ namespace VI
       throw InputError("Problem/Test case: unknown test case <" +
                        problem.test_case +
                        ">; accepted values: " + membrane_test_case_names());
+    if (problem.model == Model::obstacle)
+      make_obstacle_data(problem, center, data);
+    else if (!Utilities::trim(problem.expression.obstacle).empty())
+      throw InputError("Problem/Expression/obstacle is given, but Model = "
+                       "two-membranes does not use it; set Model = obstacle");
     return data;
   }
 
@@ -324,6 +370,21 @@ namespace VI
                     report(message.str());
                   }
             }
+          // The obstacle is also taken at the nodes.
+          if (data.obstacle)
+            for (const auto *points : {&interior_points, &boundary_points})
+              for (const auto &unit_point : *points)
+                {
+                  const Point<dim> p =
+                    mapping.transform_unit_to_real_cell(cell, unit_point);
+                  if (!std::isfinite(data.obstacle->value(p)))
+                    {
+                      std::ostringstream message;
+                      message << "the obstacle is not finite at (" << p
+                              << "): " << data.obstacle->value(p);
+                      report(message.str());
+                    }
+                }
           for (const unsigned int f : cell->face_indices())
             if (cell->face(f)->at_boundary() &&
                 domain.is_clamped(cell->face(f)->boundary_id()))
@@ -339,6 +400,15 @@ namespace VI
                   if (!std::isfinite(g1) || !std::isfinite(g2))
                     message << "the boundary data are not finite at (" << p
                             << "): g1 = " << g1 << ", g2 = " << g2;
+                  else if (g1 - g2 <
+                             -1e-12 *
+                               std::max({1., std::abs(g1), std::abs(g2)}) &&
+                           data.obstacle)
+                    message << "the obstacle is above g1 on the clamped "
+                               "boundary at ("
+                            << p << "): g1 = " << g1 << ", obstacle = " << g2
+                            << "; the constraint u1 >= obstacle cannot hold "
+                               "there";
                   else if (g1 - g2 <
                            -1e-12 * std::max({1., std::abs(g1), std::abs(g2)}))
                     message << "g1 < g2 on the boundary at (" << p

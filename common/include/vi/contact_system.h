@@ -104,12 +104,15 @@ namespace VI
      * (D_i = coupling_of(i)) and X3_i = 0 as the row of every node of
      * `constrained_nodes`; compute the scales of the residual norms, |F| and
      * the multiplier |F|_inf / max D that balances the load, over the rows of
-     * the contact nodes; throw InputError if F is not finite.
+     * the contact nodes; throw InputError if F is not finite. With
+     * `fixed_second_field` (an obstacle in place of membrane 2, whose rows
+     * only fix X2) the rows of u2 get no coupling and no share of |F|.
      */
     void
     set_coupling(
       const std::function<double(dealii::types::global_dof_index)> &coupling_of,
-      const std::vector<dealii::types::global_dof_index> &constrained_nodes);
+      const std::vector<dealii::types::global_dof_index> &constrained_nodes,
+      const bool fixed_second_field = false);
 
     /// The coupling D per node (zero away from the contact nodes).
     const Vector &

@@ -110,6 +110,12 @@ namespace VI
     /// Where the membranes are clamped (g_alpha is imposed); null: on the
     /// whole boundary.
     const Domain *domain = nullptr;
+    /// Model = obstacle: the rigid obstacle psi in place of membrane 2
+    /// (u2h, s2 and the cone's second member are psi itself at the points
+    /// of the estimate, membrane 2 has no flux, residual or error, and the
+    /// cone reconstruction moves membrane 1 only: theta = 1); null for two
+    /// membranes.
+    const dealii::Function<dim> *obstacle = nullptr;
 
     using Vector     = dealii::TrilinosWrappers::MPI::Vector;
     const Vector *u1 = nullptr, *u2 = nullptr;

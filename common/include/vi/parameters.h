@@ -39,6 +39,13 @@ namespace VI
     data, ///< u1h, u2h interpolate g1, g2 in the whole domain, multiplier 0
   };
 
+  /// Problem/Model: what lies under membrane 1.
+  enum class Model
+  {
+    two_membranes, ///< a second membrane (u2, mu2, f2, g2)
+    obstacle,      ///< a rigid obstacle: u1 >= Problem/Expression/obstacle
+  };
+
   /// Linear solver/Solver.
   enum class LinearSolverType
   {
@@ -108,6 +115,7 @@ namespace VI
   {
     std::string f1, f2, g1, g2;
     std::string u1, u2, lambda; ///< exact solution; empty = unknown
+    std::string obstacle;       ///< with Model = obstacle
     std::string constants;      ///< "name=value, name=value"
   };
 
@@ -130,6 +138,7 @@ namespace VI
   struct ProblemParameters
   {
     std::string          test_case = "seed-smooth";
+    Model                model     = Model::two_membranes;
     double               mu1       = 1.;
     double               mu2       = 1.;
     ExpressionParameters expression;

@@ -45,6 +45,10 @@ namespace VI
     std::shared_ptr<const dealii::Function<dim>> f1, f2, g1, g2;
     std::shared_ptr<const dealii::Function<dim>> exact_u1, exact_u2,
       exact_lambda;
+    /// With Model = obstacle: the rigid obstacle, which then also stands in
+    /// for membrane 2 (g2 = exact u2 = obstacle, f2 = 0, mu2 = mu1: u2 is
+    /// fixed to it, and only membrane 1 has an error).
+    std::shared_ptr<const dealii::Function<dim>> obstacle;
 
     bool
     has_exact_solution() const
@@ -65,7 +69,8 @@ namespace VI
    *   1000 r^3 (R^2 - r^2)^3 inside (R = 1/3): smooth, contact on a disk;
    * - seed-jump: u1 = (r^2 - R^2)^2 for r > R, u2 = 0, lambda = 8 R^2
    *   inside: the multiplier jumps across r = R, u1 is only H^{5/2-eps};
-   * - expression: muparser formulas of Problem/Expression.
+   * - expression: muparser formulas of Problem/Expression; with Model =
+   *   obstacle, membrane 1 over Problem/Expression/obstacle.
    * r is the distance to `center` (the centre of the domain). The seed's
    * forces are those of mu1 = mu2 = 1; here they are built for the given
    * tensions, so the exact solution holds for any mu1, mu2 > 0.
