@@ -16,6 +16,47 @@
 
 namespace StepMembranes
 {
+  namespace
+  {
+    // PETSc's SNES VI on K y = b, y >= 0 on `bounded`, with our settings (the
+    // type, the linear solver and the tolerances of the parameter file) and,
+    // when verbose, a line per step.
+    VI::PetscVIReport
+    run_petsc_vi(const Parameters                       &parameters,
+                 const ConditionalOStream               &pcout,
+                 const PETScWrappers::MPI::SparseMatrix &K,
+                 const PETScWrappers::MPI::Vector       &b,
+                 const IndexSet                         &bounded,
+                 PETScWrappers::MPI::Vector             &y)
+    {
+      const auto                 &linear    = parameters.linear_solver;
+      const auto                 &nonlinear = parameters.nonlinear_solver;
+      VI::PetscVI::AdditionalData settings;
+      settings.type                  = parameters.petsc_vi_type;
+      settings.linear_solver         = linear.solver;
+      settings.preconditioner        = linear.preconditioner;
+      settings.ilu_fill              = linear.ilu_fill;
+      settings.linear_tolerance      = VI::linear_tolerance(nonlinear, linear);
+      settings.max_linear_iterations = linear.max_iterations;
+      settings.krylov_dimension      = linear.krylov_dimension;
+      settings.tolerance             = nonlinear.tolerance;
+      settings.max_iterations        = nonlinear.max_iterations;
+      const VI::PetscVI    peer(settings);
+      VI::PetscVI::Monitor monitor;
+      if (parameters.output.verbose)
+        monitor = [&](const unsigned int step,
+                      const double       norm,
+                      const unsigned int linear_iterations) {
+          pcout << "      k = " << std::setw(2) << step << ": SNES VI residual "
+                << std::scientific << std::setprecision(2) << norm
+                << std::defaultfloat << ", " << linear_iterations
+                << " linear iterations in all" << std::endl;
+        };
+      return peer.solve(K, b, bounded, y, monitor);
+    }
+  } // namespace
+
+
   // The peer solver. PETSc's SNES VI bounds variables, not combinations of
   // them, so the problem is handed over in the variables y = (s, w) of each
   // node, the weighted mean s = theta1 u1 + theta2 u2 and the gap
@@ -44,6 +85,8 @@ namespace StepMembranes
                                             std::string &reason) const
   {
     TimerOutput::Scope t(timer, "petsc-vi");
+    if (this->obstacle)
+      return solve_obstacle_with_petsc_vi(X, reason);
     using VI::NodalFields::u1;
     using VI::NodalFields::u2;
     const auto pair = [](const types::global_dof_index i,
@@ -136,34 +179,11 @@ namespace StepMembranes
          contact_system.contact_rows().nodes())
       bounded.add_index(pair(i, 1));
 
-    const auto                 &linear    = parameters.linear_solver;
-    const auto                 &nonlinear = parameters.nonlinear_solver;
-    VI::PetscVI::AdditionalData settings;
-    settings.type                  = parameters.petsc_vi_type;
-    settings.linear_solver         = linear.solver;
-    settings.preconditioner        = linear.preconditioner;
-    settings.ilu_fill              = linear.ilu_fill;
-    settings.linear_tolerance      = VI::linear_tolerance(nonlinear, linear);
-    settings.max_linear_iterations = linear.max_iterations;
-    settings.krylov_dimension      = linear.krylov_dimension;
-    settings.tolerance             = nonlinear.tolerance;
-    settings.max_iterations        = nonlinear.max_iterations;
-    const VI::PetscVI    peer(settings);
-    VI::PetscVI::Monitor monitor;
-    if (parameters.output.verbose)
-      monitor = [&](const unsigned int step,
-                    const double       norm,
-                    const unsigned int linear_iterations) {
-        pcout << "      k = " << std::setw(2) << step << ": SNES VI residual "
-              << std::scientific << std::setprecision(2) << norm
-              << std::defaultfloat << ", " << linear_iterations
-              << " linear iterations in all" << std::endl;
-      };
-    const VI::PetscVIReport report = peer.solve(K, b, bounded, y, monitor);
-    reason                         = report.reason;
+    const VI::PetscVIReport report =
+      run_petsc_vi(parameters, pcout, K, b, bounded, y);
+    reason = report.reason;
 
-    // Back to X = (v + w, v, X3): conforming at hanging nodes, and the
-    // multiplier from the balance rows of u1 (E's multiplier column is -D).
+    // Back to X = (v + w, v, X3), then the multiplier.
     y.extract_subvector_to(indices, y_values);
     for (std::size_t k = 0; k < indices.size() / 2; ++k)
       {
@@ -173,6 +193,111 @@ namespace StepMembranes
         X(index(i, multiplier)) = 0.;
       }
     X.compress(VectorOperation::insert);
+    return recover_multiplier(X, report.iterations, report.linear_iterations);
+  }
+
+
+  // The peer over an obstacle: the one variable y = u1 - u2 of each node
+  // (u2 = I_h psi is fixed), y >= 0 at the contact nodes, with K = the rows
+  // and columns of u1 in E (mu1 S) and b = F1 - K u2: the reduced systems
+  // are mu1 S on the inactive nodes. The multiplier comes back as for two
+  // membranes.
+  template <int dim>
+  VI::NewtonReport
+  MembraneProblem<dim>::solve_obstacle_with_petsc_vi(Vector      &X,
+                                                     std::string &reason) const
+  {
+    using VI::NodalFields::u1;
+    using VI::NodalFields::u2;
+    const Epetra_CrsMatrix &E = contact_system.matrix.trilinos_matrix();
+    DynamicSparsityPattern  pattern(dof_handler.n_dofs(),
+                                   dof_handler.n_dofs(),
+                                   owned_nodes);
+    std::vector<std::vector<std::pair<types::global_dof_index, double>>> rows;
+    for (const types::global_dof_index i : owned_nodes)
+      {
+        const int row =
+          E.LRID(static_cast<TrilinosWrappers::types::int_type>(index(i, u1)));
+        int     n_entries = 0;
+        double *values    = nullptr;
+        int    *columns   = nullptr;
+        E.ExtractMyRowView(row, n_entries, values, columns);
+        rows.emplace_back();
+        for (int k = 0; k < n_entries; ++k)
+          {
+            const auto column =
+              TrilinosWrappers::global_column_index(E, columns[k]);
+            if (column % n_fields == u1)
+              {
+                rows.back().emplace_back(column / n_fields, values[k]);
+                pattern.add(i, column / n_fields);
+              }
+          }
+      }
+    PETScWrappers::MPI::SparseMatrix K;
+    K.reinit(owned_nodes, owned_nodes, pattern, comm);
+    // b = F1 - K u2, with u2 from the ghosted iterate; scaled by U as above.
+    Vector ghosted;
+    ghosted.reinit(owned_system, relevant_system, comm);
+    ghosted  = X;
+    double U = 0;
+    for (const types::global_dof_index i : owned_nodes)
+      U = std::max(U, std::abs(X(index(i, u1))));
+    U = Utilities::MPI::max(U, comm);
+    if (!(U > 0) || !std::isfinite(U))
+      U = 1.;
+    std::vector<types::global_dof_index> indices(owned_nodes.begin(),
+                                                 owned_nodes.end());
+    std::vector<double>                  b_values, y_values;
+    for (std::size_t n = 0; n < indices.size(); ++n)
+      {
+        const types::global_dof_index i   = indices[n];
+        double                        Ku2 = 0;
+        for (const auto &[j, value] : rows[n])
+          {
+            K.set(i, j, value);
+            Ku2 += value * ghosted(index(j, u2));
+          }
+        b_values.push_back((contact_system.rhs(index(i, u1)) - Ku2) / U);
+        y_values.push_back((X(index(i, u1)) - X(index(i, u2))) / U);
+      }
+    K.compress(VectorOperation::insert);
+    PETScWrappers::MPI::Vector b(owned_nodes, comm), y(owned_nodes, comm);
+    b.set(indices, b_values);
+    y.set(indices, y_values);
+    b.compress(VectorOperation::insert);
+    y.compress(VectorOperation::insert);
+    IndexSet bounded(dof_handler.n_dofs());
+    for (const types::global_dof_index i :
+         contact_system.contact_rows().nodes())
+      bounded.add_index(i);
+
+    const VI::PetscVIReport report =
+      run_petsc_vi(parameters, pcout, K, b, bounded, y);
+    reason = report.reason;
+
+    y.extract_subvector_to(indices, y_values);
+    for (std::size_t n = 0; n < indices.size(); ++n)
+      {
+        const types::global_dof_index i = indices[n];
+        X(index(i, u1))                 = U * y_values[n] + X(index(i, u2));
+        X(index(i, multiplier))         = 0.;
+      }
+    X.compress(VectorOperation::insert);
+    return recover_multiplier(X, report.iterations, report.linear_iterations);
+  }
+
+
+  // After the peer: X conforming at hanging nodes, the multiplier from the
+  // balance rows of u1 (E's multiplier column is -D), and the residuals.
+  template <int dim>
+  VI::NewtonReport
+  MembraneProblem<dim>::recover_multiplier(
+    Vector            &X,
+    const unsigned int iterations,
+    const unsigned int linear_iterations) const
+  {
+    using VI::NodalFields::u1;
     system_hanging_constraints.distribute(X);
     Vector R(owned_system, comm);
     contact_system.matrix.vmult(R, X);
@@ -183,8 +308,8 @@ namespace StepMembranes
     X.compress(VectorOperation::insert);
 
     VI::NewtonReport newton;
-    newton.iterations        = report.iterations;
-    newton.linear_iterations = report.linear_iterations;
+    newton.iterations        = iterations;
+    newton.linear_iterations = linear_iterations;
     newton.final_residual    = contact_system.residual(X, R);
     return newton;
   }

@@ -88,16 +88,6 @@ namespace StepMembranes
             "with PETSc's: set Nonlinear solver/Solver = semismooth-newton");
       }
 
-    // PETSc's SNES VI is handed the two-membrane problem in the variables
-    // of the mean and the gap, which an obstacle does not have.
-    if (problem.model == VI::Model::obstacle &&
-        (nonlinear_method == NonlinearMethod::petsc_vi ||
-         compare_with_petsc_vi))
-      throw VI::InputError(
-        "Problem/Model = obstacle is solved by our semismooth Newton only: "
-        "set Nonlinear solver/Solver = semismooth-newton and Benchmark/"
-        "Compare with PETSc VI = false");
-
     const VI::Strategy strategy = nonlinear_solver.strategy;
     if (strategy != VI::Strategy::exact &&
         linear_solver.solver != VI::LinearSolverType::gmres)

@@ -157,6 +157,12 @@ namespace StepMembranes
     /// X, which becomes its solution (see the .cc file for the variables).
     VI::NewtonReport
     solve_with_petsc_vi(Vector &X, std::string &reason) const;
+    VI::NewtonReport
+    solve_obstacle_with_petsc_vi(Vector &X, std::string &reason) const;
+    VI::NewtonReport
+    recover_multiplier(Vector            &X,
+                       const unsigned int iterations,
+                       const unsigned int linear_iterations) const;
     /// Solve again with the peer from `initial` and record what it did
     /// beside this cycle's solution (Benchmark/Compare with PETSc VI).
     void
