@@ -31,6 +31,7 @@ namespace VI
     {
       flux_residual_total, // sum (eta_F + eta_R)^2 with the look-ahead flux
       flux_residual_disc,  // sum (eta_F,disc + eta_R)^2
+      flux_residual_cone,  // the same with grad s~ in place of grad u_h
       flux_disc_squared,
       residual_squared,
       algebraic_squared,
@@ -564,7 +565,9 @@ namespace VI
         const std::vector<double> &lambda       = scratch.lambda,
                                   &lambda_ahead = scratch.lambda_ahead;
         std::vector<double> &f                  = scratch.f;
-        double               flux_disc[2] = {}, residual[2] = {}, algebraic = 0;
+        double flux_disc[2] = {}, residual[2] = {}, flux_cone[2] = {},
+               algebraic = 0;
+        const auto &s = scratch.s, &grad_s = scratch.grad_s;
 
         for (unsigned int a = 0; a < n_membranes; ++a)
           {
@@ -590,6 +593,17 @@ namespace VI
                   (sqrt_mu * grad_u[a][q] + sigma_disc[a][q] / sqrt_mu)
                     .norm_square() *
                   dx;
+                // grad s~_a, s~ = s + (theta w, -(1 - theta) w), w = (s2 -
+                // s1)^+ (see add_nonconformity_contact_terms())
+                const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
+                                                grad_s[1][q] - grad_s[0][q] :
+                                                Tensor<1, dim>();
+                const Tensor<1, dim> grad_cone =
+                  grad_s[a][q] + (a == 0 ? theta : -(1. - theta)) * grad_w;
+                flux_cone[a] +=
+                  (sqrt_mu * grad_cone + sigma_ahead[a][q] / sqrt_mu)
+                    .norm_square() *
+                  dx;
                 algebraic +=
                   (sigma_ahead[a][q] - sigma_disc[a][q]).norm_square() / mu[a] *
                   dx;
@@ -613,6 +627,8 @@ namespace VI
               std::pow(flux_total[a] + residual[a], 2);
             cell[ContactSum::flux_residual_disc] +=
               std::pow(flux_disc[a] + residual[a], 2);
+            cell[ContactSum::flux_residual_cone] +=
+              std::pow(std::sqrt(flux_cone[a]) + residual[a], 2);
             cell[ContactSum::flux_disc_squared] += std::pow(flux_disc[a], 2);
             cell[ContactSum::residual_squared] += std::pow(residual[a], 2);
           }
@@ -704,6 +720,7 @@ namespace VI
     bound_with_remainder(const ContactSums &total,
                          const bool         with_fluxes,
                          const double       remainder_bound,
+                         const bool         obstacle,
                          ContactEstimate   &e)
     {
       e.remainder = remainder_bound;
@@ -714,6 +731,24 @@ namespace VI
       const double b = (e.eta_1 + e.nonc_2) * e.nonc_1 + 0.5 * e.contact_cone;
       // ... for u_h + G; and |||u - u_h||| <= |||u - (u_h + G)||| + |||G|||.
       e.eta = 0.5 * a + std::sqrt(std::max(0.25 * a * a + b, 0.)) + e.dirichlet;
+      // Over an obstacle also |||u - u_h||| <= |||u - s~||| + |||s~ - u_h|||,
+      // the first bounded as above with grad s~ in the fluxes' place
+      // (|||u - s~|||^2 <= a~ |||u - s~||| + eta_cone / 2): where the
+      // membrane touches, u = s~ = psi, and the interpolation error of psi
+      // is counted once, in eta_nonc1, instead of in eta_1 as well. Both
+      // bounds hold; the smaller is taken.
+      if (obstacle)
+        {
+          const double a_cone =
+            std::sqrt(total[ContactSum::flux_residual_cone]) + remainder_bound +
+            e.nonc_2;
+          e.eta = std::min(e.eta,
+                           0.5 * a_cone +
+                             std::sqrt(std::max(0.25 * a_cone * a_cone +
+                                                  0.5 * e.contact_cone,
+                                                0.)) +
+                             e.nonc_1 + e.dirichlet);
+        }
       const auto cross = [&](const double nonc_1_part) {
         return std::sqrt((e.eta_1 + e.nonc_2) * nonc_1_part);
       };
@@ -831,7 +866,9 @@ namespace VI
       e.dirichlet  = std::sqrt(total[ContactSum::dirichlet_squared]);
       e.eta_1_disc = std::sqrt(total[ContactSum::flux_residual_disc]);
 
-      bound_with_remainder(total, with_fluxes, friedrichs_remainder, e);
+      const bool obstacle = in.obstacle != nullptr;
+      bound_with_remainder(
+        total, with_fluxes, friedrichs_remainder, obstacle, e);
       // The dual norm bounds cost a Poisson solve and a reconstruction each
       // (the remainder's two fields share one):
       // they are computed only where Friedrichs' bound is not negligible,
@@ -848,6 +885,7 @@ namespace VI
                                with_fluxes,
                                std::sqrt(rho[0] * rho[0] / in.mu1 +
                                          rho[1] * rho[1] / in.mu2),
+                               obstacle,
                                e);
         }
       if (!with_fluxes)
