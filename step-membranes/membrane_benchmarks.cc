@@ -20,15 +20,24 @@ namespace StepMembranes
   {
     // PETSc's SNES VI on K y = b, y >= 0 on `bounded`, with our settings (the
     // type, the linear solver and the tolerances of the parameter file) and,
-    // when verbose, a line per step.
+    // when verbose, a line per step. b and y are given by their `owned`
+    // entries `indices`; y_values gets the solution there.
     VI::PetscVIReport
-    run_petsc_vi(const Parameters                       &parameters,
-                 const ConditionalOStream               &pcout,
-                 const PETScWrappers::MPI::SparseMatrix &K,
-                 const PETScWrappers::MPI::Vector       &b,
-                 const IndexSet                         &bounded,
-                 PETScWrappers::MPI::Vector             &y)
+    run_petsc_vi(const Parameters                           &parameters,
+                 const ConditionalOStream                   &pcout,
+                 const PETScWrappers::MPI::SparseMatrix     &K,
+                 const IndexSet                             &owned,
+                 const std::vector<types::global_dof_index> &indices,
+                 const std::vector<double>                  &b_values,
+                 std::vector<double>                        &y_values,
+                 const IndexSet                             &bounded)
     {
+      const MPI_Comm             comm = K.get_mpi_communicator();
+      PETScWrappers::MPI::Vector b(owned, comm), y(owned, comm);
+      b.set(indices, b_values);
+      y.set(indices, y_values);
+      b.compress(VectorOperation::insert);
+      y.compress(VectorOperation::insert);
       const auto                 &linear    = parameters.linear_solver;
       const auto                 &nonlinear = parameters.nonlinear_solver;
       VI::PetscVI::AdditionalData settings;
@@ -52,7 +61,9 @@ namespace StepMembranes
                 << std::defaultfloat << ", " << linear_iterations
                 << " linear iterations in all" << std::endl;
         };
-      return peer.solve(K, b, bounded, y, monitor);
+      const VI::PetscVIReport report = peer.solve(K, b, bounded, y, monitor);
+      y.extract_subvector_to(indices, y_values);
+      return report;
     }
   } // namespace
 
@@ -169,22 +180,16 @@ namespace StepMembranes
         b_values.insert(b_values.end(), {F1 + F2, theta2 * F1 - theta1 * F2});
         y_values.insert(y_values.end(), {theta1 * X1 + theta2 * X2, X1 - X2});
       }
-    PETScWrappers::MPI::Vector b(owned_pairs, comm), y(owned_pairs, comm);
-    b.set(indices, b_values);
-    y.set(indices, y_values);
-    b.compress(VectorOperation::insert);
-    y.compress(VectorOperation::insert);
     IndexSet bounded(owned_pairs.size());
     for (const types::global_dof_index i :
          contact_system.contact_rows().nodes())
       bounded.add_index(pair(i, 1));
 
-    const VI::PetscVIReport report =
-      run_petsc_vi(parameters, pcout, K, b, bounded, y);
+    const VI::PetscVIReport report = run_petsc_vi(
+      parameters, pcout, K, owned_pairs, indices, b_values, y_values, bounded);
     reason = report.reason;
 
     // Back to X = (v + w, v, X3), then the multiplier.
-    y.extract_subvector_to(indices, y_values);
     for (std::size_t k = 0; k < indices.size() / 2; ++k)
       {
         const types::global_dof_index i = indices[2 * k] / 2;
@@ -262,21 +267,15 @@ namespace StepMembranes
         y_values.push_back((X(index(i, u1)) - X(index(i, u2))) / U);
       }
     K.compress(VectorOperation::insert);
-    PETScWrappers::MPI::Vector b(owned_nodes, comm), y(owned_nodes, comm);
-    b.set(indices, b_values);
-    y.set(indices, y_values);
-    b.compress(VectorOperation::insert);
-    y.compress(VectorOperation::insert);
     IndexSet bounded(dof_handler.n_dofs());
     for (const types::global_dof_index i :
          contact_system.contact_rows().nodes())
       bounded.add_index(i);
 
-    const VI::PetscVIReport report =
-      run_petsc_vi(parameters, pcout, K, b, bounded, y);
+    const VI::PetscVIReport report = run_petsc_vi(
+      parameters, pcout, K, owned_nodes, indices, b_values, y_values, bounded);
     reason = report.reason;
 
-    y.extract_subvector_to(indices, y_values);
     for (std::size_t n = 0; n < indices.size(); ++n)
       {
         const types::global_dof_index i = indices[n];

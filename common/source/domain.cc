@@ -1,5 +1,6 @@
 // The domain of a run: the built-in geometries or a mesh file, the clamped
 // part of the boundary, and the constants the estimates take from them.
+#include <deal.II/base/bounding_box.h>
 #include <deal.II/fe/mapping_q.h>
 #include <deal.II/grid/grid_generator.h>
 #include <deal.II/grid/grid_in.h>
@@ -119,12 +120,15 @@ namespace VI
   }
 
 
-  // The boundary ids of the coarse mesh, all clamped.
+  // The coarse mesh, made once here: a file's is checked and gives the
+  // bounding box; its boundary ids, all clamped.
   void
   Domain::clamp_everywhere()
   {
     Triangulation<2> coarse;
     make_coarse_mesh(coarse);
+    if (geometry_kind == Geometry::file)
+      check_file_mesh(coarse);
     boundary_ids = coarse.get_boundary_ids();
     std::sort(boundary_ids.begin(), boundary_ids.end());
     clamped_ids = boundary_ids;
@@ -132,8 +136,8 @@ namespace VI
   }
 
 
-  // The mesh file, read once into memory and checked by reading it into a
-  // triangulation: the coarse meshes of the run are made from that copy.
+  // The mesh file, read once into memory: the coarse meshes of the run are
+  // made from that copy.
   void
   Domain::read_mesh_file(const std::string &file)
   {
@@ -146,30 +150,28 @@ namespace VI
     std::ostringstream contents;
     contents << in.rdbuf();
     file_contents = contents.str();
+  }
 
-    Triangulation<2> coarse;
-    make_coarse_mesh(coarse);
+
+  // Quadrilaterals of positive area with finite vertices, and their
+  // bounding box.
+  void
+  Domain::check_file_mesh(const Triangulation<2> &coarse)
+  {
     if (!coarse.all_reference_cells_are_hyper_cube())
-      throw InputError("Mesh/File: <" + file +
+      throw InputError("Mesh/File: <" + file_name +
                        "> has triangles; the programs need quadrilaterals");
     for (const auto &cell : coarse.active_cell_iterators())
       for (const unsigned int v : cell->vertex_indices())
         if (cell->measure() <= 0 || !std::isfinite(cell->vertex(v).norm()))
-          throw InputError("Mesh/File: <" + file +
+          throw InputError("Mesh/File: <" + file_name +
                            "> has a cell of nonpositive area or a vertex "
                            "that is not finite, near (" +
                            std::to_string(cell->center()[0]) + ", " +
                            std::to_string(cell->center()[1]) + ")");
-    const std::vector<Point<2>> &vertices = coarse.get_vertices();
-    const std::vector<bool>     &used     = coarse.get_used_vertices();
-    lower = upper = coarse.begin_active()->vertex(0);
-    for (std::size_t i = 0; i < vertices.size(); ++i)
-      if (used[i])
-        for (unsigned int d = 0; d < 2; ++d)
-          {
-            lower[d] = std::min(lower[d], vertices[i][d]);
-            upper[d] = std::max(upper[d], vertices[i][d]);
-          }
+    const BoundingBox<2> box = GridTools::compute_bounding_box(coarse);
+    lower                    = box.get_boundary_points().first;
+    upper                    = box.get_boundary_points().second;
   }
 
 

@@ -594,16 +594,20 @@ namespace VI
                     .norm_square() *
                   dx;
                 // grad s~_a, s~ = s + (theta w, -(1 - theta) w), w = (s2 -
-                // s1)^+ (see add_nonconformity_contact_terms())
-                const Tensor<1, dim> grad_w = (s[1][q] > s[0][q]) ?
-                                                grad_s[1][q] - grad_s[0][q] :
-                                                Tensor<1, dim>();
-                const Tensor<1, dim> grad_cone =
-                  grad_s[a][q] + (a == 0 ? theta : -(1. - theta)) * grad_w;
-                flux_cone[a] +=
-                  (sqrt_mu * grad_cone + sigma_ahead[a][q] / sqrt_mu)
-                    .norm_square() *
-                  dx;
+                // s1)^+ (see add_nonconformity_contact_terms()), for the
+                // second bound of an obstacle (bound_with_remainder())
+                if (in.obstacle)
+                  {
+                    const Tensor<1, dim> grad_w =
+                      (s[1][q] > s[0][q]) ? grad_s[1][q] - grad_s[0][q] :
+                                            Tensor<1, dim>();
+                    const Tensor<1, dim> grad_cone =
+                      grad_s[a][q] + (a == 0 ? theta : -(1. - theta)) * grad_w;
+                    flux_cone[a] +=
+                      (sqrt_mu * grad_cone + sigma_ahead[a][q] / sqrt_mu)
+                        .norm_square() *
+                      dx;
+                  }
                 algebraic +=
                   (sigma_ahead[a][q] - sigma_disc[a][q]).norm_square() / mu[a] *
                   dx;

@@ -401,19 +401,19 @@ namespace VI
                     message << "the boundary data are not finite at (" << p
                             << "): g1 = " << g1 << ", g2 = " << g2;
                   else if (g1 - g2 <
-                             -1e-12 *
-                               std::max({1., std::abs(g1), std::abs(g2)}) &&
-                           data.obstacle)
-                    message << "the obstacle is above g1 on the clamped "
-                               "boundary at ("
-                            << p << "): g1 = " << g1 << ", obstacle = " << g2
-                            << "; the constraint u1 >= obstacle cannot hold "
-                               "there";
-                  else if (g1 - g2 <
                            -1e-12 * std::max({1., std::abs(g1), std::abs(g2)}))
-                    message << "g1 < g2 on the boundary at (" << p
-                            << "): g1 = " << g1 << ", g2 = " << g2
-                            << "; the constraint u1 >= u2 cannot hold there";
+                    {
+                      // (over an obstacle, g2 is the obstacle)
+                      const char *lower = data.obstacle ? "obstacle" : "g2";
+                      const char *u2    = data.obstacle ? "obstacle" : "u2";
+                      message << (data.obstacle ?
+                                    "the obstacle is above g1 on the clamped "
+                                    "boundary at (" :
+                                    "g1 < g2 on the boundary at (")
+                              << p << "): g1 = " << g1 << ", " << lower << " = "
+                              << g2 << "; the constraint u1 >= " << u2
+                              << " cannot hold there";
+                    }
                   if (!message.str().empty())
                     report(message.str());
                 }

@@ -189,7 +189,7 @@ TEST(Expression, BadInputIsAnInputErrorNamingTheParameter)
 {
   VI::ProblemParameters problem;
   problem.test_case  = "expression";
-  problem.expression = {"0", "0", "0", "0", "", "", "", ""};
+  problem.expression = {"0", "0", "0", "0", "", "", "", "", ""};
 
   // One bad entry each: the member of Problem/Expression, its text, and
   // what the error must say.

@@ -135,6 +135,8 @@ namespace VI
     clamp_everywhere();
     void
     read_mesh_file(const std::string &file);
+    void
+    check_file_mesh(const dealii::Triangulation<2> &coarse);
     template <int dim>
     void
     read_coarse_mesh(dealii::Triangulation<dim> &tria) const;
