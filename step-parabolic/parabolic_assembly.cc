@@ -27,7 +27,7 @@ namespace StepParabolic
     TimerOutput::Scope t(timer, "setup");
 
     distribute_nodes();
-    make_constraints(*data.g1, *data.g2);
+    make_constraints(*data.g1, *data.g2, data.obstacle.get());
     contact_system.reinit(owned_nodes, u1_constraints, comm);
     preconditioner_dt = 0; // none for the new matrices yet
     reinit_matrices(contact_system);
@@ -147,7 +147,8 @@ namespace StepParabolic
     // The constraint rows must weigh like the balance rows (forces): a row
     // that enforces u1 = u2 gets the diagonal of the gap operator,
     // (E1^-1 + E2^-1)^-1 ~ E1_ii E2_ii / (E1_ii + E2_ii) (mu_r S_ii in the
-    // steady case), a row that enforces X3 = 0 the coupling D_i.
+    // steady case; E1_ii over a rigid obstacle), a row that enforces X3 = 0
+    // the coupling D_i.
     std::vector<double> stiffness_weight(owned_nodes.n_elements());
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
       {
@@ -156,7 +157,7 @@ namespace StepParabolic
           contact_system.matrix.diag_element(index(i, VI::NodalFields::u1));
         const double e2 =
           contact_system.matrix.diag_element(index(i, VI::NodalFields::u2));
-        stiffness_weight[k] = e1 * e2 / (e1 + e2);
+        stiffness_weight[k] = data.obstacle ? e1 : e1 * e2 / (e1 + e2);
       }
     contact_system.set_stiffness_weights(std::move(stiffness_weight));
 
@@ -223,9 +224,10 @@ namespace StepParabolic
   {
     const double new_time = time + time_step;
     data.set_time(new_time);
-    // (the constraints carry the boundary data of t_n)
-    if (data.boundary_depends_on_time)
-      make_constraints(*data.g1, *data.g2);
+    // (the constraints carry the boundary data, and u2 = I_h psi over an
+    // obstacle, of t_n)
+    if (data.boundary_depends_on_time || data.obstacle_depends_on_time)
+      make_constraints(*data.g1, *data.g2, data.obstacle.get());
     assemble_system();
     step_oscillation = force_oscillation();
 

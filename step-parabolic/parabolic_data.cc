@@ -18,7 +18,7 @@ namespace StepParabolic
   void
   ParabolicData<dim>::set_time(const double time) const
   {
-    for (const auto &function : {f1, f2, g1, g2, exact_u1, exact_u2})
+    for (const auto &function : {f1, f2, g1, g2, exact_u1, exact_u2, obstacle})
       if (function)
         function->set_time(time);
   }
@@ -75,11 +75,12 @@ namespace StepParabolic
   make_parabolic_data(const ProblemParameters &problem,
                       const Point<dim>        &center)
   {
-    if (problem.model == VI::Model::obstacle ||
-        !Utilities::trim(problem.expression.obstacle).empty())
-      throw VI::InputError("Problem/Model = obstacle: step-parabolic solves "
-                           "two membranes only (the obstacle problem is "
-                           "step-membranes'); use two-membranes");
+    const bool over_obstacle = problem.model == VI::Model::obstacle;
+    if (over_obstacle)
+      VI::check_obstacle_entries(problem, {{"u2_0", problem.u2_0, "0"}});
+    else if (!Utilities::trim(problem.expression.obstacle).empty())
+      throw VI::InputError("Problem/Expression/obstacle is set but Problem/"
+                           "Model is two-membranes; set Model = obstacle");
     ParabolicData<dim> data;
     data.name = problem.test_case;
     data.mu1  = problem.mu1;
@@ -123,6 +124,27 @@ namespace StepParabolic
         data.forces_depend_on_time    = uses_time(e.f1) || uses_time(e.f2);
         data.boundary_depends_on_time = uses_time(e.g1) || uses_time(e.g2);
 
+        if (over_obstacle)
+          {
+            // Membrane 2 is the obstacle: fixed to it, without load. (u2_0
+            // is a second copy, kept at t = 0 while the others move.)
+            data.name += " (obstacle)";
+            data.obstacle   = parse("obstacle", e.obstacle, true);
+            data.f2         = std::make_shared<Functions::ZeroFunction<dim>>();
+            data.g2         = data.obstacle;
+            data.initial_u2 = parse("obstacle", e.obstacle, true);
+            data.mu2        = data.mu1;
+            data.forces_depend_on_time    = uses_time(e.f1);
+            data.boundary_depends_on_time = uses_time(e.g1);
+            data.obstacle_depends_on_time = uses_time(e.obstacle);
+            if (!Utilities::trim(e.u1).empty())
+              {
+                data.exact_u1 = parse("u1", e.u1, true);
+                data.exact_u2 = data.obstacle;
+              }
+            data.set_time(0.);
+            return data;
+          }
         const bool has_u1 = !Utilities::trim(e.u1).empty();
         const bool has_u2 = !Utilities::trim(e.u2).empty();
         if (has_u1 != has_u2)

@@ -29,9 +29,15 @@ namespace StepParabolic
     std::shared_ptr<dealii::Function<dim>> f1, f2, g1, g2;
     std::shared_ptr<dealii::Function<dim>> initial_u1, initial_u2;
     std::shared_ptr<dealii::Function<dim>> exact_u1, exact_u2;
-    /// Whether the forces and the boundary data depend on t.
+    /// With Model = obstacle: the rigid obstacle psi(x, y, t) under membrane
+    /// 1, which also stands in for membrane 2 (g2 = exact u2 = psi, u2_0 =
+    /// psi(0), f2 = 0, mu2 = mu1: u2 is fixed to I_h psi(t_n) at every step,
+    /// and only membrane 1 has an error); null for two membranes.
+    std::shared_ptr<dealii::Function<dim>> obstacle;
+    /// Whether the forces, the boundary data and the obstacle depend on t.
     bool forces_depend_on_time    = false;
     bool boundary_depends_on_time = false;
+    bool obstacle_depends_on_time = false;
 
     bool
     has_exact_solution() const
@@ -52,7 +58,8 @@ namespace StepParabolic
    *   time and on the rings r in [0,1/5), [1/5,2/5), ..., [4/5,1]:
    *   f1 = (-20, -50, 50, -50, 50) g, f2 = (90, -40, 70, -30, 40) g;
    * - expression: the formulas of Problem/Expression in x, y, t (initial
-   *   data u1_0, u2_0 in x, y).
+   *   data u1_0, u2_0 in x, y); with Model = obstacle, membrane 1 over
+   *   Problem/Expression/obstacle (x, y, t).
    * r is measured from `center`. Throws InputError on a malformed formula.
    */
   template <int dim>

@@ -119,15 +119,20 @@ namespace StepParabolic
   typename ParabolicProblem<dim>::ParabolicTerms
   ParabolicProblem<dim>::parabolic_terms(const Iterate &it) const
   {
-    TimerOutput::Scope          t(timer, "estimators: evaluation");
-    FEValues<dim>               values(*mapping,
+    TimerOutput::Scope t(timer, "estimators: evaluation");
+    FEValues<dim>      values(*mapping,
                          fe,
                          quadrature,
-                         update_values | update_gradients | update_JxW_values);
-    const unsigned int          n_q   = quadrature.size();
-    const double                mu[2] = {data.mu1, data.mu2};
-    const double                theta = data.mu2 / (data.mu1 + data.mu2);
+                         update_values | update_gradients |
+                           update_quadrature_points | update_JxW_values);
+    const unsigned int n_q   = quadrature.size();
+    const double       mu[2] = {data.mu1, data.mu2};
+    // Over an obstacle: theta = 1, psi itself in place of s2 (at t_n and
+    // t_(n-1)), and no membrane 2 (psi_now, psi_old).
+    const double theta = data.obstacle ? 1. : data.mu2 / (data.mu1 + data.mu2);
+    const unsigned int          n_membranes = data.obstacle ? 1 : 2;
     std::vector<double>         u[2], s[2], u_old[2], s_old[2];
+    std::vector<double>         psi_now(n_q), psi_old(n_q);
     std::vector<Tensor<1, dim>> grad_u[2], grad_u_old[2];
     for (unsigned int a = 0; a < 2; ++a)
       for (auto *v : {&u[a], &s[a], &u_old[a], &s_old[a]})
@@ -168,6 +173,16 @@ namespace StepParabolic
               values.get_function_gradients(*now_u[a], grad_u[a]);
               values.get_function_gradients(*old_u[a], grad_u_old[a]);
             }
+          if (data.obstacle)
+            {
+              const auto &points = values.get_quadrature_points();
+              data.obstacle->set_time(time);
+              data.obstacle->value_list(points, psi_old);
+              data.obstacle->set_time(time + time_step);
+              data.obstacle->value_list(points, psi_now);
+              s[1]     = psi_now;
+              s_old[1] = psi_old;
+            }
           for (unsigned int q = 0; q < n_q; ++q)
             {
               const double dx      = values.JxW(q);
@@ -175,7 +190,7 @@ namespace StepParabolic
               const double w_old   = std::max(s_old[1][q] - s_old[0][q], 0.);
               const double disc[2] = {theta * w, -(1. - theta) * w};
               const double disc_old[2] = {theta * w_old, -(1. - theta) * w_old};
-              for (unsigned int a = 0; a < 2; ++a)
+              for (unsigned int a = 0; a < n_membranes; ++a)
                 {
                   const double lin     = s[a][q] - u[a][q];
                   const double lin_old = s_old[a][q] - u_old[a][q];
@@ -281,9 +296,18 @@ namespace StepParabolic
         // complementarity being computed for the cellwise multiplier only)
         in.complementarity = (1. - theta) * it.previous_complementarity +
                              theta * it.complementarity;
+        // (over an obstacle the estimate reads psi at the point's time)
+        if (data.obstacle)
+          data.obstacle->set_time(time + theta * time_step);
         VI::ContactEstimate c = VI::estimate_contact_error(in);
+        if (data.obstacle)
+          data.obstacle->set_time(time + time_step);
 
-        const double A = c.eta_1 + c.nonc_1 + c.nonc_2 + terms.eta_dt;
+        // Over an obstacle the equation of e~ = u - s~ is tested with grad
+        // s~ in the flux term (eta_1_cone): then a(d, v) does not appear,
+        // and eta_nonc1 enters the bound once, in its second term.
+        const double A = (data.obstacle ? c.eta_1_cone : c.eta_1 + c.nonc_1) +
+                         c.nonc_2 + terms.eta_dt;
         const double D = c.eta_1_disc + c.nonc_1_disc + c.nonc_2_disc +
                          terms.eta_dt_disc +
                          std::sqrt(std::max(c.contact_disc, 0.));
@@ -349,14 +373,16 @@ namespace StepParabolic
   double
   ParabolicProblem<dim>::initial_error_estimate() const
   {
-    const QGauss<dim>   error_quadrature(fe.degree + 3);
-    FEValues<dim>       values(*mapping,
+    const QGauss<dim>  error_quadrature(fe.degree + 3);
+    FEValues<dim>      values(*mapping,
                          fe,
                          error_quadrature,
                          update_values | update_quadrature_points |
                            update_JxW_values);
-    const unsigned int  n_q   = error_quadrature.size();
-    const double        theta = data.mu2 / (data.mu1 + data.mu2);
+    const unsigned int n_q = error_quadrature.size();
+    // (over an obstacle: s~1^0 = max(s1^0, psi(0)), membrane 1 alone)
+    const double theta = data.obstacle ? 1. : data.mu2 / (data.mu1 + data.mu2);
+    const unsigned int  n_membranes = data.obstacle ? 1 : 2;
     std::vector<double> uh[2], sh[2], exact[2];
     for (unsigned int a = 0; a < 2; ++a)
       for (auto *v : {&uh[a], &sh[a], &exact[a]})
@@ -372,11 +398,13 @@ namespace StepParabolic
           values.get_function_values(previous_s2, sh[1]);
           data.initial_u1->value_list(values.get_quadrature_points(), exact[0]);
           data.initial_u2->value_list(values.get_quadrature_points(), exact[1]);
+          if (data.obstacle)
+            sh[1] = exact[1];
           for (unsigned int q = 0; q < n_q; ++q)
             {
               const double w             = std::max(sh[1][q] - sh[0][q], 0.);
               const double correction[2] = {theta * w, -(1. - theta) * w};
-              for (unsigned int a = 0; a < 2; ++a)
+              for (unsigned int a = 0; a < n_membranes; ++a)
                 local += std::pow(exact[a][q] - sh[a][q] - correction[a], 2) *
                          values.JxW(q);
             }

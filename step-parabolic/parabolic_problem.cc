@@ -132,13 +132,22 @@ namespace StepParabolic
                   const double f1 = data.f1->value(p), f2 = data.f2->value(p);
                   const double a = data.initial_u1->value(p),
                                b = data.initial_u2->value(p);
+                  const double psi =
+                    data.obstacle ? data.obstacle->value(p) : 0.;
                   if (!std::isfinite(f1) || !std::isfinite(f2))
                     message << "the forces are not finite at (" << p
                             << "), t = " << t << ": f1 = " << f1
                             << ", f2 = " << f2;
+                  else if (!std::isfinite(psi))
+                    message << "the obstacle is not finite at (" << p
+                            << "), t = " << t << ": obstacle = " << psi;
                   else if (!std::isfinite(a) || !std::isfinite(b))
                     message << "the initial data are not finite at (" << p
                             << "): u1_0 = " << a << ", u2_0 = " << b;
+                  else if (below(a, b) && data.obstacle)
+                    message << "u1_0 is below the obstacle at (" << p
+                            << "): u1_0 = " << a << ", obstacle = " << b
+                            << "; the initial state must lie above it";
                   else if (below(a, b))
                     message << "u1_0 < u2_0 at (" << p << "): u1_0 = " << a
                             << ", u2_0 = " << b
@@ -162,7 +171,14 @@ namespace StepParabolic
                       if (!std::isfinite(g1) || !std::isfinite(g2))
                         message << "the boundary data are not finite at (" << p
                                 << "), t = " << t << ": g1 = " << g1
-                                << ", g2 = " << g2;
+                                << (data.obstacle ? ", obstacle = " : ", g2 = ")
+                                << g2;
+                      else if (below(g1, g2) && data.obstacle)
+                        message << "g1 is below the obstacle on the boundary "
+                                << "at (" << p << "), t = " << t
+                                << ": g1 = " << g1 << ", obstacle = " << g2
+                                << "; the constraint u1 >= obstacle cannot "
+                                   "hold there";
                       else if (below(g1, g2))
                         message << "g1 < g2 on the boundary at (" << p
                                 << "), t = " << t << ": g1 = " << g1

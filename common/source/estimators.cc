@@ -743,10 +743,10 @@ namespace VI
       // bounds hold; the smaller is taken.
       if (obstacle)
         {
-          const double a_cone =
-            std::sqrt(total[ContactSum::flux_residual_cone]) + remainder_bound +
-            e.nonc_2;
-          e.eta = std::min(e.eta,
+          e.eta_1_cone =
+            std::sqrt(total[ContactSum::flux_residual_cone]) + remainder_bound;
+          const double a_cone = e.eta_1_cone + e.nonc_2;
+          e.eta               = std::min(e.eta,
                            0.5 * a_cone +
                              std::sqrt(std::max(0.25 * a_cone * a_cone +
                                                   0.5 * e.contact_cone,

@@ -9,6 +9,7 @@
 #include <vi/expression_function.h>
 #include <vi/test_cases.h>
 
+#include <array>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -219,14 +220,9 @@ namespace VI
   }
 
 
-  // Model = obstacle: membrane 1 over the obstacle, which takes membrane
-  // 2's place (fixed to it, with no error of its own). Membrane 2's entries
-  // must be left as they are: a value there would be silently unused.
-  template <int dim>
   void
-  make_obstacle_data(const ProblemParameters &problem,
-                     const Point<dim>        &center,
-                     MembraneData<dim>       &data)
+  check_obstacle_entries(const ProblemParameters                       &problem,
+                         const std::vector<std::array<std::string, 3>> &unused)
   {
     const ExpressionParameters &e = problem.expression;
     if (problem.test_case != "expression")
@@ -235,10 +231,11 @@ namespace VI
     if (Utilities::trim(e.obstacle).empty())
       throw InputError("Problem/Expression/obstacle is empty; Model = "
                        "obstacle needs a formula");
-    for (const auto &[name, value, unset] :
-         {std::tuple<std::string, std::string, std::string>{"f2", e.f2, "0"},
-          {"g2", e.g2, "0"},
-          {"u2", e.u2, ""}})
+    std::vector<std::array<std::string, 3>> entries = {{"f2", e.f2, "0"},
+                                                       {"g2", e.g2, "0"},
+                                                       {"u2", e.u2, ""}};
+    entries.insert(entries.end(), unused.begin(), unused.end());
+    for (const auto &[name, value, unset] : entries)
       if (Utilities::trim(value) != unset)
         throw InputError("Problem/Expression/" + name +
                          " is not used with Model = obstacle (membrane 2 is "
@@ -246,6 +243,19 @@ namespace VI
     if (problem.mu2 != 1.)
       throw InputError("Problem/mu2 is not used with Model = obstacle "
                        "(membrane 2 is the obstacle); remove it");
+  }
+
+
+  // Model = obstacle: membrane 1 over the obstacle, which takes membrane
+  // 2's place (fixed to it, with no error of its own).
+  template <int dim>
+  void
+  make_obstacle_data(const ProblemParameters &problem,
+                     const Point<dim>        &center,
+                     MembraneData<dim>       &data)
+  {
+    check_obstacle_entries(problem);
+    const ExpressionParameters &e = problem.expression;
     data.name += " (obstacle)";
     data.obstacle = parse_expression<dim>(
       "obstacle", e.obstacle, parse_expression_constants(e.constants), center);

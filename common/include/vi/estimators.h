@@ -41,12 +41,15 @@ namespace VI
     double eta_disc = 0, eta_lin = 0, eta_alg = 0;
 
     // Ingredients.
-    double eta_1       = 0; ///< {sum (eta_F + eta_R)^2}^(1/2) + remainder
-    double eta_1_disc  = 0; ///< {sum (eta_F,disc + eta_R)^2}^(1/2)
-    double flux_disc   = 0; ///< {sum eta_F,disc^2}^(1/2)
-    double residual    = 0; ///< {sum eta_R^2}^(1/2)
-    double flux_alg    = 0; ///< |mu^(-1/2) sigma_alg|
-    double remainder   = 0; ///< algebraic remainder (global Friedrichs)
+    double eta_1      = 0; ///< {sum (eta_F + eta_R)^2}^(1/2) + remainder
+    double eta_1_disc = 0; ///< {sum (eta_F,disc + eta_R)^2}^(1/2)
+    double flux_disc  = 0; ///< {sum eta_F,disc^2}^(1/2)
+    double residual   = 0; ///< {sum eta_R^2}^(1/2)
+    double flux_alg   = 0; ///< |mu^(-1/2) sigma_alg|
+    double remainder  = 0; ///< algebraic remainder (global Friedrichs)
+    /// Over an obstacle: eta_1 with grad s~ in place of grad u_h in the
+    /// flux terms (the second bound, |||u - s~||| <= ...); 0 otherwise.
+    double eta_1_cone  = 0;
     double nonc_1      = 0; ///< |||s~_h - u_h|||
     double nonc_1_disc = 0; ///< |||s~_h - s_h|||
     double nonc_1_lin  = 0; ///< |||s_h - u_h|||

@@ -6,6 +6,7 @@
 #include <vi/domain.h>
 #include <vi/parameters.h>
 
+#include <array>
 #include <map>
 #include <memory>
 #include <mpi.h>
@@ -81,6 +82,19 @@ namespace VI
   MembraneData<dim>
   make_membrane_data(const ProblemParameters  &problem,
                      const dealii::Point<dim> &center);
+
+
+  /**
+   * Model = obstacle: check that the run can take it (Test case =
+   * expression with a formula in Expression/obstacle) and that membrane 2's
+   * entries f2, g2, u2, mu2 and the program's `unused` ones ({name, value,
+   * default}, e.g. step-parabolic's u2_0) are left as they are: a value
+   * there would be silently unused. Throws InputError naming the entry.
+   */
+  void
+  check_obstacle_entries(
+    const ProblemParameters                       &problem,
+    const std::vector<std::array<std::string, 3>> &unused = {});
 
 
   /**
