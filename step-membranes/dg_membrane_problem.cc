@@ -133,12 +133,16 @@ namespace StepMembranes
       throw VI::InputError(
         "Problem/Model = obstacle" + method +
         "; use two-membranes with Method = " + penalty.name());
-    if (parameters.linear_solver.solver == VI::LinearSolverType::gmres &&
-        parameters.linear_solver.preconditioner != VI::PreconditionerType::ilu)
-      throw VI::InputError(
-        "Linear solver/Preconditioner = " +
-        VI::to_string(parameters.linear_solver.preconditioner) + method +
-        "; use ilu with Method = " + penalty.name());
+  }
+
+
+  template <int dim>
+  bool
+  DGMembraneProblem<dim>::uses_contact_amg() const
+  {
+    return parameters.linear_solver.solver == VI::LinearSolverType::gmres &&
+           parameters.linear_solver.preconditioner ==
+             VI::PreconditionerType::amg;
   }
 
 
@@ -187,6 +191,8 @@ namespace StepMembranes
     DynamicSparsityPattern scalar_pattern(relevant_nodes);
     DoFTools::make_flux_sparsity_pattern(dof_handler, scalar_pattern);
     contact_system.reinit_matrix(scalar_pattern, relevant_nodes);
+    if (uses_contact_amg())
+      stiffness_matrix.reinit(owned_nodes, owned_nodes, scalar_pattern, comm);
     solution.reinit(owned_system, comm);
     for (auto *field : {&u1_h, &u2_h, &gap_h, &lambda_h, &contact_set})
       field->reinit(owned_nodes, relevant_nodes, comm);
@@ -248,6 +254,9 @@ namespace StepMembranes
     TimerOutput::Scope t(timer, "assembly");
     contact_system.matrix = 0;
     contact_system.rhs    = 0;
+    const bool with_amg   = uses_contact_amg();
+    if (with_amg)
+      stiffness_matrix = 0;
 
     const double         mu[2]    = {data.mu1, data.mu2};
     const Function<dim> *g[2]     = {data.g1.get(), data.g2.get()};
@@ -354,6 +363,16 @@ namespace StepMembranes
                                         columns.size(),
                                         columns.data(),
                                         row_values.data());
+              // (a_h itself, once: the row of u1 divided by mu1)
+              if (with_amg && field == VI::NodalFields::u1)
+                {
+                  for (double &value : row_values)
+                    value /= mu[field];
+                  stiffness_matrix.add(dofs[i],
+                                       dofs.size(),
+                                       dofs.data(),
+                                       row_values.data());
+                }
             }
     };
     Vector coupling(owned_nodes, comm);
@@ -385,9 +404,23 @@ namespace StepMembranes
                           face_worker);
     contact_system.matrix.compress(VectorOperation::add);
     contact_system.rhs.compress(VectorOperation::add);
+    if (with_amg)
+      stiffness_matrix.compress(VectorOperation::add);
     coupling.compress(VectorOperation::insert);
     lumped_mass.compress(VectorOperation::insert);
 
+    set_coupling_and_preconditioner(coupling);
+  }
+
+
+  // The coupling D, the weights of the constraint rows and, with GMRES +
+  // AMG, the contact preconditioner, once A, F and `coupling` (D per node)
+  // are assembled.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::set_coupling_and_preconditioner(
+    const Vector &coupling)
+  {
     // The coupling: -<lambda_h, v1>_h + <lambda_h, v2>_h with the dual basis
     // is -D_I X3_I, +D_I X3_I in the rows of node I: D = I for the L2
     // bracket, the lumped masses (psi_I, 1)_K for p = 1.
@@ -406,6 +439,14 @@ namespace StepMembranes
           data.mu1;
       }
     contact_system.set_stiffness_weights(std::move(stiffness_weight));
+
+    // The contact AMG of step-membranes on a_h: the same decoupling into
+    // the mean and the gap holds, since both blocks are multiples of a_h.
+    if (uses_contact_amg())
+      contact_system.use_contact_preconditioner(stiffness_matrix,
+                                                data.mu1,
+                                                data.mu2,
+                                                fe.degree > 1);
   }
 
 

@@ -101,6 +101,9 @@ namespace StepMembranes
 
     void
     check_parameters() const;
+    /// GMRES with the contact AMG (Linear solver/Preconditioner = amg).
+    bool
+    uses_contact_amg() const;
     void
     check_data() const override;
     void
@@ -109,6 +112,9 @@ namespace StepMembranes
     setup_system() override;
     void
     assemble_system() override;
+    /// The coupling D, the row weights and the contact AMG (if used).
+    void
+    set_coupling_and_preconditioner(const Vector &coupling);
     void
     initialize_iterate() override;
     void
@@ -205,8 +211,11 @@ namespace StepMembranes
 
     /// A = [E ; J_C], F, the contact rows and the linear solvers.
     VI::ContactSystem contact_system;
-    Vector            solution;    ///< X
-    Vector            lumped_mass; ///< (psi_I, 1)_K per node
+    /// The scalar interior penalty matrix a_h (the block of membrane alpha
+    /// is mu_alpha a_h), for the contact AMG (Preconditioner = amg only).
+    dealii::TrilinosWrappers::SparseMatrix stiffness_matrix;
+    Vector                                 solution; ///< X
+    Vector lumped_mass;                              ///< (psi_I, 1)_K per node
 
     // The estimators: the continuous space of the potential reconstruction
     // (FE_Q(p), also deciding vertex ownership of the patches), the flux
