@@ -231,10 +231,13 @@ namespace StepMembranes
         ghosted_nodes.copy(owned, contact);
         join_at_contact_cells(contact, moments, s_averaged);
       }
+    Vector oswald[2]; // (before the averaging)
     for (unsigned int a = 0; a < 2; ++a)
       {
         s[a].reinit(owned_continuous, relevant_continuous, comm);
         s[a] = s_averaged[a];
+        oswald[a].reinit(owned_continuous, relevant_continuous, comm);
+        oswald[a] = s_owned[a];
       }
 
     Vector                    lambda_source;
@@ -320,8 +323,10 @@ namespace StepMembranes
     in.r2                  = &r[1];
     in.s1                  = &s[0];
     in.s2                  = &s[1];
-    in.sigma1              = &sigma[0];
-    in.sigma2              = &sigma[1];
+    in.oswald1 = transmits ? nullptr : &oswald[0]; // (joined s: no split)
+    in.oswald2 = transmits ? nullptr : &oswald[1];
+    in.sigma1  = &sigma[0];
+    in.sigma2  = &sigma[1];
     if (!transmitted.empty())
       in.transmitted_load = &transmitted;
     return VI::estimate_dg_contact_error(in);

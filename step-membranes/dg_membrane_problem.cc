@@ -98,6 +98,9 @@ namespace StepMembranes
       , contact_system(C, parameters, timer)
       , fe_continuous(parameters.discretization.degree)
       , continuous_dof_handler(triangulation)
+      , stopping(parameters.nonlinear_solver,
+                 stopping_hooks(),
+                 parameters.output.verbose ? &pcout : nullptr)
   {
     check_parameters();
   }
@@ -125,10 +128,6 @@ namespace StepMembranes
     if (parameters.compare_with_petsc_vi)
       throw VI::InputError("Benchmark/Compare with PETSc VI" + method +
                            "; set it to false with Method = " + penalty.name());
-    if (parameters.nonlinear_solver.strategy == VI::Strategy::adaptive)
-      throw VI::InputError(
-        "Nonlinear solver/Strategy = adaptive" + method +
-        "; use exact or inexact with Method = " + penalty.name());
     if (parameters.problem.model == VI::Model::obstacle)
       throw VI::InputError(
         "Problem/Model = obstacle" + method +
@@ -486,12 +485,49 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::solve()
   {
+    stopping.start_solve();
+    final_estimate.reset();
     VI::SemismoothNewton<Vector> newton =
       contact_system.make_newton(parameters.output.verbose ? &pcout : nullptr);
-    newton_report = newton.solve(solution);
-    final_estimate.reset();
-    if (parameters.estimators.enabled)
+    const auto &estimators = parameters.estimators;
+    // The adaptive strategy (and Estimators/At every check) estimates the
+    // GMRES iterates every nu iterations and the Newton iterates, as the
+    // conforming program does (see VI::AdaptiveStopping).
+    if (estimators.enabled && (stopping.adaptive() || estimators.every_check))
+      {
+        newton.setup_jacobian = [&](const Vector &X) {
+          stopping.start_step(X);
+          contact_system.setup_jacobian(X);
+        };
+        newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
+          return stopping.solve_watched(contact_system, rhs, dX);
+        };
+        stopping.attach_criteria(newton);
+      }
+    newton_report  = newton.solve(solution);
+    final_estimate = std::move(stopping.final_estimate);
+    if (estimators.enabled && !final_estimate)
       final_estimate = estimate(solution);
+  }
+
+
+  template <int dim>
+  typename VI::AdaptiveStopping<typename DGMembraneProblem<dim>::Iterate,
+                                VI::DGContactEstimate>::Hooks
+  DGMembraneProblem<dim>::stopping_hooks()
+  {
+    typename VI::AdaptiveStopping<Iterate, VI::DGContactEstimate>::Hooks hooks;
+    hooks.describe = [](const Vector &X, Iterate &it) { it.X = X; };
+    hooks.estimate = [this](const Iterate &it, const Iterate &) {
+      return estimate(it.X);
+    };
+    hooks.estimate_iterate = [this](const Vector &X) { return estimate(X); };
+    hooks.components       = [](const VI::DGContactEstimate &e) {
+      return VI::StoppingComponents{
+        true, e.eta, e.eta_disc, e.eta_lin, e.eta_alg, e.eta_lin};
+    };
+    hooks.look_ahead = false;
+    return hooks;
   }
 
 

@@ -17,6 +17,7 @@
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <vi/adaptive_stopping.h>
 #include <vi/complementarity.h>
 #include <vi/contact_system.h>
 #include <vi/dg_estimators.h>
@@ -98,6 +99,14 @@ namespace StepMembranes
 
   private:
     using Vector = TrilinosWrappers::MPI::Vector;
+    /// An iterate as the adaptive stopping sees it: the estimate of a dG
+    /// iterate takes its algebraic residual through Friedrichs' bound
+    /// (eta_alg = remainder), with no look-ahead.
+    struct Iterate
+    {
+      Vector       X;
+      unsigned int linear_iteration = 0;
+    };
 
     void
     check_parameters() const;
@@ -112,6 +121,10 @@ namespace StepMembranes
     setup_system() override;
     void
     assemble_system() override;
+    /// The hooks of the adaptive stopping: this program's iterate and
+    /// estimate.
+    typename VI::AdaptiveStopping<Iterate, VI::DGContactEstimate>::Hooks
+    stopping_hooks();
     /// The coupling D, the row weights and the contact AMG (if used).
     void
     set_coupling_and_preconditioner(const Vector &coupling);
@@ -232,6 +245,10 @@ namespace StepMembranes
 
     std::unique_ptr<parallel::distributed::SolutionTransfer<dim, Vector>>
       solution_transfer;
+
+    /// The adaptive stopping of GMRES and Newton (and the records of every
+    /// estimate of the solve).
+    VI::AdaptiveStopping<Iterate, VI::DGContactEstimate> stopping;
 
     // What each cycle measured (beside the members of StationaryProblem).
     std::optional<VI::DGContactEstimate> final_estimate;

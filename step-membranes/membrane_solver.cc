@@ -62,23 +62,13 @@ namespace StepMembranes
       system_hanging_constraints.distribute(dX);
       return iterations;
     };
+    // With the line search (Fischer-Burmeister), the full step is taken
+    // when GMRES accepted it with an estimate that meets the adaptive
+    // stopping criterion (on the nested disk meshes the Armijo test cut such
+    // steps to 1/32 and 1/4, three Newton steps and five estimates instead
+    // of one).
     if (parameters.estimators.enabled)
-      {
-        newton.stopping_criterion = [&](const Vector         &X,
-                                        const VI::NewtonStep &step) {
-          return stopping.newton_criterion(X, step);
-        };
-        // With the line search (Fischer-Burmeister), the full step is taken
-        // when GMRES accepted it with an estimate that meets the adaptive
-        // stopping criterion: it ends the iteration with a guaranteed bound,
-        // so the Armijo test on the residual, which an inexact direction
-        // need not pass, is not asked (on the nested disk meshes it cut such
-        // steps to 1/32 and 1/4, three Newton steps and five estimates
-        // instead of one).
-        newton.accept_full_step = [&](const Vector &) {
-          return stopping.step_is_certified();
-        };
-      }
+      stopping.attach_criteria(newton);
 
     newton_report  = newton.solve(solution);
     final_estimate = std::move(stopping.final_estimate);
@@ -109,10 +99,7 @@ namespace StepMembranes
                                   !estimators.dual_norm_undershoots ?
                                 predicted_eta_disc() :
                                 std::nullopt;
-    return contact_system.solve(rhs,
-                                dX,
-                                stopping.gmres_monitor(),
-                                stopping.accepted_update_of_step());
+    return stopping.solve_watched(contact_system, rhs, dX);
   }
 
 

@@ -252,10 +252,7 @@ namespace StepParabolic
           contact_system.setup_jacobian(X);
         };
         newton.solve_with_jacobian = [&](const Vector &rhs, Vector &dX) {
-          return contact_system.solve(rhs,
-                                      dX,
-                                      stopping.gmres_monitor(),
-                                      stopping.accepted_update_of_step());
+          return stopping.solve_watched(contact_system, rhs, dX);
         };
         newton.stopping_criterion = [&](const Vector         &X,
                                         const VI::NewtonStep &step) {

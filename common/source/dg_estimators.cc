@@ -123,6 +123,8 @@ namespace VI
       multiplier_local_disc,
       multiplier_mean_disc,
       nonc_total,        // |||s~ - u_h|||_h^2
+      nonc_lin,          // |||s - oswald|||^2 (the averaging at violated nodes)
+      nonc_disc,         // |||s~ - u_h - (s - oswald)|||_h^2
       nonc_cone,         // |||s~ - (s + G)|||^2
       oswald_squared,    // |||s - u_h|||_h^2
       positive,          // |lambda^pos|^2
@@ -170,7 +172,8 @@ namespace VI
       {
         for (unsigned int a = 0; a < 2; ++a)
           {
-            for (auto *v : {&grad_u[a], &grad_s[a], &flux[a]})
+            for (auto *v :
+                 {&grad_u[a], &grad_s[a], &grad_averaging[a], &flux[a]})
               v->resize(n_q);
             for (auto *v : {&u[a], &s[a], &r[a], &div_flux[a]})
               v->resize(n_q);
@@ -216,6 +219,14 @@ namespace VI
             broken_values.get_function_values(*r_vectors[a], r[a]);
             continuous_values.get_function_values(*pairs.s[a], s[a]);
             continuous_values.get_function_gradients(*pairs.s[a], grad_s[a]);
+            // grad (s - oswald): the averaging at the violated nodes
+            if (oswald[0])
+              {
+                continuous_values.get_function_gradients(*oswald[a],
+                                                         grad_averaging[a]);
+                for (unsigned int q = 0; q < n_q; ++q)
+                  grad_averaging[a][q] = grad_s[a][q] - grad_averaging[a][q];
+              }
             divergence.function_values_and_divergences(flux_values,
                                                        flux_cell,
                                                        *flux_vectors[a],
@@ -313,6 +324,16 @@ namespace VI
                                       grad_u[1][q];
             cell[DGSum::nonc_total] +=
               (mu[0] * d1.norm_square() + mu[1] * d2.norm_square()) * dx;
+            if (oswald[0])
+              {
+                const Tensor<1, dim> &a1 = grad_averaging[0][q],
+                                     &a2 = grad_averaging[1][q];
+                cell[DGSum::nonc_lin] +=
+                  (mu[0] * a1.norm_square() + mu[1] * a2.norm_square()) * dx;
+                cell[DGSum::nonc_disc] += (mu[0] * (d1 - a1).norm_square() +
+                                           mu[1] * (d2 - a2).norm_square()) *
+                                          dx;
+              }
             cell[DGSum::nonc_cone] +=
               (mu[0] * theta * theta + mu[1] * (1 - theta) * (1 - theta)) *
               grad_w.norm_square() * dx;
@@ -342,10 +363,12 @@ namespace VI
       FEValues<dim>               broken_values, continuous_values, flux_values;
       PiolaDivergence<dim>        divergence;
       std::vector<double>         sigma_coefficients;
-      std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], flux[2];
-      std::vector<double>         u[2], s[2], r[2], div_flux[2], f, lambda,
+      std::vector<Tensor<1, dim>> grad_u[2], grad_s[2], grad_averaging[2],
+        flux[2];
+      std::vector<double> u[2], s[2], r[2], div_flux[2], f, lambda,
         lambda_nonnegative;
       const TrilinosWrappers::MPI::Vector *r_vectors[2], *flux_vectors[2];
+      const TrilinosWrappers::MPI::Vector *oswald[2] = {in.oswald1, in.oswald2};
       std::vector<std::unique_ptr<FEValues<dim>>> face_values;
       std::vector<double>                         G[2];
       std::vector<Tensor<1, dim>>                 grad_G[2];
@@ -388,9 +411,11 @@ namespace VI
       e.residual            = std::sqrt(total[DGSum::residual_squared]);
       e.flux_alg            = 0;
       e.nonc_1              = std::sqrt(total[DGSum::nonc_total]);
-      e.nonc_1_disc         = e.nonc_1;
-      e.nonc_1_lin          = 0;
-      e.oswald              = std::sqrt(total[DGSum::oswald_squared]);
+      // |||s~ - u_h||| <= |||s~ - u_h - (s - oswald)||| + |||s - oswald|||
+      e.nonc_1_disc =
+        in.oswald1 ? std::sqrt(total[DGSum::nonc_disc]) : e.nonc_1;
+      e.nonc_1_lin = in.oswald1 ? std::sqrt(total[DGSum::nonc_lin]) : 0.;
+      e.oswald     = std::sqrt(total[DGSum::oswald_squared]);
       // |grad(w1 - w2)|_K <= c_mu |||w|||_K, |w1 - w2| <= C |||w||| (w in
       // H^1_0).
       e.nonc_2 = c_mu * std::sqrt(total[DGSum::multiplier_local]) +
@@ -418,12 +443,18 @@ namespace VI
       // Components: broken <= D + L + A with the parts below (a/2 + (a^2/4 +
       // b)^(1/2) <= a + b^(1/2)), and (broken^2 + J^2)^(1/2) <= (D^2 +
       // J^2)^(1/2) + L + A.
-      const double cross = std::sqrt((e.eta_1 + e.nonc_2) * e.nonc_1);
-      const double D     = eta_flux + e.nonc_1 + e.nonc_2_disc + cross +
+      // (nonc_1 <= nonc_1_disc + nonc_1_lin splits nonc_1 and its cross
+      // term sqrt((eta_1 + nonc_2) nonc_1))
+      const auto cross = [&](const double nonc_1_part) {
+        return std::sqrt((e.eta_1 + e.nonc_2) * nonc_1_part);
+      };
+      const double D = eta_flux + e.nonc_1_disc + e.nonc_2_disc +
+                       cross(e.nonc_1_disc) +
                        std::sqrt(std::max(e.contact_disc, 0.) / 2.);
       e.eta_disc = std::sqrt(D * D + e.jump * e.jump);
-      e.eta_lin  = e.nonc_2_lin + std::sqrt(std::max(e.contact_lin, 0.) / 2.);
-      e.eta_alg  = e.remainder;
+      e.eta_lin  = e.nonc_1_lin + cross(e.nonc_1_lin) + e.nonc_2_lin +
+                  std::sqrt(std::max(e.contact_lin, 0.) / 2.);
+      e.eta_alg = e.remainder;
     }
   } // namespace
 

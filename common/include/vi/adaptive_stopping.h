@@ -92,6 +92,9 @@ namespace VI
       std::function<std::optional<Estimate>(Iterate &current)> decide_early;
       /// Optional: called with every complete estimate of a Newton iterate.
       std::function<void(const Estimate &)> on_newton_estimate;
+      /// Whether estimate(it, ahead) sharpens the estimate of `it` with a
+      /// later iterate; if not, each check estimates its own iterate only.
+      bool look_ahead = true;
     };
 
     AdaptiveStopping(const NonlinearSolverParameters  &parameters,
@@ -162,6 +165,37 @@ namespace VI
           return false;
         dX = *accepted_update;
         return true;
+      };
+    }
+
+    /**
+     * Solve the linearised system of the current step, A dX = rhs, with
+     * `system` (a ContactSystem) under this stopping's GMRES monitor; dX is
+     * the update of the iterate it accepted, if one was.
+     */
+    template <typename LinearSystem>
+    unsigned int
+    solve_watched(LinearSystem &system, const Vector &rhs, Vector &dX)
+    {
+      return system.solve(rhs, dX, gmres_monitor(), accepted_update_of_step());
+    }
+
+    /**
+     * Let `newton` stop by this stopping: its stopping criterion is
+     * newton_criterion(), and with a line search a full step that
+     * step_is_certified() is taken without the Armijo test (an inexact
+     * direction need not pass it, and the iterate ends the iteration with a
+     * guaranteed bound).
+     */
+    void
+    attach_criteria(SemismoothNewton<Vector> &newton)
+    {
+      newton.stopping_criterion = [this](const Vector     &X,
+                                         const NewtonStep &step) {
+        return newton_criterion(X, step);
+      };
+      newton.accept_full_step = [this](const Vector &) {
+        return step_is_certified();
       };
     }
 
@@ -252,7 +286,7 @@ namespace VI
           accept(current, own);
           return true;
         }
-      if (previous)
+      if (previous && hooks.look_ahead)
         {
           const Estimate e = hooks.estimate(*previous, current);
           record(previous->linear_iteration, e);

@@ -64,6 +64,14 @@ namespace VI
     using Vector = typename ContactEstimatorData<dim>::Vector;
     /// On `broken`: the algebraic residuals r_h.
     const Vector *r1 = nullptr, *r2 = nullptr;
+    /// Optional, on `continuous`: the Oswald interpolates before the
+    /// averaging at the nodes where s1 < s2. s - oswald vanishes once
+    /// Newton has converged (the nodal complementarity holds at every node
+    /// of every cell, and averages keep it): its part of eta_nonc1 is a
+    /// linearisation term. Null: all of eta_nonc1 is discretisation (so
+    /// with the transmitted load, whose joining at the contact cells also
+    /// changes s and does not vanish with Newton's error).
+    const Vector *oswald1 = nullptr, *oswald2 = nullptr;
     /// On `flux`: the equilibrated fluxes.
     const Vector *sigma1 = nullptr, *sigma2 = nullptr;
     /// Optional (TransmittedLoad): g 1_J at the points of `quadrature` on
