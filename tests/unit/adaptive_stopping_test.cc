@@ -1,6 +1,6 @@
 // VI::AdaptiveStopping with a made-up iterate and estimate: the GMRES
-// checks with look-ahead, the accepted update, the Newton criterion and the
-// records; and the progress line of run_record.h.
+// checks with and without look-ahead, the accepted update, the Newton criterion
+// and the records; and the progress line of run_record.h.
 #include <deal.II/base/index_set.h>
 #include <deal.II/lac/trilinos_vector.h>
 
@@ -123,6 +123,23 @@ TEST_F(AdaptiveStoppingTest, AcceptsThePreviousIterateWithItsLookAhead)
 }
 
 
+// Without look-ahead (the dG estimate) each check estimates its own
+// iterate only: the second check's own estimate fails the GMRES test too,
+// and GMRES goes on. (With the look-ahead the previous iterate passed.)
+TEST_F(AdaptiveStoppingTest, WithoutLookAheadEachCheckEstimatesItsOwnIterate)
+{
+  hooks.look_ahead = false;
+  VI::AdaptiveStopping<Iterate, Estimate> stopping(parameters, hooks);
+  EXPECT_EQ(first_step_gmres(stopping), std::make_pair(false, false));
+  EXPECT_EQ(n_estimates, 2u);
+  ASSERT_EQ(stopping.records.size(), 2u);
+  for (const VI::EstimateRecord &r : stopping.records)
+    EXPECT_DOUBLE_EQ(r.estimate.eta_alg, 1.);
+  MPIVector dX = update(0.75);
+  EXPECT_FALSE(stopping.accepted_update_of_step()(dX));
+}
+
+
 // The other strategies only record: GMRES runs to its tolerance, and a
 // shortened step (line search) is estimated afresh.
 TEST_F(AdaptiveStoppingTest, OtherStrategiesOnlyRecord)
@@ -190,7 +207,7 @@ TEST(CycleNumbers, LineNamesTheKnownParts)
 TEST(CycleNumbers, RecordKeepsWhatWasMeasured)
 {
   VI::CycleNumbers numbers;
-  numbers.cycle = 2;
+  numbers.cycle   = 2;
   const auto text = [&]() {
     std::ostringstream out;
     VI::to_json(numbers).write(out);
