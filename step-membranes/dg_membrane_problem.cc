@@ -342,42 +342,10 @@ namespace StepMembranes
                               face_data.matrix);
     };
 
-    std::vector<types::global_dof_index> columns;
-    std::vector<double>                  row_values;
-    const auto add = [&](const FullMatrix<double>                   &local,
-                         const std::vector<types::global_dof_index> &dofs) {
-      for (const unsigned int field :
-           {VI::NodalFields::u1, VI::NodalFields::u2})
-        for (unsigned int i = 0; i < dofs.size(); ++i)
-          if (owned_nodes.is_element(dofs[i]))
-            {
-              columns.resize(dofs.size());
-              row_values.resize(dofs.size());
-              for (unsigned int j = 0; j < dofs.size(); ++j)
-                {
-                  columns[j]    = index(dofs[j], field);
-                  row_values[j] = mu[field] * local(i, j);
-                }
-              contact_system.matrix.add(index(dofs[i], field),
-                                        columns.size(),
-                                        columns.data(),
-                                        row_values.data());
-              // (a_h itself, once: the row of u1 divided by mu1)
-              if (with_amg && field == VI::NodalFields::u1)
-                {
-                  for (double &value : row_values)
-                    value /= mu[field];
-                  stiffness_matrix.add(dofs[i],
-                                       dofs.size(),
-                                       dofs.data(),
-                                       row_values.data());
-                }
-            }
-    };
     Vector coupling(owned_nodes, comm);
     lumped_mass.reinit(owned_nodes, comm);
     const auto copier = [&](const CellCopyData &c) {
-      add(c.matrix, c.dofs);
+      add_local_matrix(c.matrix, c.dofs);
       for (unsigned int i = 0; i < c.dofs.size(); ++i)
         {
           lumped_mass(c.dofs[i]) = c.lumped_mass(i);
@@ -387,7 +355,7 @@ namespace StepMembranes
         for (unsigned int i = 0; i < c.dofs.size(); ++i)
           contact_system.rhs(index(c.dofs[i], a)) += c.rhs[a](i);
       for (const FaceCopyData &face : c.faces)
-        add(face.matrix, face.dofs);
+        add_local_matrix(face.matrix, face.dofs);
     };
 
     MeshWorker::mesh_loop(owned_cells,
@@ -409,6 +377,43 @@ namespace StepMembranes
     lumped_mass.compress(VectorOperation::insert);
 
     set_coupling_and_preconditioner(coupling);
+  }
+
+
+  // The local matrix of a_h on a cell or a face into the rows of the
+  // locally owned nodes: mu_alpha a_h into the block of membrane alpha, and
+  // a_h itself into the matrix of the contact AMG if it is used.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::add_local_matrix(
+    const FullMatrix<double>                   &local,
+    const std::vector<types::global_dof_index> &dofs)
+  {
+    const double                         mu[2] = {data.mu1, data.mu2};
+    const unsigned int                   n     = dofs.size();
+    std::vector<types::global_dof_index> columns(n);
+    std::vector<double>                  row(n), scaled(n);
+    for (unsigned int i = 0; i < n; ++i)
+      if (owned_nodes.is_element(dofs[i]))
+        {
+          for (unsigned int j = 0; j < n; ++j)
+            row[j] = local(i, j);
+          if (uses_contact_amg())
+            stiffness_matrix.add(dofs[i], n, dofs.data(), row.data());
+          for (const unsigned int field :
+               {VI::NodalFields::u1, VI::NodalFields::u2})
+            {
+              for (unsigned int j = 0; j < n; ++j)
+                {
+                  columns[j] = index(dofs[j], field);
+                  scaled[j]  = mu[field] * row[j];
+                }
+              contact_system.matrix.add(index(dofs[i], field),
+                                        n,
+                                        columns.data(),
+                                        scaled.data());
+            }
+        }
   }
 
 

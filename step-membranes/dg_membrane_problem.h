@@ -125,6 +125,11 @@ namespace StepMembranes
     /// estimate.
     typename VI::AdaptiveStopping<Iterate, VI::DGContactEstimate>::Hooks
     stopping_hooks();
+    /// mu_alpha a_h of a cell or face into the system (and a_h into the
+    /// matrix of the contact AMG).
+    void
+    add_local_matrix(const FullMatrix<double>                   &local,
+                     const std::vector<types::global_dof_index> &dofs);
     /// The coupling D, the row weights and the contact AMG (if used).
     void
     set_coupling_and_preconditioner(const Vector &coupling);

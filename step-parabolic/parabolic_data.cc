@@ -77,7 +77,7 @@ namespace StepParabolic
   {
     const bool over_obstacle = problem.model == VI::Model::obstacle;
     if (over_obstacle)
-      VI::check_obstacle_entries(problem, {{"u2_0", problem.u2_0, "0"}});
+      VI::check_obstacle_entries(problem, {{{"u2_0", problem.u2_0, "0"}}});
     else if (!Utilities::trim(problem.expression.obstacle).empty())
       throw VI::InputError("Problem/Expression/obstacle is set but Problem/"
                            "Model is two-membranes; set Model = obstacle");

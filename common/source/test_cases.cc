@@ -231,9 +231,9 @@ namespace VI
     if (Utilities::trim(e.obstacle).empty())
       throw InputError("Problem/Expression/obstacle is empty; Model = "
                        "obstacle needs a formula");
-    std::vector<std::array<std::string, 3>> entries = {{"f2", e.f2, "0"},
-                                                       {"g2", e.g2, "0"},
-                                                       {"u2", e.u2, ""}};
+    std::vector<std::array<std::string, 3>> entries = {{{"f2", e.f2, "0"}},
+                                                       {{"g2", e.g2, "0"}},
+                                                       {{"u2", e.u2, ""}}};
     entries.insert(entries.end(), unused.begin(), unused.end());
     for (const auto &[name, value, unset] : entries)
       if (Utilities::trim(value) != unset)
