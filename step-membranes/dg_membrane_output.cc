@@ -13,6 +13,7 @@
 #include <vi/errors.h>
 #include <vi/estimators.h>
 #include <vi/field_output.h>
+#include <vi/marking.h>
 #include <vi/membrane_errors.h>
 #include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
@@ -212,11 +213,14 @@ namespace StepMembranes
                                  continuous_dof_handler,
                                  g[a],
                                  s_owned[a],
-                                 &domain);
+                                 &domain,
+                                 &continuous_hanging_nodes);
         lifting->compute(dof_handler, u[a], *g[a], L[a], &domain);
       }
     VI::average_at_violated_nodes(
       data.mu1, data.mu2, s_owned[0], s_owned[1], s_averaged[0], s_averaged[1]);
+    for (Vector &v : s_averaged)
+      continuous_hanging_nodes.distribute(v);
     Vector moments(owned_nodes, comm);
     VI::NodalFields::extract(X, multiplier, moments);
     moments.scale(contact_system.coupling());
@@ -230,6 +234,8 @@ namespace StepMembranes
         contact_system.contact_rows().contact_set(X, owned);
         ghosted_nodes.copy(owned, contact);
         join_at_contact_cells(contact, moments, s_averaged);
+        for (Vector &v : s_averaged)
+          continuous_hanging_nodes.distribute(v);
       }
     Vector oswald[2]; // (before the averaging)
     for (unsigned int a = 0; a < 2; ++a)
@@ -617,7 +623,17 @@ namespace StepMembranes
   DGMembraneProblem<dim>::refine_mesh()
   {
     TimerOutput::Scope t(timer, "refinement");
-    VI::flag_all_cells(triangulation);
+    const auto        &mesh = parameters.mesh;
+    if (mesh.refinement == "adaptive")
+      {
+        Assert(final_estimate, ExcInternalError());
+        VI::mark_cells_for_refinement(triangulation,
+                                      final_estimate->cell_total,
+                                      mesh.marking,
+                                      mesh.refinement_fraction);
+      }
+    else
+      VI::flag_all_cells(triangulation);
     solution_transfer =
       VI::refine_flagged_cells(triangulation,
                                dof_handler,

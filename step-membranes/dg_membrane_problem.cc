@@ -8,7 +8,6 @@
 #include <deal.II/fe/fe_interface_values.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping_q.h>
-#include <deal.II/grid/filtered_iterator.h>
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/sparsity_tools.h>
@@ -113,10 +112,6 @@ namespace StepMembranes
   DGMembraneProblem<dim>::check_parameters() const
   {
     const std::string method = " is implemented for Method = fem only";
-    if (parameters.mesh.refinement != "global")
-      throw VI::InputError("Mesh/Refinement = " + parameters.mesh.refinement +
-                           method +
-                           "; use global with Method = " + penalty.name());
     if (parameters.reference_poisson_solve)
       throw VI::InputError("Benchmark/Reference Poisson solve" + method +
                            "; set it to false with Method = " + penalty.name());
@@ -167,8 +162,9 @@ namespace StepMembranes
   }
 
 
-  // Every node of every cell is an unknown (no strong Dirichlet data, no
-  // hanging nodes on globally refined meshes) and carries a contact pair.
+  // Every node of every cell is an unknown (no strong Dirichlet data; a
+  // hanging node constrains nothing in the broken space) and carries a
+  // contact pair.
   // The matrix couples the nodes of neighbouring cells (flux sparsity).
   template <int dim>
   void
@@ -203,6 +199,11 @@ namespace StepMembranes
         owned_continuous = continuous_dof_handler.locally_owned_dofs();
         DoFTools::extract_locally_relevant_dofs(continuous_dof_handler,
                                                 relevant_continuous);
+        continuous_hanging_nodes.clear();
+        continuous_hanging_nodes.reinit(relevant_continuous);
+        DoFTools::make_hanging_node_constraints(continuous_dof_handler,
+                                                continuous_hanging_nodes);
+        continuous_hanging_nodes.close();
         flux_reconstruction = std::make_unique<VI::FluxReconstruction<dim>>(
           *mapping,
           parameters.estimators.flux_degree_for(fe.degree),
@@ -242,7 +243,8 @@ namespace StepMembranes
 
   // The interior penalty forms of VI::InteriorPenalty, assembled by
   // mesh_loop: cells, boundary faces (weak Dirichlet data) and interior
-  // faces. Faces between two owned cells are visited once; faces with a
+  // faces, on the subfaces at refinement edges (the faces of the finer
+  // cells). Faces between two owned cells are visited once; faces with a
   // ghost neighbour by both processes, each adding the rows it owns (the
   // rows of its own cell's nodes). Then the coupling D = I and the scales
   // of the residuals and of the constraint rows.
@@ -260,8 +262,6 @@ namespace StepMembranes
     const double         mu[2]    = {data.mu1, data.mu2};
     const Function<dim> *g[2]     = {data.g1.get(), data.g2.get()};
     const Function<dim> *force[2] = {data.f1.get(), data.f2.get()};
-    const auto           owned_cells =
-      dof_handler.active_cell_iterators() | IteratorFilters::LocallyOwnedCell();
     using Iterator = typename DoFHandler<dim>::active_cell_iterator;
 
     const UpdateFlags flags = update_values | update_gradients |
@@ -338,7 +338,8 @@ namespace StepMembranes
       face_data.matrix.reinit(face_data.dofs.size(), face_data.dofs.size());
       penalty.add_face_matrix(values,
                               VI::InteriorPenalty::normal_extent<dim>(cell,
-                                                                      face),
+                                                                      face,
+                                                                      subface),
                               face_data.matrix);
     };
 
@@ -358,7 +359,9 @@ namespace StepMembranes
         add_local_matrix(face.matrix, face.dofs);
     };
 
-    MeshWorker::mesh_loop(owned_cells,
+    // (over the ghost cells too: a face between an owned cell and the
+    // finer ghost cells beside it is only visited from the fine side)
+    MeshWorker::mesh_loop(dof_handler.active_cell_iterators(),
                           cell_worker,
                           copier,
                           scratch,

@@ -13,6 +13,7 @@
 #include <deal.II/fe/fe_q.h>
 #include <deal.II/fe/mapping.h>
 #include <deal.II/fe/mapping_q_cache.h>
+#include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
@@ -238,10 +239,13 @@ namespace StepMembranes
     // The estimators: the continuous space of the potential reconstruction
     // (FE_Q(p), also deciding vertex ownership of the patches), the flux
     // reconstruction and the lifting of the jumps.
-    FE_Q<dim>                                    fe_continuous;
-    DoFHandler<dim>                              continuous_dof_handler;
-    IndexSet                                     owned_continuous;
-    IndexSet                                     relevant_continuous;
+    FE_Q<dim>       fe_continuous;
+    DoFHandler<dim> continuous_dof_handler;
+    IndexSet        owned_continuous;
+    IndexSet        relevant_continuous;
+    /// The hanging node constraints of the continuous space: its functions
+    /// (the potential reconstruction s_h) are conforming.
+    AffineConstraints<double>                    continuous_hanging_nodes;
     std::unique_ptr<VI::FluxReconstruction<dim>> flux_reconstruction;
     std::unique_ptr<VI::JumpLifting<dim>>        lifting;
 

@@ -57,46 +57,45 @@ namespace VI
         if (!cell->is_locally_owned())
           continue;
         double cell_sum = 0;
-        for (const unsigned int f : cell->face_indices())
-          {
-            const double gamma =
-              penalty.penalty(InteriorPenalty::normal_extent<dim>(cell, f));
-            // Each interior face is seen from both sides: half from each.
-            double                       weight = 0.5;
-            const FEFaceValuesBase<dim> *values;
-            if (cell->at_boundary(f) && domain &&
-                !domain->is_clamped(cell->face(f)->boundary_id()))
-              continue; // (free: no jump)
-            if (cell->at_boundary(f))
-              {
-                weight = 1.;
-                boundary.reinit(cell, f);
-                values = &boundary;
-              }
-            else
-              {
-                interface.reinit(cell,
-                                 f,
-                                 numbers::invalid_unsigned_int,
-                                 cell->neighbor(f),
-                                 cell->neighbor_of_neighbor(f),
-                                 numbers::invalid_unsigned_int);
-                values = &interface.get_fe_face_values(0);
-              }
-            for (unsigned int a = 0; a < 2; ++a)
-              {
-                values->get_function_values(*v[a], here);
-                if (cell->at_boundary(f))
-                  for (unsigned int q = 0; q < n_q; ++q)
-                    there[q] = g[a]->value(values->quadrature_point(q));
-                else
-                  interface.get_fe_face_values(1).get_function_values(*v[a],
-                                                                      there);
+        // mu gamma_F / h_F |[[v]]|^2 on a boundary face, half of it on an
+        // interior one (each is seen from both sides).
+        const auto add_jumps = [&](const FEFaceValuesBase<dim> &values,
+                                   const bool                   at_boundary,
+                                   const double                 gamma) {
+          const double weight = at_boundary ? 1. : 0.5;
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              values.get_function_values(*v[a], here);
+              if (at_boundary)
                 for (unsigned int q = 0; q < n_q; ++q)
-                  cell_sum += weight * mu[a] * gamma *
-                              std::pow(here[q] - there[q], 2) * values->JxW(q);
-              }
-          }
+                  there[q] = g[a]->value(values.quadrature_point(q));
+              else
+                interface.get_fe_face_values(1).get_function_values(*v[a],
+                                                                    there);
+              for (unsigned int q = 0; q < n_q; ++q)
+                cell_sum += weight * mu[a] * gamma *
+                            std::pow(here[q] - there[q], 2) * values.JxW(q);
+            }
+        };
+        for (const unsigned int f : cell->face_indices())
+          if (cell->at_boundary(f))
+            {
+              if (domain && !domain->is_clamped(cell->face(f)->boundary_id()))
+                continue; // (free: no jump)
+              boundary.reinit(cell, f);
+              add_jumps(boundary,
+                        true,
+                        penalty.penalty(
+                          InteriorPenalty::normal_extent<dim>(cell, f)));
+            }
+          else
+            InteriorPenalty::for_each_face_part<dim>(
+              interface, cell, f, [&](const unsigned int subface) {
+                add_jumps(interface.get_fe_face_values(0),
+                          false,
+                          penalty.penalty(InteriorPenalty::normal_extent<dim>(
+                            cell, f, subface)));
+              });
         local += cell_sum;
         if (cellwise)
           (*cellwise)(cell->active_cell_index()) = cell_sum;

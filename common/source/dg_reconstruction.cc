@@ -9,6 +9,7 @@
 
 #include <vi/dg_reconstruction.h>
 #include <vi/domain.h>
+#include <vi/interior_penalty.h>
 #include <vi/same_cell.h>
 
 #include <map>
@@ -66,18 +67,25 @@ namespace VI
                             Vector                &lifting,
                             const Domain          *domain) const
   {
-    const unsigned int n = fe.n_dofs_per_cell();
-    FEValues<dim>      values(mapping,
+    const unsigned int   n = fe.n_dofs_per_cell();
+    FEValues<dim>        values(mapping,
                          fe,
                          cell_quadrature,
                          update_values | update_inverse_jacobians |
                            update_JxW_values);
-    FEFaceValues<dim>  face_values(mapping,
+    FEFaceValues<dim>    face_values(mapping,
                                   fe,
                                   face_quadrature,
                                   update_values | update_inverse_jacobians |
                                     update_normal_vectors | update_JxW_values |
                                     update_quadrature_points);
+    FESubfaceValues<dim> subface_values(mapping,
+                                        fe,
+                                        face_quadrature,
+                                        update_values |
+                                          update_inverse_jacobians |
+                                          update_normal_vectors |
+                                          update_JxW_values);
     // u_h on both sides of a face, at the same points in the same order.
     FEInterfaceValues<dim> interface(mapping,
                                      broken.get_fe(),
@@ -124,52 +132,55 @@ namespace VI
               }
           }
 
-        // The face terms w_F (tau . n, [[u_h]])_F.
-        rhs = 0;
+        // The face terms w_F (tau . n, [[u_h]])_F, on the subfaces where
+        // the neighbour is refined (the faces of the assembly).
+        rhs                       = 0;
+        const auto add_face_terms = [&](const FEFaceValuesBase<dim> &face,
+                                        const double                 weight) {
+          for (unsigned int q = 0; q < n_face_q; ++q)
+            {
+              const auto           &inverse = face.inverse_jacobian(q);
+              const Tensor<1, dim> &normal  = face.normal_vector(q);
+              const double          jump_dx =
+                weight * (here[q] - there[q]) * face.JxW(q);
+              for (unsigned int i = 0; i < n; ++i)
+                {
+                  const unsigned int ci = fe.system_to_component_index(i).first;
+                  double             tau_n = 0;
+                  for (unsigned int d = 0; d < dim; ++d)
+                    tau_n += inverse[ci][d] * normal[d];
+                  rhs(i) += face.shape_value(i, q) * tau_n * jump_dx;
+                }
+            }
+        };
         for (const unsigned int f : cell->face_indices())
-          {
-            double weight = 1.;
-            if (cell->at_boundary(f) && domain &&
-                !domain->is_clamped(cell->face(f)->boundary_id()))
-              continue; // (free: no jump to lift)
-            if (cell->at_boundary(f))
-              {
-                boundary_values.reinit(broken_cell, f);
-                boundary_values.get_function_values(u, here);
-                face_values.reinit(cell, f);
-                for (unsigned int q = 0; q < n_face_q; ++q)
-                  there[q] = g.value(face_values.quadrature_point(q));
-              }
-            else
-              {
-                weight = 0.5;
-                interface.reinit(broken_cell,
-                                 f,
-                                 numbers::invalid_unsigned_int,
-                                 broken_cell->neighbor(f),
-                                 cell->neighbor_of_neighbor(f),
-                                 numbers::invalid_unsigned_int);
+          if (cell->at_boundary(f))
+            {
+              if (domain && !domain->is_clamped(cell->face(f)->boundary_id()))
+                continue; // (free: no jump to lift)
+              boundary_values.reinit(broken_cell, f);
+              boundary_values.get_function_values(u, here);
+              face_values.reinit(cell, f);
+              for (unsigned int q = 0; q < n_face_q; ++q)
+                there[q] = g.value(face_values.quadrature_point(q));
+              add_face_terms(face_values, 1.);
+            }
+          else
+            InteriorPenalty::for_each_face_part<dim>(
+              interface, broken_cell, f, [&](const unsigned int subface) {
                 interface.get_fe_face_values(0).get_function_values(u, here);
                 interface.get_fe_face_values(1).get_function_values(u, there);
-                face_values.reinit(cell, f);
-              }
-            for (unsigned int q = 0; q < n_face_q; ++q)
-              {
-                const auto           &inverse = face_values.inverse_jacobian(q);
-                const Tensor<1, dim> &normal  = face_values.normal_vector(q);
-                const double          jump_dx =
-                  weight * (here[q] - there[q]) * face_values.JxW(q);
-                for (unsigned int i = 0; i < n; ++i)
+                if (subface == numbers::invalid_unsigned_int)
                   {
-                    const unsigned int ci =
-                      fe.system_to_component_index(i).first;
-                    double tau_n = 0;
-                    for (unsigned int d = 0; d < dim; ++d)
-                      tau_n += inverse[ci][d] * normal[d];
-                    rhs(i) += face_values.shape_value(i, q) * tau_n * jump_dx;
+                    face_values.reinit(cell, f);
+                    add_face_terms(face_values, 0.5);
                   }
-              }
-          }
+                else
+                  {
+                    subface_values.reinit(cell, f, subface);
+                    add_face_terms(subface_values, 0.5);
+                  }
+              });
 
         gram.gauss_jordan();
         gram.vmult(coefficients, rhs);
@@ -215,7 +226,8 @@ namespace VI
                        const DoFHandler<dim>               &continuous,
                        const Function<dim>                 *g,
                        TrilinosWrappers::MPI::Vector       &s,
-                       const Domain                        *domain)
+                       const Domain                        *domain,
+                       const AffineConstraints<double>     *hanging_nodes)
   {
     const auto &fe_broken     = broken.get_fe();
     const auto &fe_continuous = continuous.get_fe();
@@ -272,6 +284,8 @@ namespace VI
             s(i) = value;
       }
     s.compress(VectorOperation::insert);
+    if (hanging_nodes)
+      hanging_nodes->distribute(s);
   }
 
 
@@ -283,5 +297,6 @@ namespace VI
                        const DoFHandler<2> &,
                        const Function<2> *,
                        TrilinosWrappers::MPI::Vector &,
-                       const Domain *);
+                       const Domain *,
+                       const AffineConstraints<double> *);
 } // namespace VI

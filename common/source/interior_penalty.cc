@@ -98,13 +98,58 @@ namespace VI
   double
   InteriorPenalty::normal_extent(
     const typename dealii::Triangulation<dim>::cell_iterator &cell,
-    const unsigned int                                        face)
+    const unsigned int                                        face,
+    const unsigned int                                        subface)
   {
+    if (subface != dealii::numbers::invalid_unsigned_int)
+      {
+        const auto child = cell->neighbor_child_on_subface(face, subface);
+        return std::min(cell->measure(), child->measure()) /
+               cell->face(face)->child(subface)->measure();
+      }
     const double face_measure = cell->face(face)->measure();
     double       volume       = cell->measure();
     if (!cell->at_boundary(face))
       volume = std::min(volume, cell->neighbor(face)->measure());
     return volume / face_measure;
+  }
+
+
+  template <int dim>
+  void
+  InteriorPenalty::for_each_face_part(
+    dealii::FEInterfaceValues<dim>                               &interface,
+    const typename dealii::DoFHandler<dim>::active_cell_iterator &cell,
+    const unsigned int                                            face,
+    const std::function<void(const unsigned int subface)>        &action)
+  {
+    const unsigned int none     = dealii::numbers::invalid_unsigned_int;
+    const auto         neighbor = cell->neighbor(face);
+    if (neighbor->has_children())
+      for (unsigned int sf = 0; sf < cell->face(face)->n_children(); ++sf)
+        {
+          interface.reinit(cell,
+                           face,
+                           sf,
+                           cell->neighbor_child_on_subface(face, sf),
+                           cell->neighbor_of_neighbor(face),
+                           none);
+          action(sf);
+        }
+    else if (cell->neighbor_is_coarser(face))
+      {
+        const auto [neighbor_face, neighbor_subface] =
+          cell->neighbor_of_coarser_neighbor(face);
+        interface.reinit(
+          cell, face, none, neighbor, neighbor_face, neighbor_subface);
+        action(none);
+      }
+    else
+      {
+        interface.reinit(
+          cell, face, none, neighbor, cell->neighbor_of_neighbor(face), none);
+        action(none);
+      }
   }
 
 
@@ -204,6 +249,12 @@ namespace VI
 
 
   template void
+  InteriorPenalty::for_each_face_part<2>(
+    dealii::FEInterfaceValues<2> &,
+    const typename dealii::DoFHandler<2>::active_cell_iterator &,
+    const unsigned int,
+    const std::function<void(const unsigned int)> &);
+  template void
   InteriorPenalty::add_cell_matrix(const dealii::FEValuesBase<2> &,
                                    dealii::FullMatrix<double> &);
   template void
@@ -222,5 +273,6 @@ namespace VI
   template double
   InteriorPenalty::normal_extent<2>(
     const typename dealii::Triangulation<2>::cell_iterator &,
+    const unsigned int,
     const unsigned int);
 } // namespace VI

@@ -15,6 +15,7 @@
 #include <deal.II/grid/grid_generator.h>
 #include <deal.II/grid/grid_tools.h>
 #include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/lapack_full_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
@@ -30,6 +31,7 @@
 
 #include "equilibration_defect.h"
 
+#include <algorithm>
 #include <cmath>
 
 using namespace dealii;
@@ -156,14 +158,24 @@ namespace
                 penalty.add_boundary_matrix(face_values, h_F, cell_matrix);
                 penalty.add_boundary_rhs(face_values, h_F, g_values, cell_rhs);
               }
-            else if (cell->index() < cell->neighbor(face)->index())
+            else if (!cell->neighbor(face)->has_children() &&
+                     (cell->neighbor_is_coarser(face) ||
+                      cell->index() < cell->neighbor(face)->index()))
               {
+                // each interior face once, from the finer side at a
+                // refinement edge
+                const auto neighbor = cell->neighbor(face);
+                const auto [neighbor_face, neighbor_subface] =
+                  cell->neighbor_is_coarser(face) ?
+                    cell->neighbor_of_coarser_neighbor(face) :
+                    std::make_pair(cell->neighbor_of_neighbor(face),
+                                   numbers::invalid_unsigned_int);
                 interface.reinit(cell,
                                  face,
                                  numbers::invalid_unsigned_int,
-                                 cell->neighbor(face),
-                                 cell->neighbor_of_neighbor(face),
-                                 numbers::invalid_unsigned_int);
+                                 neighbor,
+                                 neighbor_face,
+                                 neighbor_subface);
                 const auto face_dofs = interface.get_interface_dof_indices();
                 FullMatrix<double> face_matrix(face_dofs.size(),
                                                face_dofs.size());
@@ -354,14 +366,24 @@ namespace
   double
   dg_equilibration_defect(const std::string &name,
                           const unsigned int p,
-                          const bool         distorted,
+                          const std::string &mesh,
                           const bool         with_lifting)
   {
     Triangulation<2> tria;
     GridGenerator::hyper_cube(tria);
     tria.refine_global(3);
-    if (distorted)
+    if (mesh == "distorted")
       GridTools::distort_random(0.2, tria, true, 42);
+    if (mesh == "locally-refined")
+      // two levels of refinement towards the corner (0, 0): hanging nodes
+      // on faces whose neighbours are refined once and twice
+      for (const double radius : {0.5, 0.25})
+        {
+          for (const auto &cell : tria.active_cell_iterators())
+            if (cell->center().norm() < radius)
+              cell->set_refine_flag();
+          tria.execute_coarsening_and_refinement();
+        }
     MappingQ<2>             mapping(1);
     FE_DGQArbitraryNodes<2> fe(QGaussLobatto<1>(p + 1));
     DoFHandler<2>           dofs(tria);
@@ -470,24 +492,27 @@ namespace
 } // namespace
 
 
-class DGFluxReconstruction : public ::testing::TestWithParam<
-                               std::tuple<std::string, unsigned int, bool>>
+class DGFluxReconstruction
+    : public ::testing::TestWithParam<
+        std::tuple<std::string, unsigned int, std::string>>
 {
 };
 
 
 // The patch problems are compatible for a dG function when the flux
 // carries the lifting of the jumps (doc/step-membranes.md): div sigma =
-// f - r_h in every cell's Q_p moments, also on distorted cells.
+// f - r_h in every cell's Q_p moments, also on distorted cells and on
+// meshes with hanging nodes (the lifting then integrates over the
+// subfaces the assembly integrates over).
 TEST_P(DGFluxReconstruction, LiftingOfTheJumpsMakesThePatchProblemsCompatible)
 {
-  const auto [name, p, distorted] = GetParam();
-  const double defect = dg_equilibration_defect(name, p, distorted, true);
+  const auto [name, p, mesh] = GetParam();
+  const double defect        = dg_equilibration_defect(name, p, mesh, true);
   EXPECT_TRUE(std::isfinite(defect));
   EXPECT_LT(defect, 1e-10) << name << ", p = " << p;
   // Without it, the symmetric and nonsymmetric methods (epsilon != 0) are
   // not in equilibrium; IIPG needs no lifting.
-  const double without = dg_equilibration_defect(name, p, distorted, false);
+  const double without = dg_equilibration_defect(name, p, mesh, false);
   if (name == "iipg")
     EXPECT_LT(without, 1e-10);
   else
@@ -498,13 +523,15 @@ TEST_P(DGFluxReconstruction, LiftingOfTheJumpsMakesThePatchProblemsCompatible)
 INSTANTIATE_TEST_SUITE_P(
   MethodsDegreesMeshes,
   DGFluxReconstruction,
-  ::testing::Combine(::testing::Values("sipg", "nipg", "iipg"),
-                     ::testing::Values(1u, 2u),
-                     ::testing::Bool()),
+  ::testing::Combine(
+    ::testing::Values("sipg", "nipg", "iipg"),
+    ::testing::Values(1u, 2u),
+    ::testing::Values("uniform", "distorted", "locally-refined")),
   [](const auto &info) {
+    std::string mesh = std::get<2>(info.param);
+    std::replace(mesh.begin(), mesh.end(), '-', '_');
     return std::get<0>(info.param) + "_p" +
-           std::to_string(std::get<1>(info.param)) +
-           (std::get<2>(info.param) ? "_distorted" : "_uniform");
+           std::to_string(std::get<1>(info.param)) + "_" + mesh;
   });
 
 
@@ -548,5 +575,72 @@ TEST(OswaldInterpolation, IsTheIdentityOnContinuousFunctions)
       const auto boundary = DoFTools::extract_boundary_dofs(continuous);
       for (unsigned int i = 0; i < continuous.n_dofs(); ++i)
         EXPECT_NEAR(s(i), boundary.is_element(i) ? 7. : v(i), 1e-13);
+    }
+}
+
+
+// On a mesh with hanging nodes the Oswald interpolate is conforming: the
+// average at a hanging node is replaced by the value of the coarse face,
+// and a continuous function is still reproduced. Without the constraints
+// it is not (the broken perturbation's averages at the hanging nodes stay).
+TEST(OswaldInterpolation, IsConformingOnMeshesWithHangingNodes)
+{
+  for (const unsigned int p : {1u, 2u})
+    {
+      Triangulation<2> tria;
+      GridGenerator::hyper_cube(tria);
+      tria.refine_global(2);
+      tria.begin_active()->set_refine_flag();
+      tria.execute_coarsening_and_refinement();
+      MappingQ<2>             mapping(1);
+      FE_DGQArbitraryNodes<2> fe(QGaussLobatto<1>(p + 1));
+      FE_Q<2>                 fe_continuous(p);
+      DoFHandler<2>           broken(tria), continuous(tria);
+      broken.distribute_dofs(fe);
+      continuous.distribute_dofs(fe_continuous);
+      AffineConstraints<double> hanging_nodes;
+      DoFTools::make_hanging_node_constraints(continuous, hanging_nodes);
+      hanging_nodes.close();
+      ASSERT_GT(hanging_nodes.n_constraints(), 0u);
+
+      const Smooth   smooth;
+      Vector<double> v(continuous.n_dofs()), v_broken(broken.n_dofs());
+      VectorTools::interpolate(mapping, continuous, smooth, v);
+      hanging_nodes.distribute(v);
+      FETools::interpolate(continuous, v, broken, v_broken);
+
+      const IndexSet all_broken = complete_index_set(broken.n_dofs()),
+                     all_cont   = complete_index_set(continuous.n_dofs());
+      TrilinosWrappers::MPI::Vector u(all_broken, MPI_COMM_SELF),
+        s(all_cont, MPI_COMM_SELF);
+      for (unsigned int i = 0; i < broken.n_dofs(); ++i)
+        u(i) = v_broken(i) + 0.1 * std::sin(i); // (a broken function)
+      u.compress(VectorOperation::insert);
+      const auto max_constraint_violation = [&]() {
+        double violation = 0;
+        for (unsigned int i = 0; i < continuous.n_dofs(); ++i)
+          if (hanging_nodes.is_constrained(i))
+            {
+              double value = 0;
+              for (const auto &[j, w] :
+                   *hanging_nodes.get_constraint_entries(i))
+                value += w * s(j);
+              violation = std::max(violation, std::abs(s(i) - value));
+            }
+        return violation;
+      };
+      VI::oswald_interpolation<2>(
+        mapping, broken, u, continuous, nullptr, s, nullptr, &hanging_nodes);
+      EXPECT_LT(max_constraint_violation(), 1e-14) << "p = " << p;
+      VI::oswald_interpolation<2>(mapping, broken, u, continuous, nullptr, s);
+      EXPECT_GT(max_constraint_violation(), 1e-3) << "p = " << p;
+
+      for (unsigned int i = 0; i < broken.n_dofs(); ++i)
+        u(i) = v_broken(i);
+      u.compress(VectorOperation::insert);
+      VI::oswald_interpolation<2>(
+        mapping, broken, u, continuous, nullptr, s, nullptr, &hanging_nodes);
+      for (unsigned int i = 0; i < continuous.n_dofs(); ++i)
+        EXPECT_NEAR(s(i), v(i), 1e-13) << "p = " << p;
     }
 }

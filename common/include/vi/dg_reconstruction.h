@@ -8,6 +8,7 @@
 #include <deal.II/fe/fe_system.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping.h>
+#include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <memory>
@@ -28,7 +29,9 @@ namespace VI
    *   (L_K, tau)_K = sum_{F in faces of K} w_F (tau . n_K, [[u_h]]_K)_F
    *                  for all tau in V(K),
    *
-   * [[u_h]]_K = u_h|K - u_h|K' on an interior face (K' the neighbour),
+   * [[u_h]]_K = u_h|K - u_h|K' on an interior face (K' the neighbour;
+   * where the neighbours across a face of K are refined, F runs over the
+   * subfaces and K' over the children there),
    * u_h|K - g on a boundary face; w_F = 1/2 inside, 1 on the boundary.
    * Summed over the cells, (L, tau) = sum_F ({tau}.n_F, [[u_h]])_F for every
    * broken tau in V = prod_K V(K), the face terms of the interior penalty
@@ -103,15 +106,20 @@ namespace VI
    * cells that share it; at the boundary nodes the value of g (when given),
    * so that s_h interpolates the Dirichlet data. The broken element must
    * have the nodes of the continuous one on every cell (FE_DGQArbitraryNodes
-   * on the Gauss-Lobatto points for FE_Q). `u` is ghosted, `s` has no ghosts.
+   * on the Gauss-Lobatto points for FE_Q). On meshes with hanging nodes
+   * the values at the hanging nodes are then those the constraints
+   * `hanging_nodes` (of `continuous`, on its locally relevant dofs) give,
+   * so that s is conforming. `u` is ghosted, `s` has no ghosts.
    */
   template <int dim>
   void
-  oswald_interpolation(const dealii::Mapping<dim>                  &mapping,
-                       const dealii::DoFHandler<dim>               &broken,
-                       const dealii::TrilinosWrappers::MPI::Vector &u,
-                       const dealii::DoFHandler<dim>               &continuous,
-                       const dealii::Function<dim>                 *g,
-                       dealii::TrilinosWrappers::MPI::Vector       &s,
-                       const Domain *domain = nullptr);
+  oswald_interpolation(
+    const dealii::Mapping<dim>                  &mapping,
+    const dealii::DoFHandler<dim>               &broken,
+    const dealii::TrilinosWrappers::MPI::Vector &u,
+    const dealii::DoFHandler<dim>               &continuous,
+    const dealii::Function<dim>                 *g,
+    dealii::TrilinosWrappers::MPI::Vector       &s,
+    const Domain                                *domain        = nullptr,
+    const dealii::AffineConstraints<double>     *hanging_nodes = nullptr);
 } // namespace VI

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <deal.II/dofs/dof_handler.h>
 #include <deal.II/fe/fe_interface_values.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/grid/tria.h>
@@ -8,6 +9,7 @@
 
 #include <vi/spellings.h>
 
+#include <functional>
 #include <string>
 
 namespace VI
@@ -111,14 +113,36 @@ namespace VI
 
     /**
      * h_F of face f of `cell`: min(|K|, |K'|) / |F| for an interior face
-     * (K' the neighbour; the mesh has no hanging nodes), |K| / |F| on the
-     * boundary.
+     * F between K and its neighbour K', |K| / |F| on the boundary. Where
+     * the neighbour is refined, F is the subface `subface` and K' the
+     * neighbour's child on it; where the neighbour is coarser, F is the
+     * face of `cell`. Either way F is the face both sides integrate over,
+     * and both sides get the same h_F: that of the finer cell.
      */
     template <int dim>
     static double
     normal_extent(
       const typename dealii::Triangulation<dim>::cell_iterator &cell,
-      const unsigned int                                        face);
+      const unsigned int                                        face,
+      const unsigned int subface = dealii::numbers::invalid_unsigned_int);
+
+    /**
+     * Reinitialise `interface` on each part of face f of `cell` (interior)
+     * that the cell shares with one active neighbour, and call
+     * `action(subface)` there: once for F itself (subface invalid) where
+     * the neighbour is as fine or coarser, once per subface (the
+     * neighbour's children) where it is refined. Cell 0 of `interface` is
+     * `cell`, so the normal points out of it. Summing the parts seen from
+     * every cell visits each interior face of the mesh twice, one-sided
+     * integrals on matching points, as the loops of the estimators need.
+     */
+    template <int dim>
+    static void
+    for_each_face_part(
+      dealii::FEInterfaceValues<dim>                               &interface,
+      const typename dealii::DoFHandler<dim>::active_cell_iterator &cell,
+      const unsigned int                                            face,
+      const std::function<void(const unsigned int subface)>        &action);
 
     /// Add sum_q grad phi_i . grad phi_j JxW: the cell part of A_h.
     template <int dim>
