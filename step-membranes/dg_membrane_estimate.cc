@@ -217,6 +217,22 @@ namespace StepMembranes
     Vector moments(owned_nodes, comm);
     VI::NodalFields::extract(X, multiplier, moments);
     moments.scale(contact_system.coupling());
+    // 2 <lambda_h, u1h - u2h>_h = 2 sum_I m_I (u1h - u2h)(x_I): zero once
+    // Newton has converged (and at the iterates of Newton-min with exact
+    // solves), not on the smoothed path of the continuation, at
+    // Fischer-Burmeister's iterates or at inexact ones. Below 1e-12 of its
+    // scale it is the rounding of a converged iterate: zero.
+    double complementarity = 0;
+    {
+      Vector gap(owned_nodes, comm);
+      VI::NodalFields::extract(X, VI::NodalFields::u1, gap);
+      VI::NodalFields::extract(X, VI::NodalFields::u2, field);
+      const double scale =
+        moments.l1_norm() * std::max(gap.linfty_norm(), field.linfty_norm());
+      gap -= field;
+      const double product = moments * gap;
+      complementarity = std::abs(product) > 1e-12 * scale ? 2. * product : 0.;
+    }
     // (the contact set of X decides the cells of the transmitted load)
     const bool transmits =
       parameters.estimators.transmits_load(data.mu1, data.mu2);
@@ -314,6 +330,7 @@ namespace StepMembranes
     in.friedrichs_constant = domain.friedrichs_constant();
     in.domain              = &domain;
     in.mass_lumped         = true; // the nodal multiplier, see above
+    in.complementarity     = complementarity;
     in.u1                  = &u[0];
     in.u2                  = &u[1];
     in.lambda              = &lambda;

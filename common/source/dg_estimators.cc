@@ -425,9 +425,11 @@ namespace VI
       e.nonc_3       = 2. * C * std::sqrt(total[DGSum::positive]) * e.nonc_1;
       e.contact_pos  = total[DGSum::contact_total];
       e.contact_cone = total[DGSum::contact_cone];
-      // 2 (lambda_h, u1h - u2h) = 2 sum_i X3_i (X1_i - X2_i) vanishes with the
-      // discrete complementarity (the dual basis); the rest is discretisation.
-      e.contact_lin  = in.mass_lumped ? 0. : total[DGSum::contact_discrete];
+      // 2 <lambda_h, u1h - u2h>_h vanishes with the discrete complementarity;
+      // the rest is discretisation. With the nodal multiplier it is given,
+      // otherwise (lambda, u1h - u2h) is that bracket (the dual basis).
+      e.contact_lin =
+        in.mass_lumped ? in.complementarity : total[DGSum::contact_discrete];
       e.contact_disc = e.contact_cone - e.contact_lin;
       e.dirichlet    = std::sqrt(total[DGSum::dirichlet_squared]);
 

@@ -58,8 +58,13 @@ namespace VI
 
     /// lambda is a nodal (lumped) representative of the discrete multiplier,
     /// for which (lambda, u1h - u2h) does not vanish exactly at a solution:
-    /// the whole contact term is then a discretisation term.
+    /// the linearisation part of the contact term is then `complementarity`.
     bool mass_lumped = false;
+    /// 2 <lambda_h, u1h - u2h>_h = 2 sum_I m_I (u1h - u2h)(x_I) over the
+    /// nodes of every cell (m_I the moments of lambda_h), which vanishes
+    /// with the discrete complementarity: Newton's part of the contact term
+    /// (with mass_lumped).
+    double complementarity = 0;
 
     using Vector = typename ContactEstimatorData<dim>::Vector;
     /// On `broken`: the algebraic residuals r_h.
