@@ -166,6 +166,39 @@ namespace StepMembranes
   }
 
 
+  // The conforming potentials of the broken pair u (ghosted): the Oswald
+  // interpolates with the nodal values of g on the boundary (conforming at
+  // hanging nodes), the same averaged at the nodes where s1 < s2, and the
+  // liftings L of the jumps of u.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::reconstruct_potentials(const Vector (&u)[2],
+                                                 Vector (&oswald)[2],
+                                                 Vector (&averaged)[2],
+                                                 Vector (&L)[2]) const
+  {
+    const Function<dim> *g[2] = {data.g1.get(), data.g2.get()};
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        oswald[a].reinit(owned_continuous, comm);
+        averaged[a].reinit(owned_continuous, comm);
+        VI::oswald_interpolation(*mapping,
+                                 dof_handler,
+                                 u[a],
+                                 continuous_dof_handler,
+                                 g[a],
+                                 oswald[a],
+                                 &domain,
+                                 &continuous_hanging_nodes);
+        lifting->compute(dof_handler, u[a], *g[a], L[a], &domain);
+      }
+    VI::average_at_violated_nodes(
+      data.mu1, data.mu2, oswald[0], oswald[1], averaged[0], averaged[1]);
+    for (Vector &v : averaged)
+      continuous_hanging_nodes.distribute(v);
+  }
+
+
   // The estimate of the iterate X (doc/step-membranes.md, dG section):
   // - lambda_h and r_h: the broken functions with moments X3 and F - E X;
   // - s_h: Oswald interpolation into FE_Q(p) with the nodal values of g on
@@ -178,12 +211,13 @@ namespace StepMembranes
   DGMembraneProblem<dim>::estimate(const Vector &X) const
   {
     TimerOutput::Scope t(timer, "estimators");
-    Vector             field(owned_nodes, comm);
+    Vector             field(owned_nodes, comm), nodal[2];
     Vector             u[2], r[2], lambda, lambda_nonnegative;
     for (const unsigned int a : {VI::NodalFields::u1, VI::NodalFields::u2})
       {
-        VI::NodalFields::extract(X, a, field);
-        ghosted_nodes.copy(field, u[a]);
+        nodal[a].reinit(owned_nodes, comm);
+        VI::NodalFields::extract(X, a, nodal[a]);
+        ghosted_nodes.copy(nodal[a], u[a]);
       }
     Vector R(owned_system, comm);
     contact_system.matrix.vmult(R, X);
@@ -194,45 +228,11 @@ namespace StepMembranes
         function_from_moments(field, r[a]);
       }
 
-    const Function<dim> *g[2] = {data.g1.get(), data.g2.get()};
-    Vector               s_owned[2], s_averaged[2], s[2], L[2];
-    for (unsigned int a = 0; a < 2; ++a)
-      {
-        s_owned[a].reinit(owned_continuous, comm);
-        s_averaged[a].reinit(owned_continuous, comm);
-        VI::oswald_interpolation(*mapping,
-                                 dof_handler,
-                                 u[a],
-                                 continuous_dof_handler,
-                                 g[a],
-                                 s_owned[a],
-                                 &domain,
-                                 &continuous_hanging_nodes);
-        lifting->compute(dof_handler, u[a], *g[a], L[a], &domain);
-      }
-    VI::average_at_violated_nodes(
-      data.mu1, data.mu2, s_owned[0], s_owned[1], s_averaged[0], s_averaged[1]);
-    for (Vector &v : s_averaged)
-      continuous_hanging_nodes.distribute(v);
+    Vector s_owned[2], s_averaged[2], s[2], L[2];
+    reconstruct_potentials(u, s_owned, s_averaged, L);
     Vector moments(owned_nodes, comm);
     VI::NodalFields::extract(X, multiplier, moments);
     moments.scale(contact_system.coupling());
-    // 2 <lambda_h, u1h - u2h>_h = 2 sum_I m_I (u1h - u2h)(x_I): zero once
-    // Newton has converged (and at the iterates of Newton-min with exact
-    // solves), not on the smoothed path of the continuation, at
-    // Fischer-Burmeister's iterates or at inexact ones. Below 1e-12 of its
-    // scale it is the rounding of a converged iterate: zero.
-    double complementarity = 0;
-    {
-      Vector gap(owned_nodes, comm);
-      VI::NodalFields::extract(X, VI::NodalFields::u1, gap);
-      VI::NodalFields::extract(X, VI::NodalFields::u2, field);
-      const double scale =
-        moments.l1_norm() * std::max(gap.linfty_norm(), field.linfty_norm());
-      gap -= field;
-      const double product = moments * gap;
-      complementarity = std::abs(product) > 1e-12 * scale ? 2. * product : 0.;
-    }
     // (the contact set of X decides the cells of the transmitted load)
     const bool transmits =
       parameters.estimators.transmits_load(data.mu1, data.mu2);
@@ -314,31 +314,24 @@ namespace StepMembranes
     flux_reconstruction->reconstruct(sources, {&sigma[0], &sigma[1]});
 
     VI::DGContactEstimatorInput<dim> in;
-    in.mapping             = mapping.get();
-    in.broken              = &dof_handler;
-    in.continuous          = &continuous_dof_handler;
-    in.flux                = &flux_reconstruction->get_dof_handler();
-    in.quadrature          = &flux_reconstruction->get_quadrature();
-    in.face_quadrature     = &face_quadrature;
-    in.penalty             = &penalty;
-    in.mu1                 = data.mu1;
-    in.mu2                 = data.mu2;
-    in.f1                  = data.f1.get();
-    in.f2                  = data.f2.get();
-    in.g1                  = data.g1.get();
-    in.g2                  = data.g2.get();
-    in.friedrichs_constant = domain.friedrichs_constant();
-    in.domain              = &domain;
-    in.mass_lumped         = true; // the nodal multiplier, see above
-    in.complementarity     = complementarity;
-    in.u1                  = &u[0];
-    in.u2                  = &u[1];
-    in.lambda              = &lambda;
-    in.lambda_nonnegative  = &lambda_nonnegative;
-    in.r1                  = &r[0];
-    in.r2                  = &r[1];
-    in.s1                  = &s[0];
-    in.s2                  = &s[1];
+    in.mapping         = mapping.get();
+    in.broken          = &dof_handler;
+    in.continuous      = &continuous_dof_handler;
+    in.flux            = &flux_reconstruction->get_dof_handler();
+    in.quadrature      = &flux_reconstruction->get_quadrature();
+    in.face_quadrature = &face_quadrature;
+    in.penalty         = &penalty;
+    in.set_problem(data, domain);
+    in.mass_lumped     = true; // the nodal multiplier, see above
+    in.complementarity = VI::nodal_complementarity(moments, nodal[0], nodal[1]);
+    in.u1              = &u[0];
+    in.u2              = &u[1];
+    in.lambda          = &lambda;
+    in.lambda_nonnegative = &lambda_nonnegative;
+    in.r1                 = &r[0];
+    in.r2                 = &r[1];
+    in.s1                 = &s[0];
+    in.s2                 = &s[1];
     in.oswald1 = transmits ? nullptr : &oswald[0]; // (joined s: no split)
     in.oswald2 = transmits ? nullptr : &oswald[1];
     in.sigma1  = &sigma[0];
@@ -578,6 +571,11 @@ namespace StepMembranes
     const std::function<void(const FEValues<2> &,
                              const std::vector<types::global_dof_index> &)>
       &local) const;
+  template void
+  DGMembraneProblem<2>::reconstruct_potentials(const Vector (&u)[2],
+                                               Vector (&oswald)[2],
+                                               Vector (&averaged)[2],
+                                               Vector (&L)[2]) const;
   template VI::DGContactEstimate
   DGMembraneProblem<2>::estimate(const Vector &X) const;
   template std::vector<double>

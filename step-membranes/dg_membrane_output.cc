@@ -90,17 +90,9 @@ namespace StepMembranes
   DGMembraneProblem<dim>::refine_mesh()
   {
     TimerOutput::Scope t(timer, "refinement");
-    const auto        &mesh = parameters.mesh;
-    if (mesh.refinement == "adaptive")
-      {
-        Assert(final_estimate, ExcInternalError());
-        VI::mark_cells_for_refinement(triangulation,
-                                      final_estimate->cell_total,
-                                      mesh.marking,
-                                      mesh.refinement_fraction);
-      }
-    else
-      VI::flag_all_cells(triangulation);
+    VI::flag_next_mesh(triangulation,
+                       parameters.mesh,
+                       final_estimate ? &final_estimate->cell_total : nullptr);
     solution_transfer =
       VI::refine_flagged_cells(triangulation,
                                dof_handler,

@@ -138,6 +138,13 @@ namespace StepMembranes
     initialize_iterate() override;
     void
     solve() override;
+    /// The Oswald interpolates of u, averaged at the violated nodes, and
+    /// the liftings of the jumps (the potentials of the estimate).
+    void
+    reconstruct_potentials(const Vector (&u)[2],
+                           Vector (&oswald)[2],
+                           Vector (&averaged)[2],
+                           Vector (&L)[2]) const;
     VI::DGContactEstimate
     estimate(const Vector &X) const;
     /// The multiplier of the estimate from the moments of lambda_h: the

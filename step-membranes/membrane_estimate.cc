@@ -106,14 +106,7 @@ namespace StepMembranes
       equilibrated || parameters.estimators.dual_norm_remainder;
     VI::ContactEstimatorInput<dim> in =
       estimator_input(*flux_reconstruction, it, ahead);
-    in.mu1                   = data.mu1;
-    in.mu2                   = data.mu2;
-    in.f1                    = data.f1.get();
-    in.f2                    = data.f2.get();
-    in.g1                    = data.g1.get();
-    in.g2                    = data.g2.get();
-    in.friedrichs_constant   = domain.friedrichs_constant();
-    in.domain                = &domain;
+    in.set_problem(data, domain);
     in.dual_norm             = dual_norm.get();
     in.dual_norm_undershoots = undershoots;
     in.dual_norm_remainder   = remainder;

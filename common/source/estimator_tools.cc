@@ -169,6 +169,20 @@ namespace VI
   }
 
 
+  double
+  nodal_complementarity(const TrilinosWrappers::MPI::Vector &moments,
+                        const TrilinosWrappers::MPI::Vector &u1,
+                        const TrilinosWrappers::MPI::Vector &u2)
+  {
+    TrilinosWrappers::MPI::Vector gap(u1);
+    gap -= u2;
+    const double product = moments * gap;
+    const double scale =
+      moments.l1_norm() * std::max(u1.linfty_norm(), u2.linfty_norm());
+    return std::abs(product) > 1e-12 * scale ? 2. * product : 0.;
+  }
+
+
   std::vector<std::pair<std::string, dealii::Vector<float>>>
   cell_indicators(const ContactEstimate &e)
   {

@@ -2,6 +2,8 @@
 #include <deal.II/distributed/grid_refinement.h>
 
 #include <vi/marking.h>
+#include <vi/mesh_sequence.h>
+#include <vi/parameters.h>
 
 #include <algorithm>
 #include <cmath>
@@ -63,6 +65,30 @@ namespace VI
   }
 
 
+  template <int dim>
+  void
+  flag_next_mesh(parallel::distributed::Triangulation<dim> &triangulation,
+                 const MeshParameters                      &mesh,
+                 const Vector<double>                      *squared_indicators)
+  {
+    if (mesh.refinement == "adaptive")
+      {
+        AssertThrow(squared_indicators,
+                    ExcMessage("Adaptive refinement without an estimate"));
+        mark_cells_for_refinement(triangulation,
+                                  *squared_indicators,
+                                  mesh.marking,
+                                  mesh.refinement_fraction);
+      }
+    else
+      flag_all_cells(triangulation);
+  }
+
+
+  template void
+  flag_next_mesh(parallel::distributed::Triangulation<2> &,
+                 const MeshParameters &,
+                 const Vector<double> *);
   template void
   mark_cells_for_refinement(parallel::distributed::Triangulation<2> &,
                             const Vector<double> &,

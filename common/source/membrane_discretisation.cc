@@ -549,17 +549,8 @@ namespace VI
         ghosted_nodes.copy(split.load_nodes, load_nodes);
       }
 
-    // 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i): zero once
-    // Newton has converged (and at every iterate of Newton-min, whose rows
-    // set one factor to zero), not on the smoothed path of the continuation
-    // or at Fischer-Burmeister's iterates. Below 1e-12 of its scale
-    // 2 sum |m_i| max |u_h| it is the rounding of a converged iterate: zero.
-    Vector gap(owned[0]);
-    gap -= owned[1];
-    const double product = moments * gap;
-    const double scale   = moments.l1_norm() * std::max(owned[0].linfty_norm(),
-                                                      owned[1].linfty_norm());
-    it.complementarity = std::abs(product) > 1e-12 * scale ? 2. * product : 0.;
+    // (Newton's part of the contact term)
+    it.complementarity = nodal_complementarity(moments, owned[0], owned[1]);
     if (!cell_multiplier)
       {
         multiplier_function.with_nonnegative_part(moments,

@@ -4,6 +4,7 @@
 #include <deal.II/lac/vector.h>
 
 #include <vi/marking.h>
+#include <vi/parameters.h>
 
 #include <gtest/gtest.h>
 
@@ -68,4 +69,38 @@ TEST(Marking, TiesAtTheThresholdRefineTheWholeGroup)
   // (Dorfler's set of least cardinality has 4 of the 8: 0.3 of the sum)
   EXPECT_EQ(n_marked("dorfler", 0.3), 8u);
   EXPECT_EQ(n_marked("dorfler", 0.1), 8u);
+}
+
+
+// The next mesh of a sequence: every cell for global refinement (no
+// indicators needed), the marked ones for adaptive refinement, which
+// without indicators is an error rather than a silent uniform step.
+TEST(Marking, NextMeshIsUniformOrMarked)
+{
+  dealii::parallel::distributed::Triangulation<2> tria(MPI_COMM_WORLD);
+  dealii::GridGenerator::hyper_cube(tria);
+  tria.refine_global(2);
+  const auto n_flagged = [&]() {
+    unsigned int n = 0;
+    for (const auto &cell : tria.active_cell_iterators())
+      {
+        n += cell->refine_flag_set() ? 1 : 0;
+        cell->clear_refine_flag();
+      }
+    return n;
+  };
+  VI::MeshParameters mesh;
+  mesh.refinement = "global";
+  VI::flag_next_mesh(tria, mesh, nullptr);
+  EXPECT_EQ(n_flagged(), 16u);
+
+  mesh.refinement          = "adaptive";
+  mesh.marking             = "fixed-fraction";
+  mesh.refinement_fraction = 0.25;
+  dealii::Vector<double> indicators(tria.n_active_cells());
+  for (unsigned int k = 0; k < indicators.size(); ++k)
+    indicators(k) = 1. + k; // (distinct: the 4 largest are marked)
+  VI::flag_next_mesh(tria, mesh, &indicators);
+  EXPECT_EQ(n_flagged(), 4u);
+  EXPECT_ANY_THROW(VI::flag_next_mesh(tria, mesh, nullptr));
 }

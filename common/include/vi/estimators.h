@@ -125,6 +125,22 @@ namespace VI
     const Vector *s1 = nullptr, *s2 = nullptr;
     const Vector *lambda             = nullptr;
     const Vector *lambda_nonnegative = nullptr;
+
+    /// The tensions, loads and boundary data of `data` (a MembraneData),
+    /// the clamped boundary and Friedrichs' constant of `domain`.
+    template <typename Data, typename DomainType>
+    void
+    set_problem(const Data &data, const DomainType &clamped)
+    {
+      mu1                 = data.mu1;
+      mu2                 = data.mu2;
+      f1                  = data.f1.get();
+      f2                  = data.f2.get();
+      g1                  = data.g1.get();
+      g2                  = data.g2.get();
+      friedrichs_constant = clamped.friedrichs_constant();
+      domain              = &clamped;
+    }
   };
 
 
@@ -333,4 +349,20 @@ namespace VI
                             const dealii::TrilinosWrappers::MPI::Vector &u2,
                             dealii::TrilinosWrappers::MPI::Vector       &s1,
                             dealii::TrilinosWrappers::MPI::Vector       &s2);
+
+
+  /**
+   * 2 <lambda_h, u1h - u2h>_h = 2 sum_i m_i (u1h - u2h)(x_i) for the
+   * moments m_i = <lambda_h, psi_i>_h and the nodal values of u1h, u2h
+   * (owned vectors on the same nodes): zero once Newton has converged (and
+   * at the iterates of Newton-min with exact solves, whose rows set one
+   * factor to zero), not on the smoothed path of the continuation, at
+   * Fischer-Burmeister's iterates or at inexact ones. Below 1e-12 of its
+   * scale 2 sum |m_i| max |u_h| it is the rounding of a converged iterate,
+   * and zero is returned (collective).
+   */
+  double
+  nodal_complementarity(const dealii::TrilinosWrappers::MPI::Vector &moments,
+                        const dealii::TrilinosWrappers::MPI::Vector &u1,
+                        const dealii::TrilinosWrappers::MPI::Vector &u2);
 } // namespace VI

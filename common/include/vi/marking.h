@@ -7,6 +7,8 @@
 
 namespace VI
 {
+  struct MeshParameters;
+
   /**
    * Marking of cells for refinement from the squared cell indicators
    * eta_K^2 (the cell values of a ContactEstimate), on a distributed mesh
@@ -37,4 +39,19 @@ namespace VI
     const dealii::Vector<double>                      &squared_indicators,
     const std::string                                 &strategy,
     const double                                       fraction);
+
+
+  /**
+   * Flag the cells of the next mesh of a sequence: with `Mesh/Refinement =
+   * adaptive` those mark_cells_for_refinement() chooses from the squared
+   * cell indicators (which must be given) with the mesh's marking and
+   * fraction, otherwise every cell (uniform refinement; the indicators, if
+   * any, are not read).
+   */
+  template <int dim>
+  void
+  flag_next_mesh(
+    dealii::parallel::distributed::Triangulation<dim> &triangulation,
+    const MeshParameters                              &mesh,
+    const dealii::Vector<double>                      *squared_indicators);
 } // namespace VI
