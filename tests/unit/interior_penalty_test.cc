@@ -535,6 +535,54 @@ INSTANTIATE_TEST_SUITE_P(
   });
 
 
+namespace
+{
+  /// The spaces of the Oswald tests on `tria`: broken and continuous Q_p
+  /// on the same nodes, a smooth continuous v (conforming at hanging
+  /// nodes), its broken copy, and u (broken) and s (continuous) as the
+  /// vectors oswald_interpolation() takes.
+  struct OswaldSetting
+  {
+    OswaldSetting(const Triangulation<2> &tria, const unsigned int p)
+        : fe(QGaussLobatto<1>(p + 1))
+        , fe_continuous(p)
+        , broken(tria)
+        , continuous(tria)
+    {
+      broken.distribute_dofs(fe);
+      continuous.distribute_dofs(fe_continuous);
+      DoFTools::make_hanging_node_constraints(continuous, hanging_nodes);
+      hanging_nodes.close();
+      v.reinit(continuous.n_dofs());
+      v_broken.reinit(broken.n_dofs());
+      VectorTools::interpolate(mapping, continuous, Smooth(), v);
+      hanging_nodes.distribute(v);
+      FETools::interpolate(continuous, v, broken, v_broken);
+      u.reinit(complete_index_set(broken.n_dofs()), MPI_COMM_SELF);
+      s.reinit(complete_index_set(continuous.n_dofs()), MPI_COMM_SELF);
+      set_u(0.);
+    }
+
+    /// u = the broken copy of v plus `perturbation` sin(i) at node i.
+    void
+    set_u(const double perturbation)
+    {
+      for (unsigned int i = 0; i < broken.n_dofs(); ++i)
+        u(i) = v_broken(i) + perturbation * std::sin(i);
+      u.compress(VectorOperation::insert);
+    }
+
+    MappingQ<2>                   mapping{1};
+    FE_DGQArbitraryNodes<2>       fe;
+    FE_Q<2>                       fe_continuous;
+    DoFHandler<2>                 broken, continuous;
+    AffineConstraints<double>     hanging_nodes;
+    Vector<double>                v, v_broken;
+    TrilinosWrappers::MPI::Vector u, s;
+  };
+} // namespace
+
+
 // The Oswald interpolate of a continuous Q_p function is that function; the
 // data g replace the boundary values.
 TEST(OswaldInterpolation, IsTheIdentityOnContinuousFunctions)
@@ -545,36 +593,19 @@ TEST(OswaldInterpolation, IsTheIdentityOnContinuousFunctions)
       GridGenerator::hyper_cube(tria);
       tria.refine_global(2);
       GridTools::distort_random(0.2, tria, true, 7);
-      MappingQ<2>             mapping(1);
-      FE_DGQArbitraryNodes<2> fe(QGaussLobatto<1>(p + 1));
-      FE_Q<2>                 fe_continuous(p);
-      DoFHandler<2>           broken(tria), continuous(tria);
-      broken.distribute_dofs(fe);
-      continuous.distribute_dofs(fe_continuous);
-
-      const Smooth   smooth;
-      Vector<double> v(continuous.n_dofs()), v_broken(broken.n_dofs());
-      VectorTools::interpolate(mapping, continuous, smooth, v);
-      FETools::interpolate(continuous, v, broken, v_broken);
-
-      const IndexSet all_broken = complete_index_set(broken.n_dofs()),
-                     all_cont   = complete_index_set(continuous.n_dofs());
-      TrilinosWrappers::MPI::Vector u(all_broken, MPI_COMM_SELF),
-        s(all_cont, MPI_COMM_SELF);
-      for (unsigned int i = 0; i < broken.n_dofs(); ++i)
-        u(i) = v_broken(i);
-      u.compress(VectorOperation::insert);
-      VI::oswald_interpolation<2>(mapping, broken, u, continuous, nullptr, s);
+      OswaldSetting o(tria, p);
+      VI::oswald_interpolation<2>(
+        o.mapping, o.broken, o.u, o.continuous, nullptr, o.s);
       double difference = 0;
-      for (unsigned int i = 0; i < continuous.n_dofs(); ++i)
-        difference = std::max(difference, std::abs(s(i) - v(i)));
+      for (unsigned int i = 0; i < o.continuous.n_dofs(); ++i)
+        difference = std::max(difference, std::abs(o.s(i) - o.v(i)));
       EXPECT_LT(difference, 1e-13) << "p = " << p;
 
       const Functions::ConstantFunction<2> g(7.);
-      VI::oswald_interpolation(mapping, broken, u, continuous, &g, s);
-      const auto boundary = DoFTools::extract_boundary_dofs(continuous);
-      for (unsigned int i = 0; i < continuous.n_dofs(); ++i)
-        EXPECT_NEAR(s(i), boundary.is_element(i) ? 7. : v(i), 1e-13);
+      VI::oswald_interpolation(o.mapping, o.broken, o.u, o.continuous, &g, o.s);
+      const auto boundary = DoFTools::extract_boundary_dofs(o.continuous);
+      for (unsigned int i = 0; i < o.continuous.n_dofs(); ++i)
+        EXPECT_NEAR(o.s(i), boundary.is_element(i) ? 7. : o.v(i), 1e-13);
     }
 }
 
@@ -592,55 +623,41 @@ TEST(OswaldInterpolation, IsConformingOnMeshesWithHangingNodes)
       tria.refine_global(2);
       tria.begin_active()->set_refine_flag();
       tria.execute_coarsening_and_refinement();
-      MappingQ<2>             mapping(1);
-      FE_DGQArbitraryNodes<2> fe(QGaussLobatto<1>(p + 1));
-      FE_Q<2>                 fe_continuous(p);
-      DoFHandler<2>           broken(tria), continuous(tria);
-      broken.distribute_dofs(fe);
-      continuous.distribute_dofs(fe_continuous);
-      AffineConstraints<double> hanging_nodes;
-      DoFTools::make_hanging_node_constraints(continuous, hanging_nodes);
-      hanging_nodes.close();
-      ASSERT_GT(hanging_nodes.n_constraints(), 0u);
-
-      const Smooth   smooth;
-      Vector<double> v(continuous.n_dofs()), v_broken(broken.n_dofs());
-      VectorTools::interpolate(mapping, continuous, smooth, v);
-      hanging_nodes.distribute(v);
-      FETools::interpolate(continuous, v, broken, v_broken);
-
-      const IndexSet all_broken = complete_index_set(broken.n_dofs()),
-                     all_cont   = complete_index_set(continuous.n_dofs());
-      TrilinosWrappers::MPI::Vector u(all_broken, MPI_COMM_SELF),
-        s(all_cont, MPI_COMM_SELF);
-      for (unsigned int i = 0; i < broken.n_dofs(); ++i)
-        u(i) = v_broken(i) + 0.1 * std::sin(i); // (a broken function)
-      u.compress(VectorOperation::insert);
+      OswaldSetting o(tria, p);
+      ASSERT_GT(o.hanging_nodes.n_constraints(), 0u);
       const auto max_constraint_violation = [&]() {
         double violation = 0;
-        for (unsigned int i = 0; i < continuous.n_dofs(); ++i)
-          if (hanging_nodes.is_constrained(i))
+        for (unsigned int i = 0; i < o.continuous.n_dofs(); ++i)
+          if (o.hanging_nodes.is_constrained(i))
             {
               double value = 0;
               for (const auto &[j, w] :
-                   *hanging_nodes.get_constraint_entries(i))
-                value += w * s(j);
-              violation = std::max(violation, std::abs(s(i) - value));
+                   *o.hanging_nodes.get_constraint_entries(i))
+                value += w * o.s(j);
+              violation = std::max(violation, std::abs(o.s(i) - value));
             }
         return violation;
       };
-      VI::oswald_interpolation<2>(
-        mapping, broken, u, continuous, nullptr, s, nullptr, &hanging_nodes);
+      // (with or without the constraints)
+      const auto interpolate = [&](const bool conforming) {
+        VI::oswald_interpolation<2>(o.mapping,
+                                    o.broken,
+                                    o.u,
+                                    o.continuous,
+                                    nullptr,
+                                    o.s,
+                                    nullptr,
+                                    conforming ? &o.hanging_nodes : nullptr);
+      };
+      o.set_u(0.1); // (a broken function)
+      interpolate(true);
       EXPECT_LT(max_constraint_violation(), 1e-14) << "p = " << p;
-      VI::oswald_interpolation<2>(mapping, broken, u, continuous, nullptr, s);
+      interpolate(false);
       EXPECT_GT(max_constraint_violation(), 1e-3) << "p = " << p;
 
-      for (unsigned int i = 0; i < broken.n_dofs(); ++i)
-        u(i) = v_broken(i);
-      u.compress(VectorOperation::insert);
-      VI::oswald_interpolation<2>(
-        mapping, broken, u, continuous, nullptr, s, nullptr, &hanging_nodes);
-      for (unsigned int i = 0; i < continuous.n_dofs(); ++i)
-        EXPECT_NEAR(s(i), v(i), 1e-13) << "p = " << p;
+      o.set_u(0.);
+      interpolate(true);
+      for (unsigned int i = 0; i < o.continuous.n_dofs(); ++i)
+        EXPECT_NEAR(o.s(i), o.v(i), 1e-13) << "p = " << p;
     }
 }
