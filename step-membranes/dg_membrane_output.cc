@@ -150,7 +150,9 @@ namespace StepMembranes
           record["effectivity_broken"] = e.broken / error_broken;
         record["estimate"] = to_json(e);
       }
+    // Newton steps, and every estimate (inner checks and accepted iterates).
     record["newton_steps"] = VI::newton_steps(newton_report);
+    record["iterations"]   = VI::to_json(stopping.records, true);
     run_record.add(record);
   }
 
