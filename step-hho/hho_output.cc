@@ -75,6 +75,10 @@ namespace StepHHO
             in_contact += indicator(i);
           contact_fraction(cell->active_cell_index()) = in_contact / n_c;
         }
+
+    last_estimate.reset();
+    if (parameters.estimators)
+      last_estimate = estimate();
   }
 
 
@@ -148,6 +152,8 @@ namespace StepHHO
                "Newton-" + C.name(),
                newton_report.linear_iterations > 0 ? "CG" : "");
     numbers.dofs_condensed = condensed;
+    if (last_estimate)
+      numbers.estimate = last_estimate->broken;
     return numbers;
   }
 
@@ -167,6 +173,19 @@ namespace StepHHO
     // their active sets and, during the continuation, the smoothing).
     record["timing"]       = run_record.cycle_timing();
     record["newton_steps"] = VI::newton_steps(newton_report);
+    if (last_estimate)
+      {
+        // The parts of the bound (doc/reference.md, "A posteriori estimate
+        // of HHO") and the jumps of the cell polynomials (not in it).
+        const VI::DGContactEstimate &e = *last_estimate;
+        record["estimate"] = VI::Json::object({{"flux", e.flux_disc},
+                                               {"residual", e.residual},
+                                               {"nonconformity_1", e.nonc_1},
+                                               {"nonconformity_2", e.nonc_2},
+                                               {"nonconformity_3", e.nonc_3},
+                                               {"contact", e.contact_cone},
+                                               {"jump", e.jump}});
+      }
     run_record.add(record);
   }
 
@@ -183,7 +202,9 @@ namespace StepHHO
     run_record.write_tables(
       table,
       {"cycle", "cells", "dofs", "dofs_condensed", "newton", "contact"},
-      {data.has_exact_solution(), data.exact_lambda != nullptr, false},
+      {data.has_exact_solution(),
+       data.exact_lambda != nullptr,
+       parameters.estimators},
       {},
       dim);
   }

@@ -71,6 +71,20 @@ namespace StepHHO
                         "Ifpack).");
     }
     prm.leave_subsection();
+    // Only the switch: the estimate of step-hho has no choices of its own
+    // yet (hho_estimate.cc), and the adaptive strategy is not offered.
+    prm.enter_subsection("Estimators");
+    {
+      prm.declare_entry("Enabled",
+                        "false",
+                        Patterns::Bool(),
+                        "Compute the guaranteed bound of the energy error "
+                        "of the cell polynomials on every mesh (equilibrated "
+                        "flux from HHO's own numerical fluxes, Oswald "
+                        "potential): the column eta of the convergence "
+                        "table.");
+    }
+    prm.leave_subsection();
     VI::OutputParameters::declare(prm);
   }
 
@@ -88,6 +102,9 @@ namespace StepHHO
     prm.leave_subsection();
     nonlinear_solver.parse(prm);
     linear_solver.parse(prm);
+    prm.enter_subsection("Estimators");
+    estimators = prm.get_bool("Enabled");
+    prm.leave_subsection();
     output.parse(prm);
 
     if (nonlinear_solver.initial_guess == VI::InitialGuess::data)

@@ -8,6 +8,7 @@
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/fe/fe_dgp.h>
 #include <deal.II/fe/fe_face.h>
+#include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping.h>
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/full_matrix.h>
@@ -16,6 +17,7 @@
 
 #include <vi/complementarity.h>
 #include <vi/contact_rows.h>
+#include <vi/dg_estimators.h>
 #include <vi/domain.h>
 #include <vi/ghosted_copy.h>
 #include <vi/nodal_fields.h>
@@ -29,6 +31,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,6 +58,7 @@ namespace StepHHO
     bool                          static_condensation = true;
     std::string                   contact_nodes       = "gauss-padua";
     std::string                   gradient_degree     = "p";
+    bool                          estimators          = false;
     VI::NonlinearSolverParameters nonlinear_solver;
     VI::LinearSolverParameters    linear_solver;
     VI::OutputParameters          output;
@@ -135,6 +139,21 @@ namespace StepHHO
     postprocess() override;
     void
     compute_errors() override;
+    /// The a posteriori estimate of the converged iterate (hho_estimate.cc)
+    /// and its parts.
+    VI::DGContactEstimate
+    estimate() const;
+    void
+    broken_fields(const DoFHandler<dim> &broken,
+                  const Quadrature<dim> &quadrature,
+                  TrilinosWrappers::MPI::Vector (&u)[2],
+                  TrilinosWrappers::MPI::Vector &lambda,
+                  TrilinosWrappers::MPI::Vector &positive) const;
+    void
+    equilibrated_fluxes(const DoFHandler<dim>     &flux,
+                        const Quadrature<dim>     &quadrature,
+                        const Quadrature<dim - 1> &face_quadrature,
+                        TrilinosWrappers::MPI::Vector (&sigma)[2]) const;
     void
     output_results(const unsigned int cycle) const override;
     void
@@ -177,6 +196,15 @@ namespace StepHHO
     using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
     CellIterator
     face_cell(const CellIterator &cell) const;
+    /// (hho_estimate.cc)
+    void
+    normal_fluxes(const CellIterator               &cell,
+                  const double                      mu,
+                  const Vector<double>             &local,
+                  const Vector<double>             &Gu,
+                  FEFaceValues<dim>                &trace_values,
+                  FEFaceValues<dim>                &face_values,
+                  std::vector<std::vector<double>> &phi) const;
     types::global_dof_index
     face_unknown(const types::global_dof_index face_dof,
                  const unsigned int            alpha) const;
@@ -278,6 +306,9 @@ namespace StepHHO
     // The discrete solution as FE_DGP functions (with ghosts).
     TrilinosWrappers::MPI::Vector u1_h, u2_h, gap_h, lambda_h;
     Vector<float>                 contact_fraction;
+    /// The bound of the energy error of the cell polynomials on this mesh
+    /// (Estimators/Enabled), with its parts.
+    std::optional<VI::DGContactEstimate> last_estimate;
 
     std::unique_ptr<parallel::distributed::
                       SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>

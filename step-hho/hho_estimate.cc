@@ -1,0 +1,628 @@
+// The a posteriori estimate of step-hho (doc/reference.md, "A posteriori
+// estimate of HHO"): a guaranteed bound of the energy error of the cell
+// polynomials,
+//
+//   |||u - u_T|||_h^2 = sum_K mu1 |grad(u1 - u1,K)|_K^2 + mu2 |grad(u2 -
+//   u2,K)|_K^2,
+//
+// from the bound of the broken (dG) case, VI::estimate_dg_contact_error,
+// with three HHO ingredients:
+// - the broken iterate: the cell polynomials u_alpha,K and lambda_h, written
+//   in FE_DGQ(p) (P_p is in Q_p, so exactly);
+// - the potential: the Oswald interpolate of u_T, averaged where s1 < s2;
+// - the flux: HHO is locally conservative. Testing the cell rows with
+//   q in P_p(K) and the face rows with v_F in P_{p-1}(F) gives
+//
+//     -(sigma_K, grad q)_K + (Phi_K, q)_dK = (f_alpha -/+ lambda_h, q)_K,
+//     sum_{K containing F} Pi_F Phi_KF = 0,
+//
+//   with sigma_K = -mu G_K u and the numerical flux Phi_KF = -mu (G_K u . n_K
+//   + h_K^(-1) Pi_F (u_F - u_K)) (the second part from the stabilisation).
+//   So phi_KF = Pi_F Phi_KF, in P_{p-1}(F), is single-valued across F and
+//   sum_F (phi_KF, 1)_F = (f -/+ lambda_h, 1)_K: it is the normal trace of
+//   an equilibrated H(div) flux. On each cell, sigma in RT_p(K) takes the
+//   normal trace phi_KF, the divergence Pi_{Q_p}(f -/+ lambda_h) and is
+//   otherwise closest to -mu grad u_K: a mixed problem of the cell alone.
+
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_dgq.h>
+#include <deal.II/fe/fe_q.h>
+#include <deal.II/fe/fe_raviart_thomas.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/lac/full_matrix.h>
+
+#include <vi/dg_reconstruction.h>
+#include <vi/estimators.h>
+#include <vi/interior_penalty.h>
+#include <vi/same_cell.h>
+
+#include "hho_problem.h"
+#include "local_operators.h"
+
+#include <array>
+#include <map>
+
+namespace StepHHO
+{
+  namespace
+  {
+    using MPIVector = TrilinosWrappers::MPI::Vector;
+
+    /// A DoFHandler on the mesh with its owned and relevant index sets.
+    template <int dim>
+    struct Space
+    {
+      Space(const Triangulation<dim> &tria, const FiniteElement<dim> &fe)
+          : dofs(tria)
+      {
+        dofs.distribute_dofs(fe);
+        owned    = dofs.locally_owned_dofs();
+        relevant = DoFTools::extract_locally_relevant_dofs(dofs);
+      }
+
+      MPIVector
+      ghosted(const MPIVector &owned_vector) const
+      {
+        MPIVector v(owned, relevant, owned_vector.get_mpi_communicator());
+        v = owned_vector;
+        return v;
+      }
+
+      DoFHandler<dim> dofs;
+      IndexSet        owned, relevant;
+    };
+
+
+    /**
+     * The flux of one membrane on one cell K: sigma in RT_p(K) with the
+     * normal trace phi on every face (phi in P_{p-1}(F) is in the trace
+     * space P_p(F), so the face degrees of freedom reproduce it), and,
+     * among those, with (div sigma, q)_K = (source, q)_K for the
+     * non-constant q of Q_p (the constant is the compatibility the normal
+     * traces already satisfy) and |sigma + mu grad u_K|_K smallest. The
+     * Legendre basis of the reference cell spans Q_p; its first function is
+     * the constant.
+     */
+    template <int dim>
+    class CellFlux
+    {
+    public:
+      CellFlux(const Mapping<dim>        &mapping,
+               const FiniteElement<dim>  &flux_fe,
+               const Quadrature<dim>     &quadrature,
+               const Quadrature<dim - 1> &face_quadrature,
+               const unsigned int         p)
+          : values(mapping,
+                   flux_fe,
+                   quadrature,
+                   update_values | update_gradients | update_JxW_values)
+          , face_values(mapping,
+                        flux_fe,
+                        face_quadrature,
+                        update_values | update_normal_vectors |
+                          update_JxW_values)
+          , legendre(p)
+      {
+        const unsigned int n = flux_fe.n_dofs_per_cell();
+        std::vector<bool>  on_face(n, false);
+        for (unsigned int f = 0; f < GeometryInfo<dim>::faces_per_cell; ++f)
+          for (unsigned int k = 0; k < flux_fe.n_dofs_per_face(f); ++k)
+            on_face[flux_fe.face_to_cell_index(k, f)] = true;
+        for (unsigned int i = 0; i < n; ++i)
+          if (!on_face[i])
+            interior.push_back(i);
+      }
+
+      /// `phi[f][q]`: the outward normal flux at the face quadrature points;
+      /// `grad_u`, `source` at the cell's. Returns the coefficients.
+      Vector<double>
+      compute(const typename DoFHandler<dim>::active_cell_iterator &cell,
+              const std::vector<std::vector<double>>               &phi,
+              const std::vector<Tensor<1, dim>>                    &mu_grad_u,
+              const std::vector<double>                            &source)
+      {
+        const FiniteElement<dim>        &fe = values.get_fe();
+        const FEValuesExtractors::Vector flux(0);
+        Vector<double>                   sigma(fe.n_dofs_per_cell());
+
+        // The face degrees of freedom: the L2 projection of phi onto the
+        // normal traces of the face's basis functions (exact).
+        for (const unsigned int f : cell->face_indices())
+          {
+            face_values.reinit(cell, f);
+            const unsigned int        n_F = fe.n_dofs_per_face(f);
+            FullMatrix<double>        A(n_F, n_F);
+            Vector<double>            b(n_F), x(n_F);
+            std::vector<unsigned int> dofs(n_F);
+            for (unsigned int k = 0; k < n_F; ++k)
+              dofs[k] = fe.face_to_cell_index(k, f);
+            for (const unsigned int q : face_values.quadrature_point_indices())
+              {
+                const Tensor<1, dim> &n  = face_values.normal_vector(q);
+                const double          ds = face_values.JxW(q);
+                for (unsigned int k = 0; k < n_F; ++k)
+                  {
+                    const double psi_k =
+                      face_values[flux].value(dofs[k], q) * n;
+                    b(k) += phi[f][q] * psi_k * ds;
+                    for (unsigned int l = 0; l < n_F; ++l)
+                      A(k, l) +=
+                        psi_k * (face_values[flux].value(dofs[l], q) * n) * ds;
+                  }
+              }
+            A.gauss_jordan();
+            A.vmult(x, b);
+            for (unsigned int k = 0; k < n_F; ++k)
+              sigma(dofs[k]) = x(k);
+          }
+
+        // The interior ones: the saddle-point system of the constrained
+        // minimisation, [M B^T; B 0] [sigma_I; gamma] = [-(sigma_b + mu grad
+        // u, psi_i); (source - div sigma_b, q_m)].
+        values.reinit(cell);
+        const unsigned int n_I = interior.size();
+        const unsigned int n_m = legendre.n_dofs_per_cell() - 1;
+        FullMatrix<double> K(n_I + n_m, n_I + n_m);
+        Vector<double>     rhs(n_I + n_m), x(n_I + n_m);
+        for (const unsigned int q : values.quadrature_point_indices())
+          {
+            const double   dx = values.JxW(q);
+            Tensor<1, dim> boundary_part;
+            double         boundary_divergence = 0;
+            for (unsigned int j = 0; j < fe.n_dofs_per_cell(); ++j)
+              if (sigma(j) != 0.)
+                {
+                  boundary_part += sigma(j) * values[flux].value(j, q);
+                  boundary_divergence +=
+                    sigma(j) * values[flux].divergence(j, q);
+                }
+            const Point<dim> &x_ref = values.get_quadrature().point(q);
+            for (unsigned int i = 0; i < n_I; ++i)
+              {
+                const Tensor<1, dim> psi_i = values[flux].value(interior[i], q);
+                rhs(i) -= (boundary_part + mu_grad_u[q]) * psi_i * dx;
+                for (unsigned int j = 0; j < n_I; ++j)
+                  K(i, j) += psi_i * values[flux].value(interior[j], q) * dx;
+                const double div_i = values[flux].divergence(interior[i], q);
+                for (unsigned int m = 0; m < n_m; ++m)
+                  {
+                    const double q_m = legendre.shape_value(m + 1, x_ref);
+                    K(n_I + m, i) += div_i * q_m * dx;
+                    K(i, n_I + m) += div_i * q_m * dx;
+                  }
+              }
+            for (unsigned int m = 0; m < n_m; ++m)
+              rhs(n_I + m) += (source[q] - boundary_divergence) *
+                              legendre.shape_value(m + 1, x_ref) * dx;
+          }
+        K.gauss_jordan();
+        K.vmult(x, rhs);
+        for (unsigned int i = 0; i < n_I; ++i)
+          sigma(interior[i]) = x(i);
+        return sigma;
+      }
+
+    private:
+      FEValues<dim>             values;
+      FEFaceValues<dim>         face_values;
+      const FE_DGQLegendre<dim> legendre;
+      std::vector<unsigned int> interior;
+    };
+
+    /// The matrices [A, B] of a linear map (x, y) -> A x + B y to R^n, from
+    /// its values on the unit vectors (x in R^m, y in R^l).
+    template <typename Map>
+    std::array<FullMatrix<double>, 2>
+    linear_maps(const unsigned int n,
+                const unsigned int m,
+                const unsigned int l,
+                const Map         &map)
+    {
+      std::array<FullMatrix<double>, 2> matrices{FullMatrix<double>(n, m),
+                                                 FullMatrix<double>(n, l)};
+      Vector<double>                    x(m);
+      std::vector<double>               y(l, 0.);
+      for (unsigned int j = 0; j < m + l; ++j)
+        {
+          x = 0;
+          std::fill(y.begin(), y.end(), 0.);
+          if (j < m)
+            x(j) = 1;
+          else
+            y[j - m] = 1;
+          const Vector<double> column = map(x, y);
+          for (unsigned int i = 0; i < n; ++i)
+            matrices[j < m ? 0 : 1](i, j < m ? j : j - m) = column(i);
+        }
+      return matrices;
+    }
+  } // namespace
+
+
+  // The cell polynomials u1,K, u2,K and lambda_h in FE_DGQ(p) on `broken`,
+  // and lambda_h^+: lambda_h scaled towards its cell mean (if that is
+  // positive; else 0) until it is nonnegative at the points of `quadrature`,
+  // where the estimate evaluates it. Ghosted vectors.
+  template <int dim>
+  void
+  HHOProblem<dim>::broken_fields(const DoFHandler<dim> &broken,
+                                 const Quadrature<dim> &quadrature,
+                                 TrilinosWrappers::MPI::Vector (&u)[2],
+                                 TrilinosWrappers::MPI::Vector &lambda,
+                                 TrilinosWrappers::MPI::Vector &positive) const
+  {
+    const FiniteElement<dim> &broken_fe = broken.get_fe();
+    const IndexSet            owned     = broken.locally_owned_dofs();
+    MPIVector u_owned[2] = {MPIVector(owned, comm), MPIVector(owned, comm)},
+              lambda_owned(owned, comm), positive_owned(owned, comm);
+    FEValues<dim>       at_nodes(*mapping,
+                           cell_fe,
+                           Quadrature<dim>(broken_fe.get_unit_support_points()),
+                           update_values);
+    FEValues<dim>       at_points(*mapping,
+                            cell_fe,
+                            quadrature,
+                            update_values | update_JxW_values);
+    std::vector<double> nodal(broken_fe.n_dofs_per_cell()),
+      lambda_nodal(nodal.size()), lambda_points(quadrature.size());
+    std::vector<types::global_dof_index> indices(nodal.size());
+    const MPIVector                     *u_h[2] = {&u1_h, &u2_h};
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          VI::same_cell(cell, broken)->get_dof_indices(indices);
+          at_nodes.reinit(cell);
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              at_nodes.get_function_values(*u_h[a], nodal);
+              for (unsigned int i = 0; i < nodal.size(); ++i)
+                u_owned[a](indices[i]) = nodal[i];
+            }
+          at_nodes.get_function_values(lambda_h, lambda_nodal);
+          at_points.reinit(cell);
+          at_points.get_function_values(lambda_h, lambda_points);
+          double integral = 0, area = 0;
+          for (const unsigned int q : at_points.quadrature_point_indices())
+            {
+              integral += lambda_points[q] * at_points.JxW(q);
+              area += at_points.JxW(q);
+            }
+          const double mean  = integral / area;
+          double       theta = mean > 0 ? 1. : 0.;
+          for (const double value : lambda_points)
+            if (value < 0 && mean > 0)
+              theta = std::min(theta, mean / (mean - value));
+          for (unsigned int i = 0; i < nodal.size(); ++i)
+            {
+              lambda_owned(indices[i]) = lambda_nodal[i];
+              positive_owned(indices[i]) =
+                std::max(mean, 0.) + theta * (lambda_nodal[i] - mean);
+            }
+        }
+    const IndexSet relevant = DoFTools::extract_locally_relevant_dofs(broken);
+    const auto     ghost    = [&](MPIVector &owned_vector, MPIVector &v) {
+      owned_vector.compress(VectorOperation::insert);
+      v.reinit(owned, relevant, comm);
+      v = owned_vector;
+    };
+    ghost(u_owned[0], u[0]);
+    ghost(u_owned[1], u[1]);
+    ghost(lambda_owned, lambda);
+    ghost(positive_owned, positive);
+  }
+
+
+  // The normal fluxes phi_KF = -mu Pi_F (G_K u . n_K + h_K^(-1) (u_F - u_K))
+  // of membrane `a` on the faces of `cell` at the points of `face_values`
+  // (the first comment of this file). `local` is the local vector (u_K in
+  // FE_DGP's basis, u_dK), `Gu` the coefficients of G_K u.
+  template <int dim>
+  void
+  HHOProblem<dim>::normal_fluxes(const CellIterator               &cell,
+                                 const double                      mu,
+                                 const Vector<double>             &local,
+                                 const Vector<double>             &Gu,
+                                 FEFaceValues<dim>                &trace_values,
+                                 FEFaceValues<dim>                &face_values,
+                                 std::vector<std::vector<double>> &phi) const
+  {
+    const unsigned int n_c       = cell_fe.n_dofs_per_cell();
+    const unsigned int n_g       = gradient_basis.size();
+    const double       inverse_h = 1. / cell->diameter();
+    for (const unsigned int face : cell->face_indices())
+      {
+        trace_values.reinit(cell, face);
+        face_values.reinit(cell, face);
+        const unsigned int        n_F = face_fe.n_dofs_per_face(face);
+        std::vector<unsigned int> dofs(n_F);
+        for (unsigned int k = 0; k < n_F; ++k)
+          dofs[k] = face_fe.face_to_cell_index(k, face);
+        // The L2 projection onto P_{p-1}(F) of w = G_K u . n + (u_F - u_K)/h_K.
+        FullMatrix<double> M(n_F, n_F);
+        Vector<double>     b(n_F), c(n_F);
+        for (const unsigned int q : trace_values.quadrature_point_indices())
+          {
+            double w = 0;
+            for (unsigned int d = 0; d < dim; ++d)
+              for (unsigned int m = 0; m < n_g; ++m)
+                w += Gu(d * n_g + m) *
+                     trace_values.shape_value(gradient_basis[m], q) *
+                     trace_values.normal_vector(q)[d];
+            for (unsigned int i = 0; i < n_c; ++i)
+              w -= inverse_h * local(i) * trace_values.shape_value(i, q);
+            for (const unsigned int i : dofs)
+              w += inverse_h * local(n_c + i) * face_values.shape_value(i, q);
+            const double ds = trace_values.JxW(q);
+            for (unsigned int k = 0; k < n_F; ++k)
+              {
+                const double psi_k = face_values.shape_value(dofs[k], q);
+                b(k) += w * psi_k * ds;
+                for (unsigned int l = 0; l < n_F; ++l)
+                  M(k, l) += psi_k * face_values.shape_value(dofs[l], q) * ds;
+              }
+          }
+        M.gauss_jordan();
+        M.vmult(c, b);
+        for (const unsigned int q : trace_values.quadrature_point_indices())
+          {
+            double projection = 0;
+            for (unsigned int k = 0; k < n_F; ++k)
+              projection += c(k) * face_values.shape_value(dofs[k], q);
+            phi[face][q] = -mu * projection;
+          }
+      }
+  }
+
+
+  // The equilibrated fluxes sigma_1, sigma_2 in RT_p on `flux`, cell by cell
+  // (CellFlux). A face's degrees of freedom are written by the owner of the
+  // face's unknowns, from one of its cells: the two sides agree to the
+  // tolerance of the solve.
+  template <int dim>
+  void
+  HHOProblem<dim>::equilibrated_fluxes(
+    const DoFHandler<dim>     &flux,
+    const Quadrature<dim>     &quadrature,
+    const Quadrature<dim - 1> &face_quadrature,
+    TrilinosWrappers::MPI::Vector (&sigma)[2]) const
+  {
+    const unsigned int n_c   = cell_fe.n_dofs_per_cell();
+    const unsigned int n_f   = face_fe.n_dofs_per_cell();
+    const double       mu[2] = {data.mu1, data.mu2};
+    const IndexSet     owned = flux.locally_owned_dofs();
+    MPIVector sigma_owned[2] = {MPIVector(owned, comm), MPIVector(owned, comm)};
+    MPIVector X;
+    ghosted_system.copy(solution, X);
+
+    FEValues<dim>     cell_values(*mapping,
+                              cell_fe,
+                              quadrature,
+                              update_values | update_gradients |
+                                update_quadrature_points | update_JxW_values);
+    FEFaceValues<dim> trace_values(*mapping,
+                                   cell_fe,
+                                   face_quadrature,
+                                   update_values | update_quadrature_points |
+                                     update_normal_vectors | update_JxW_values);
+    FEFaceValues<dim> face_values(*mapping,
+                                  face_fe,
+                                  face_quadrature,
+                                  update_values);
+    CellFlux<dim>     cell_flux(
+      *mapping, flux.get_fe(), quadrature, face_quadrature, degree);
+    FullMatrix<double> G, gradient_mass;
+    Vector<double>     local(n_c + n_f), Gu(dim * gradient_basis.size());
+    std::vector<std::vector<double>> phi(GeometryInfo<dim>::faces_per_cell,
+                                         std::vector<double>(
+                                           face_quadrature.size()));
+    std::vector<Tensor<1, dim>>      mu_grad_u(quadrature.size());
+    std::vector<double>              source(quadrature.size()),
+      lambda_values(quadrature.size());
+    std::vector<types::global_dof_index> cell_dofs(n_c),
+      flux_dofs(flux.get_fe().n_dofs_per_cell());
+    // The coefficients of sigma on `cell` for the tension mu, the local
+    // vector and the source f -/+ lambda_h at the quadrature points.
+    const auto cell_sigma = [&](const CellIterator        &cell,
+                                const auto                &flux_cell,
+                                const double               mu,
+                                const Vector<double>      &local,
+                                const std::vector<double> &source) {
+      LocalOperators::gradient_reconstruction(cell,
+                                              cell_values,
+                                              trace_values,
+                                              face_values,
+                                              gradient_basis,
+                                              G,
+                                              gradient_mass);
+      G.vmult(Gu, local);
+      normal_fluxes(cell, mu, local, Gu, trace_values, face_values, phi);
+      cell_values.reinit(cell);
+      std::fill(mu_grad_u.begin(), mu_grad_u.end(), Tensor<1, dim>());
+      for (const unsigned int q : cell_values.quadrature_point_indices())
+        for (unsigned int i = 0; i < n_c; ++i)
+          mu_grad_u[q] += mu * local(i) * cell_values.shape_grad(i, q);
+      return cell_flux.compute(flux_cell, phi, mu_grad_u, source);
+    };
+
+    // sigma is linear in (mu local, source). Where many cells share a shape
+    // (translates, see compute_local_matrices()), its two matrices are
+    // computed once, on the first of them, column by column.
+    const unsigned int n_q = quadrature.size(), n_rt = flux_dofs.size();
+    std::map<unsigned int, unsigned int> cells_of_shape;
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        ++cells_of_shape[cell_shape[cell->active_cell_index()]];
+    std::map<unsigned int, std::array<FullMatrix<double>, 2>> maps;
+    const auto                                                map_of =
+      [&](const CellIterator &cell,
+          const auto &flux_cell) -> const std::array<FullMatrix<double>, 2> * {
+      const unsigned int shape = cell_shape[cell->active_cell_index()];
+      if (cells_of_shape[shape] <= n_c + n_f + n_q)
+        return nullptr;
+      auto [it, added] = maps.try_emplace(shape);
+      if (added)
+        it->second =
+          linear_maps(n_rt,
+                      n_c + n_f,
+                      n_q,
+                      [&](const Vector<double>      &unit,
+                          const std::vector<double> &source) {
+                        return cell_sigma(cell, flux_cell, 1., unit, source);
+                      });
+      return &it->second;
+    };
+
+    const Function<dim> *f[2]   = {data.f1.get(), data.f2.get()};
+    const MPIVector     *u_h[2] = {&u1_h, &u2_h};
+    FEValues<dim>        source_values(*mapping,
+                                cell_fe,
+                                quadrature,
+                                update_values | update_quadrature_points);
+    Vector<double>       coefficients(n_rt), source_vector(n_q);
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          const auto unknowns  = local_unknowns(cell);
+          const auto flux_cell = VI::same_cell(cell, flux);
+          flux_cell->get_dof_indices(flux_dofs);
+          cell->get_dof_indices(cell_dofs);
+          source_values.reinit(cell);
+          source_values.get_function_values(lambda_h, lambda_values);
+          const auto *map = map_of(cell, flux_cell);
+          for (unsigned int a = 0; a < 2; ++a)
+            {
+              for (unsigned int i = 0; i < n_c; ++i)
+                local(i) = (*u_h[a])(cell_dofs[i]);
+              for (unsigned int k = 0; k < n_f; ++k)
+                local(n_c + k) = X(unknowns[n_fields * n_c + a * n_f + k]);
+              // f_alpha -/+ lambda_h (membrane 1 is pushed up by lambda,
+              // membrane 2 down).
+              f[a]->value_list(source_values.get_quadrature_points(), source);
+              for (unsigned int q = 0; q < n_q; ++q)
+                source[q] += (a == 0 ? 1. : -1.) * lambda_values[q];
+              if (map)
+                {
+                  std::copy(source.begin(),
+                            source.end(),
+                            source_vector.begin());
+                  (*map)[1].vmult(coefficients, source_vector);
+                  local *= mu[a];
+                  (*map)[0].vmult_add(coefficients, local);
+                }
+              else
+                coefficients =
+                  cell_sigma(cell, flux_cell, mu[a], local, source);
+              for (unsigned int i = 0; i < n_rt; ++i)
+                if (owned.is_element(flux_dofs[i]))
+                  sigma_owned[a](flux_dofs[i]) = coefficients(i);
+            }
+        }
+    const IndexSet relevant = DoFTools::extract_locally_relevant_dofs(flux);
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        sigma_owned[a].compress(VectorOperation::insert);
+        sigma[a].reinit(owned, relevant, comm);
+        sigma[a] = sigma_owned[a];
+      }
+  }
+
+
+  template <int dim>
+  VI::DGContactEstimate
+  HHOProblem<dim>::estimate() const
+  {
+    TimerOutput::Scope          t(timer, "estimators");
+    const unsigned int          p = degree;
+    const FE_DGQ<dim>           broken_fe(p);
+    const FE_Q<dim>             continuous_fe(p);
+    const FE_RaviartThomas<dim> flux_fe(p);
+    const Space<dim>            broken(triangulation, broken_fe),
+      continuous(triangulation, continuous_fe), flux(triangulation, flux_fe);
+    // The rule of the conforming estimate (at least p + 3 points per
+    // direction, even: symmetric about the cell's centre lines), so that
+    // the data and the nonsmooth parts are integrated alike.
+    const unsigned int    n_points = p + 3 + (p + 3) % 2;
+    const QGauss<dim>     quadrature(n_points);
+    const QGauss<dim - 1> face_quadrature(n_points);
+
+    MPIVector u[2], lambda, positive;
+    broken_fields(broken.dofs, quadrature, u, lambda, positive);
+
+    // The potential: Oswald interpolates with the nodal values of g on the
+    // clamped boundary, averaged where s1 < s2.
+    const Function<dim> *g[2] = {data.g1.get(), data.g2.get()};
+    MPIVector            oswald[2], averaged[2];
+    for (unsigned int a = 0; a < 2; ++a)
+      {
+        oswald[a].reinit(continuous.owned, comm);
+        averaged[a].reinit(continuous.owned, comm);
+        VI::oswald_interpolation(*mapping,
+                                 broken.dofs,
+                                 u[a],
+                                 continuous.dofs,
+                                 g[a],
+                                 oswald[a],
+                                 &domain);
+      }
+    VI::average_at_violated_nodes(
+      data.mu1, data.mu2, oswald[0], oswald[1], averaged[0], averaged[1]);
+    const MPIVector s[2] = {continuous.ghosted(averaged[0]),
+                            continuous.ghosted(averaged[1])};
+
+    MPIVector sigma[2];
+    equilibrated_fluxes(flux.dofs, quadrature, face_quadrature, sigma);
+    const MPIVector no_residual = broken.ghosted(MPIVector(broken.owned, comm));
+
+    // The jumps of u_T are reported with the weight of SIPG's default
+    // penalty; the bound of the cell polynomials does not use them.
+    const VI::InteriorPenalty penalty(
+      VI::InteriorPenalty::Type::sipg,
+      VI::InteriorPenalty::default_penalty_constant,
+      p);
+    VI::DGContactEstimatorInput<dim> in;
+    in.mapping         = mapping.get();
+    in.broken          = &broken.dofs;
+    in.continuous      = &continuous.dofs;
+    in.flux            = &flux.dofs;
+    in.quadrature      = &quadrature;
+    in.face_quadrature = &face_quadrature;
+    in.penalty         = &penalty;
+    in.set_problem(data, domain);
+    in.u1                 = &u[0];
+    in.u2                 = &u[1];
+    in.lambda             = &lambda;
+    in.lambda_nonnegative = &positive;
+    in.r1                 = &no_residual;
+    in.r2                 = &no_residual;
+    in.s1                 = &s[0];
+    in.s2                 = &s[1];
+    in.sigma1             = &sigma[0];
+    in.sigma2             = &sigma[1];
+    return VI::estimate_dg_contact_error(in);
+  }
+
+
+  template void
+  HHOProblem<2>::broken_fields(const DoFHandler<2> &,
+                               const Quadrature<2> &,
+                               TrilinosWrappers::MPI::Vector (&)[2],
+                               TrilinosWrappers::MPI::Vector &,
+                               TrilinosWrappers::MPI::Vector &) const;
+  template void
+  HHOProblem<2>::normal_fluxes(const CellIterator &,
+                               const double,
+                               const Vector<double> &,
+                               const Vector<double> &,
+                               FEFaceValues<2> &,
+                               FEFaceValues<2> &,
+                               std::vector<std::vector<double>> &) const;
+  template void
+  HHOProblem<2>::equilibrated_fluxes(
+    const DoFHandler<2> &,
+    const Quadrature<2> &,
+    const Quadrature<1> &,
+    TrilinosWrappers::MPI::Vector (&)[2]) const;
+  template VI::DGContactEstimate
+  HHOProblem<2>::estimate() const;
+} // namespace StepHHO
