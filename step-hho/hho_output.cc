@@ -101,7 +101,7 @@ namespace StepHHO
 
   // The cell unknowns for ParaView: u1, u2, gap = u1 - u2 and lambda as
   // discontinuous P_p functions, the share of each cell's nodes in contact,
-  // and the owning process.
+  // the owning process, and with the estimate its cellwise indicators.
   template <int dim>
   void
   HHOProblem<dim>::output_results(const unsigned int cycle) const
@@ -110,12 +110,13 @@ namespace StepHHO
       return;
     TimerOutput::Scope t(timer, "output");
 
-    VI::FieldOutput<dim>(
+    VI::FieldOutput<dim> output(
       *mapping,
       domain.has_curved_cells(),
       cell_dof_handler,
-      {u1_h, u2_h, gap_h, lambda_h, nullptr, &contact_fraction})
-      .write(parameters.output.directory, cycle, 2, comm);
+      {u1_h, u2_h, gap_h, lambda_h, nullptr, &contact_fraction});
+    output.add_indicators(last_estimate ? &*last_estimate : nullptr);
+    output.write(parameters.output.directory, cycle, 2, comm);
   }
 
 
