@@ -19,7 +19,7 @@ Writes doc/data/<study>.{csv,png}. Usage, from the repository root after
 --quick runs two meshes fewer (a smoke test of the script); naming studies
 runs only those. The whole study takes about 12 minutes. The first two
 studies switch the estimators off (the scenes of step-membranes turn them
-on; step-hho has none): a scene computes only what it needs.
+on; step-hho's are off by default): a scene computes only what it needs.
 """
 import os
 import sys
