@@ -107,6 +107,27 @@ namespace VI
 
 
   template <typename VectorType>
+  bool
+  SemismoothNewton<VectorType>::stagnated(const NewtonReport &report) const
+  {
+    const auto &steps = report.steps;
+    if (data.stagnation_steps == 0 || steps.size() < data.stagnation_steps + 1)
+      return false;
+    const auto size = [](const ResidualNorms &r) {
+      return std::max(r.equations, r.complementarity);
+    };
+    for (std::size_t n = steps.size() - data.stagnation_steps; n < steps.size();
+         ++n)
+      if (!steps[n].has_active_set || steps[n].active_set.switched != 0 ||
+          steps[n].smoothing != 0 || steps[n].step_length != 1 ||
+          size(steps[n].residual) <
+            data.stagnation_ratio * size(steps[n - 1].residual))
+        return false;
+    return true;
+  }
+
+
+  template <typename VectorType>
   NewtonReport
   SemismoothNewton<VectorType>::solve(VectorType &X) const
   {
@@ -115,6 +136,10 @@ namespace VI
            "solve_with_jacobian");
 
     NewtonReport report;
+    // The rows are those of C: a continuation of an earlier solve that
+    // converged on its path (below) must not carry over.
+    if (set_smoothing)
+      set_smoothing(X, 0.);
 
     VectorType R, rhs, dX;
     R.reinit(X);
@@ -171,6 +196,11 @@ namespace VI
           monitor(step);
         if (stopping_criterion)
           criterion_met = stopping_criterion(X, step);
+        if (mu == 0 && !converged(norms) && !criterion_met && stagnated(report))
+          fail("stagnated: the active set has not changed in the last " +
+               std::to_string(data.stagnation_steps) +
+               " steps and the residual stays above the tolerance (" +
+               norms.describe("equations", data.tolerance) + ")");
         if (!set_smoothing || !data.continuation || converged(norms) ||
             criterion_met)
           continue;
@@ -211,6 +241,15 @@ namespace VI
           }
       }
 
+    // Newton may stop on the continuation's path (the residuals of C are
+    // below the tolerance there too): the problem's rows return to C, so
+    // that what is evaluated after the solve (the active set, the contact
+    // set, the next solve's residual) sees C and not C_mu.
+    if (mu > 0)
+      {
+        set_smoothing(X, 0.);
+        norms = residual(X, R);
+      }
     report.final_residual = norms;
     return report;
   }

@@ -238,6 +238,57 @@ TEST(SemismoothNewton, IterationLimitIsAFailureWithAReason)
 }
 
 
+TEST(SemismoothNewton, StagnationAtTheAccuracyOfTheSolvesIsAFailureAtOnce)
+{
+  // Newton-min finds the contact set of the obstacle problem in a few
+  // steps; a residual that keeps a floor of 1e-9 after that (as the
+  // round-off of an ill-conditioned linear solve does) is reported three
+  // steps later, not at the iteration limit. Without the floor the same
+  // settings converge.
+  ObstacleProblem problem(40, ComplementarityFunction());
+  typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+  data.tolerance     = 1e-13;
+  data.continuation  = false;
+  unsigned int plain = 0; // the steps without the floor
+  for (const double floor : {0., 1e-9})
+    {
+      auto newton     = problem.make_newton(data);
+      newton.residual = [&](const Vector<double> &X, Vector<double> &R) {
+        VI::ResidualNorms norms = problem.residual(X, R);
+        norms.complementarity   = std::max(norms.complementarity, floor);
+        return norms;
+      };
+      std::vector<bool> active;
+      newton.active_set = [&](const Vector<double> &X, const bool first) {
+        VI::ActiveSetChange change;
+        std::vector<bool>   now(problem.n);
+        for (unsigned int i = 0; i < problem.n; ++i)
+          {
+            now[i] = X(i) - problem.psi(i) <= X(problem.n + i);
+            change.active += now[i];
+            change.switched += !first && now[i] != active[i];
+          }
+        active = now;
+        return change;
+      };
+      Vector<double> X(2 * problem.n);
+      if (floor == 0)
+        {
+          const auto report = newton.solve(X);
+          expect_solution(problem, X);
+          plain = report.iterations;
+          continue;
+        }
+      unsigned int steps = 0;
+      newton.monitor     = [&](const VI::NewtonStep &) { ++steps; };
+      VITest::expect_error_saying<VI::SolverFailure>(
+        "has not changed in the last 3 steps", [&] { newton.solve(X); });
+      EXPECT_LE(steps, plain + 3);
+      EXPECT_GE(steps, plain + 1);
+    }
+}
+
+
 TEST(SemismoothNewton, NotANumberIsAFailureWithAReason)
 {
   ObstacleProblem problem(10, ComplementarityFunction());

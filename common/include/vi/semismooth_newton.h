@@ -173,6 +173,15 @@ namespace VI
       /// The continuation's line search compares with the largest merit
       /// of this many last steps (1: monotone).
       unsigned int nonmonotone_window = 5;
+      /// A stagnated iteration: this many full steps of plain Newton in a
+      /// row switched no row of the active set and each left the residual
+      /// above stagnation_ratio times the one before. With the active set
+      /// found, one step solves the linear system of that set, so a residual
+      /// that stays above the tolerance is not reduced by further steps
+      /// (the accuracy of the linear solves, or a row the steps do not
+      /// move): Newton fails at once instead of at the iteration limit.
+      unsigned int stagnation_steps = 3;
+      double       stagnation_ratio = 0.9;
     };
 
     explicit SemismoothNewton(const AdditionalData &data);
@@ -295,6 +304,11 @@ namespace VI
     /// and crawled or cycled (AdditionalData::stall_ratio).
     bool
     stalled(const NewtonReport &report) const;
+
+    /// Whether the last stagnation_steps steps stagnated
+    /// (AdditionalData::stagnation_steps).
+    bool
+    stagnated(const NewtonReport &report) const;
 
     bool
     converged(const ResidualNorms &norms) const;
