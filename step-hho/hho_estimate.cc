@@ -108,7 +108,7 @@ namespace StepHHO
   // The cell polynomials u1,K, u2,K and lambda_h in FE_DGQ(p) on `broken`,
   // and lambda_h^+: lambda_h scaled towards its cell mean (if that is
   // positive; else 0) until it is nonnegative at the points of `quadrature`,
-  // where the estimate evaluates it. Ghosted vectors.
+  // where the estimate evaluates it. Vectors of the owned entries.
   template <int dim>
   void
   HHOProblem<dim>::broken_fields(const DoFHandler<dim> &broken,
@@ -119,8 +119,8 @@ namespace StepHHO
   {
     const FiniteElement<dim> &broken_fe = broken.get_fe();
     const IndexSet            owned     = broken.locally_owned_dofs();
-    MPIVector u_owned[2] = {MPIVector(owned, comm), MPIVector(owned, comm)},
-              lambda_owned(owned, comm), positive_owned(owned, comm);
+    for (MPIVector *v : {&u[0], &u[1], &lambda, &positive})
+      v->reinit(owned, comm);
     FEValues<dim>       at_nodes(*mapping,
                            cell_fe,
                            Quadrature<dim>(broken_fe.get_unit_support_points()),
@@ -142,7 +142,7 @@ namespace StepHHO
             {
               at_nodes.get_function_values(*u_h[a], nodal);
               for (unsigned int i = 0; i < nodal.size(); ++i)
-                u_owned[a](indices[i]) = nodal[i];
+                u[a](indices[i]) = nodal[i];
             }
           at_nodes.get_function_values(lambda_h, lambda_nodal);
           at_points.reinit(cell);
@@ -160,21 +160,13 @@ namespace StepHHO
               theta = std::min(theta, mean / (mean - value));
           for (unsigned int i = 0; i < nodal.size(); ++i)
             {
-              lambda_owned(indices[i]) = lambda_nodal[i];
-              positive_owned(indices[i]) =
+              lambda(indices[i]) = lambda_nodal[i];
+              positive(indices[i]) =
                 std::max(mean, 0.) + theta * (lambda_nodal[i] - mean);
             }
         }
-    const IndexSet relevant = DoFTools::extract_locally_relevant_dofs(broken);
-    const auto     ghost    = [&](MPIVector &owned_vector, MPIVector &v) {
-      owned_vector.compress(VectorOperation::insert);
-      v.reinit(owned, relevant, comm);
-      v = owned_vector;
-    };
-    ghost(u_owned[0], u[0]);
-    ghost(u_owned[1], u[1]);
-    ghost(lambda_owned, lambda);
-    ghost(positive_owned, positive);
+    for (MPIVector *v : {&u[0], &u[1], &lambda, &positive})
+      v->compress(VectorOperation::insert);
   }
 
 
@@ -243,7 +235,7 @@ namespace StepHHO
   // The equilibrated fluxes sigma_1, sigma_2 in RT_p on `flux`, cell by cell
   // (CellFlux). A face's degrees of freedom are written by the owner of the
   // face's unknowns, from one of its cells: the two sides agree to the
-  // tolerance of the solve.
+  // tolerance of the solve. Vectors of the owned entries.
   template <int dim>
   void
   HHOProblem<dim>::equilibrated_fluxes(
@@ -256,7 +248,8 @@ namespace StepHHO
     const unsigned int n_f   = face_fe.n_dofs_per_cell();
     const double       mu[2] = {data.mu1, data.mu2};
     const IndexSet     owned = flux.locally_owned_dofs();
-    MPIVector sigma_owned[2] = {MPIVector(owned, comm), MPIVector(owned, comm)};
+    for (MPIVector &v : sigma)
+      v.reinit(owned, comm);
     MPIVector X;
     ghosted_system.copy(solution, X);
 
@@ -286,13 +279,8 @@ namespace StepHHO
       lambda_values(quadrature.size());
     std::vector<types::global_dof_index> cell_dofs(n_c),
       flux_dofs(flux.get_fe().n_dofs_per_cell());
-    // The coefficients of sigma on `cell` for the tension mu, the local
-    // vector and the source f -/+ lambda_h at the quadrature points.
-    const auto cell_sigma = [&](const CellIterator        &cell,
-                                const auto                &flux_cell,
-                                const double               mu,
-                                const Vector<double>      &local,
-                                const std::vector<double> &source) {
+    // G_K of `cell` (and cell_values on it), for cell_sigma.
+    const auto reconstruct_gradient = [&](const CellIterator &cell) {
       LocalOperators::gradient_reconstruction(cell,
                                               cell_values,
                                               trace_values,
@@ -300,9 +288,17 @@ namespace StepHHO
                                               gradient_basis,
                                               G,
                                               gradient_mass);
+    };
+    // The coefficients of sigma on `cell` (whose G_K is reconstructed) for
+    // the tension mu, the local vector and the source f -/+ lambda_h at the
+    // quadrature points.
+    const auto cell_sigma = [&](const CellIterator        &cell,
+                                const auto                &flux_cell,
+                                const double               mu,
+                                const Vector<double>      &local,
+                                const std::vector<double> &source) {
       G.vmult(Gu, local);
       normal_fluxes(cell, mu, local, Gu, trace_values, face_values, phi);
-      cell_values.reinit(cell);
       std::fill(mu_grad_u.begin(), mu_grad_u.end(), Tensor<1, dim>());
       for (const unsigned int q : cell_values.quadrature_point_indices())
         for (unsigned int i = 0; i < n_c; ++i)
@@ -327,14 +323,17 @@ namespace StepHHO
         return nullptr;
       auto [it, added] = maps.try_emplace(shape);
       if (added)
-        it->second =
-          linear_maps(n_rt,
-                      n_c + n_f,
-                      n_q,
-                      [&](const Vector<double>      &unit,
-                          const std::vector<double> &source) {
-                        return cell_sigma(cell, flux_cell, 1., unit, source);
-                      });
+        {
+          reconstruct_gradient(cell);
+          it->second =
+            linear_maps(n_rt,
+                        n_c + n_f,
+                        n_q,
+                        [&](const Vector<double>      &unit,
+                            const std::vector<double> &source) {
+                          return cell_sigma(cell, flux_cell, 1., unit, source);
+                        });
+        }
       return &it->second;
     };
 
@@ -355,6 +354,8 @@ namespace StepHHO
           source_values.reinit(cell);
           source_values.get_function_values(lambda_h, lambda_values);
           const auto *map = map_of(cell, flux_cell);
+          if (!map)
+            reconstruct_gradient(cell);
           for (unsigned int a = 0; a < 2; ++a)
             {
               for (unsigned int i = 0; i < n_c; ++i)
@@ -380,16 +381,11 @@ namespace StepHHO
                   cell_sigma(cell, flux_cell, mu[a], local, source);
               for (unsigned int i = 0; i < n_rt; ++i)
                 if (owned.is_element(flux_dofs[i]))
-                  sigma_owned[a](flux_dofs[i]) = coefficients(i);
+                  sigma[a](flux_dofs[i]) = coefficients(i);
             }
         }
-    const IndexSet relevant = DoFTools::extract_locally_relevant_dofs(flux);
-    for (unsigned int a = 0; a < 2; ++a)
-      {
-        sigma_owned[a].compress(VectorOperation::insert);
-        sigma[a].reinit(owned, relevant, comm);
-        sigma[a] = sigma_owned[a];
-      }
+    for (MPIVector &v : sigma)
+      v.compress(VectorOperation::insert);
   }
 
 
@@ -411,8 +407,13 @@ namespace StepHHO
     const QGauss<dim>     quadrature(n_points);
     const QGauss<dim - 1> face_quadrature(n_points);
 
-    MPIVector u[2], lambda, positive;
-    broken_fields(broken.dofs, quadrature, u, lambda, positive);
+    MPIVector u_owned[2], lambda_owned, positive_owned;
+    broken_fields(
+      broken.dofs, quadrature, u_owned, lambda_owned, positive_owned);
+    const MPIVector u[2]     = {broken.ghosted(u_owned[0]),
+                                broken.ghosted(u_owned[1])};
+    const MPIVector lambda   = broken.ghosted(lambda_owned),
+                    positive = broken.ghosted(positive_owned);
 
     // The potential: Oswald interpolates with the nodal values of g on the
     // clamped boundary, averaged where s1 < s2.
@@ -435,8 +436,10 @@ namespace StepHHO
     const MPIVector s[2] = {continuous.ghosted(averaged[0]),
                             continuous.ghosted(averaged[1])};
 
-    MPIVector sigma[2];
-    equilibrated_fluxes(flux.dofs, quadrature, face_quadrature, sigma);
+    MPIVector sigma_owned[2];
+    equilibrated_fluxes(flux.dofs, quadrature, face_quadrature, sigma_owned);
+    const MPIVector sigma[2]    = {flux.ghosted(sigma_owned[0]),
+                                   flux.ghosted(sigma_owned[1])};
     const MPIVector no_residual = broken.ghosted(MPIVector(broken.owned, comm));
 
     // The jumps of u_T are reported with the weight of SIPG's default

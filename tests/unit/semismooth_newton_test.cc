@@ -132,12 +132,31 @@ namespace
       mu = new_mu;
     }
 
+    /// The active set of Newton-min's linearisation at X (the nodes with
+    /// X - psi <= lambda), compared with the previous one unless `first`:
+    /// the SemismoothNewton::active_set callback.
+    VI::ActiveSetChange
+    active_set(const Vector<double> &X, const bool first)
+    {
+      VI::ActiveSetChange change;
+      std::vector<bool>   now(n);
+      for (unsigned int i = 0; i < n; ++i)
+        {
+          now[i] = X(i) - psi(i) <= X(n + i);
+          change.active += now[i];
+          change.switched += !first && now[i] != active[i];
+        }
+      active = now;
+      return change;
+    }
+
     const unsigned int      n;
     ComplementarityFunction C;
     double                  mu = 0, U = 1, B = 1;
     FullMatrix<double>      K;
     Vector<double>          f, psi;
     FullMatrix<double>      jacobian, inverse;
+    std::vector<bool>       active; ///< of the last active_set() call
   };
 
 
@@ -258,18 +277,8 @@ TEST(SemismoothNewton, StagnationAtTheAccuracyOfTheSolvesIsAFailureAtOnce)
         norms.complementarity   = std::max(norms.complementarity, floor);
         return norms;
       };
-      std::vector<bool> active;
       newton.active_set = [&](const Vector<double> &X, const bool first) {
-        VI::ActiveSetChange change;
-        std::vector<bool>   now(problem.n);
-        for (unsigned int i = 0; i < problem.n; ++i)
-          {
-            now[i] = X(i) - problem.psi(i) <= X(problem.n + i);
-            change.active += now[i];
-            change.switched += !first && now[i] != active[i];
-          }
-        active = now;
-        return change;
+        return problem.active_set(X, first);
       };
       Vector<double> X(2 * problem.n);
       if (floor == 0)
@@ -324,22 +333,12 @@ TEST(SemismoothNewton, ActiveSetsOfTheLinearisationsAreReported)
   // reports its set and how many nodes switched since the previous one.
   ObstacleProblem problem(40, ComplementarityFunction());
   typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
-  data.tolerance           = 1e-13;
-  auto              newton = problem.make_newton(data);
-  std::vector<bool> active;
-  unsigned int      calls = 0;
-  newton.active_set       = [&](const Vector<double> &X, const bool first) {
+  data.tolerance      = 1e-13;
+  auto         newton = problem.make_newton(data);
+  unsigned int calls  = 0;
+  newton.active_set   = [&](const Vector<double> &X, const bool first) {
     EXPECT_EQ(first, calls++ == 0);
-    VI::ActiveSetChange change;
-    std::vector<bool>   now(problem.n);
-    for (unsigned int i = 0; i < problem.n; ++i)
-      {
-        now[i] = X(i) - problem.psi(i) <= X(problem.n + i);
-        change.active += now[i];
-        change.switched += !first && now[i] != active[i];
-      }
-    active = now;
-    return change;
+    return problem.active_set(X, first);
   };
   Vector<double> X(80);
   const auto     report = newton.solve(X);
