@@ -3,6 +3,7 @@
 // estimate.
 
 #include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_q.h>
 #include <deal.II/fe/fe_tools.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/lac/affine_constraints.h>
@@ -98,50 +99,116 @@ namespace StepMembranes
   }
 
 
-  // On every owned cell: the nodal values lambda_N(x_I) = m_I / (psi_I,
-  // 1)_K, whose mean is sum_I m_I / |K|; where lambda_N < 0 at a point of
-  // the estimator's quadrature and the mean is positive, lambda = mean +
-  // theta (lambda_N - mean) with the largest theta in [0, 1] that keeps
-  // lambda >= 0 at those points (the limiter of Zhang and Shu); with a
-  // negative mean, the mean.
+  // On every owned cell: the nodal values v(x_I) of `function` or, without
+  // it, lambda_N(x_I) = m_I / (psi_I, 1)_K; either has the cell mean sum_I
+  // m_I / |K|. Where v + g < 0 at a point of the estimator's quadrature (g
+  // the transmitted load there, if given) and the mean + g is positive at
+  // the points, lambda = mean + theta (v - mean) with the largest theta in
+  // [0, 1] that keeps lambda + g >= 0 at those points (the limiter of
+  // Zhang and Shu); otherwise the mean.
   template <int dim>
   void
-  DGMembraneProblem<dim>::limited_nodal_function(const Vector &moments,
-                                                 Vector       &lambda) const
+  DGMembraneProblem<dim>::limited_function(const Vector              &moments,
+                                           const Vector              *function,
+                                           const std::vector<double> *load,
+                                           Vector &lambda) const
   {
-    const unsigned int  n = fe.n_dofs_per_cell();
+    const unsigned int  n   = fe.n_dofs_per_cell();
+    const unsigned int  n_q = flux_reconstruction->get_quadrature().size();
     std::vector<double> nodal(n);
     Vector              owned(owned_nodes, comm);
     for_each_owned_cell(
       flux_reconstruction->get_quadrature(),
       [&](const auto &values, const auto &dofs) {
+        const double *g =
+          load ? load->data() + values.get_cell()->active_cell_index() * n_q :
+                 nullptr;
         double sum = 0, volume = 0;
         for (unsigned int i = 0; i < n; ++i)
           {
-            nodal[i] = moments(dofs[i]) / lumped_mass(dofs[i]);
+            nodal[i] = function ? (*function)(dofs[i]) :
+                                  moments(dofs[i]) / lumped_mass(dofs[i]);
             sum += moments(dofs[i]);
           }
         for (const unsigned int q : values.quadrature_point_indices())
           volume += values.JxW(q);
-        const double mean    = sum / volume;
-        double       minimum = *std::min_element(nodal.begin(), nodal.end());
+        const double mean  = sum / volume;
+        double       theta = 1.;
+        const auto   limit = [&](const double value, const double g_x) {
+          if (value + g_x >= 0)
+            return;
+          theta = mean + g_x <= 0 ?
+                      0. :
+                      std::min(theta, (mean + g_x) / (mean - value));
+        };
+        if (!g)
+          for (unsigned int i = 0; i < n; ++i)
+            limit(nodal[i], 0.);
         for (const unsigned int q : values.quadrature_point_indices())
           {
             double value = 0;
             for (unsigned int i = 0; i < n; ++i)
               value += nodal[i] * values.shape_value(i, q);
-            minimum = std::min(minimum, value);
+            limit(value, g ? g[q] : 0.);
           }
-        double theta = 1.;
-        if (mean <= 0)
-          theta = 0.;
-        else if (minimum < 0)
-          theta = mean / (mean - minimum);
         for (unsigned int i = 0; i < n; ++i)
           owned(dofs[i]) = mean + theta * (nodal[i] - mean);
       });
     owned.compress(VectorOperation::insert);
     ghosted_nodes.copy(owned, lambda);
+  }
+
+
+  // On every owned cell, the Q1 function v with (v, psi_v)_K = sum_I m_I
+  // psi_v(x_I) for the vertex functions psi_v of K (the L2 projection onto
+  // Q1(K) of M_K^{-1} m), written in the broken space (Q1 in Q_p). Summed
+  // over the cells, (v, psi_a) = <lambda_h, psi_a>_h for every vertex hat
+  // psi_a, which is all the patch problems of the flux reconstruction ask
+  // for: they equilibrate v itself.
+  template <int dim>
+  void
+  DGMembraneProblem<dim>::vertex_moment_function(const Vector &moments,
+                                                 Vector       &v) const
+  {
+    const unsigned int n = fe.n_dofs_per_cell();
+    const FE_Q<dim>    q1(1);
+    const unsigned int n_v = q1.n_dofs_per_cell();
+    FullMatrix<double> psi(n_v, n); // psi_v(x_I)
+    for (unsigned int k = 0; k < n_v; ++k)
+      for (unsigned int i = 0; i < n; ++i)
+        psi(k, i) = q1.shape_value(k, fe.get_unit_support_points()[i]);
+    FEValues<dim>          q1_values(*mapping,
+                            q1,
+                            quadrature,
+                            update_values | update_JxW_values);
+    FullMatrix<double>     mass(n_v, n_v);
+    dealii::Vector<double> vertex_moments(n_v), coefficients(n_v);
+    Vector                 owned(owned_nodes, comm);
+    for_each_owned_cell(quadrature, [&](const auto &values, const auto &dofs) {
+      q1_values.reinit(
+        typename Triangulation<dim>::cell_iterator(values.get_cell()));
+      mass = 0;
+      for (const unsigned int q : q1_values.quadrature_point_indices())
+        for (unsigned int k = 0; k < n_v; ++k)
+          for (unsigned int l = 0; l < n_v; ++l)
+            mass(k, l) += q1_values.shape_value(k, q) *
+                          q1_values.shape_value(l, q) * q1_values.JxW(q);
+      mass.gauss_jordan();
+      vertex_moments = 0;
+      for (unsigned int k = 0; k < n_v; ++k)
+        for (unsigned int i = 0; i < n; ++i)
+          vertex_moments(k) += psi(k, i) * moments(dofs[i]);
+      mass.vmult(coefficients, vertex_moments);
+      for (unsigned int i = 0; i < n; ++i)
+        {
+          double value = 0;
+          for (unsigned int k = 0; k < n_v; ++k)
+            value += coefficients(k) * psi(k, i);
+          owned(dofs[i]) = value;
+        }
+    });
+    owned.compress(VectorOperation::insert);
+    ghosted_nodes.copy(owned, v);
   }
 
 
@@ -352,7 +419,8 @@ namespace StepMembranes
   // With tensions far apart, the transmitted load g 1_J on the cells at
   // the contact set takes its moments G off the multiplier (see the
   // conforming method and VI::TransmittedLoad: the broken nodes are the
-  // cells' own, so J and G are cellwise).
+  // cells' own, so J and G are cellwise), and the rest is the cellwise Q1
+  // function of its vertex moments, which the fluxes equilibrate exactly.
   // Returns g 1_J (empty without `contact`).
   template <int dim>
   std::vector<double>
@@ -366,17 +434,31 @@ namespace StepMembranes
     Vector nonnegative(moments);
     for (double &m : nonnegative)
       m = std::max(m, 0.);
-    std::vector<double> transmitted;
-    if (contact)
+    if (!contact)
       {
-        Vector G(owned_nodes, comm);
-        transmitted = transmitted_load(*contact, s, G);
-        moments -= G;
-        nonnegative -= G;
+        function_from_moments(moments, lambda_source);
+        limited_function(moments, nullptr, nullptr, lambda);
+        limited_function(nonnegative, nullptr, nullptr, lambda_nonnegative);
+        return {};
       }
-    function_from_moments(moments, lambda_source);
-    limited_nodal_function(moments, lambda);
-    limited_nodal_function(nonnegative, lambda_nonnegative);
+
+    // With the transmitted load: the nodal function differs within the
+    // cells from the L2 representative M_K^{-1} m that the fluxes would
+    // equilibrate, and that misfit, divided by mu1^(1/2) in the residual
+    // term, dominated the estimate for p >= 2. The Q1 function of the
+    // vertex moments is equilibrated exactly, and limited only where it
+    // and the transmitted load are negative together.
+    Vector                    G(owned_nodes, comm), nonnegative_function;
+    const std::vector<double> transmitted = transmitted_load(*contact, s, G);
+    moments -= G;
+    nonnegative -= G;
+    vertex_moment_function(moments, lambda_source);
+    vertex_moment_function(nonnegative, nonnegative_function);
+    limited_function(moments, &lambda_source, &transmitted, lambda);
+    limited_function(nonnegative,
+                     &nonnegative_function,
+                     &transmitted,
+                     lambda_nonnegative);
     return transmitted;
   }
 
@@ -560,8 +642,12 @@ namespace StepMembranes
   DGMembraneProblem<2>::multiplier_function(const Vector &X3,
                                             Vector       &lambda) const;
   template void
-  DGMembraneProblem<2>::limited_nodal_function(const Vector &moments,
-                                               Vector       &lambda) const;
+  DGMembraneProblem<2>::limited_function(const Vector &,
+                                         const Vector *,
+                                         const std::vector<double> *,
+                                         Vector &) const;
+  template void
+  DGMembraneProblem<2>::vertex_moment_function(const Vector &, Vector &) const;
   template void
   DGMembraneProblem<2>::moments_of_function(const Vector &v,
                                             Vector       &moments) const;

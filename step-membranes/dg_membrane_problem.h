@@ -148,9 +148,10 @@ namespace StepMembranes
     VI::DGContactEstimate
     estimate(const Vector &X) const;
     /// The multiplier of the estimate from the moments of lambda_h: the
-    /// limited nodal one, its part from the nonnegative moments and the L2
-    /// representative the fluxes equilibrate, with the transmitted load of
-    /// the contact set `contact` if given (then returned as g 1_J).
+    /// limited one, its part from the nonnegative moments and the function
+    /// the fluxes equilibrate (the L2 representative; with the transmitted
+    /// load of the contact set `contact`, returned as g 1_J, the cellwise Q1
+    /// function of the vertex moments).
     std::vector<double>
     estimate_multiplier(Vector        moments,
                         const Vector *contact,
@@ -196,9 +197,18 @@ namespace StepMembranes
     void
     multiplier_function(const Vector &X3, Vector &lambda) const;
     /// The multiplier of the estimate from the moments <lambda_h, psi_I>_h:
-    /// nodal values m_I / (psi_I, 1)_K, limited towards the cell mean.
+    /// the nodal values of `function` (else m_I / (psi_I, 1)_K), limited
+    /// towards the cell mean where, with the transmitted load `load` at the
+    /// estimator's points if given, it is negative.
     void
-    limited_nodal_function(const Vector &moments, Vector &lambda) const;
+    limited_function(const Vector              &moments,
+                     const Vector              *function,
+                     const std::vector<double> *load,
+                     Vector                    &lambda) const;
+    /// The cellwise Q1 function with the moments against the vertex
+    /// functions of <lambda_h, .>_h given by `moments`; ghosted.
+    void
+    vertex_moment_function(const Vector &moments, Vector &v) const;
     /// The inverse map: moments_I = (v, psi_I)_K; v ghosted, moments not.
     void
     moments_of_function(const Vector &v, Vector &moments) const;
