@@ -67,11 +67,13 @@ namespace VI
     const IndexSet &owned = stiffness->locally_owned_range_indices();
     for (const std::size_t k : rows->local_positions())
       {
-        const auto g =
-          C.generalized_gradient(x[n_fields * k] - x[n_fields * k + 1],
-                                 x[n_fields * k + 2]);
-        alpha[k] = g[0];
-        beta[k]  = g[1];
+        // The gradient of the rows as the Jacobian has them: of C_mu on
+        // the continuation's path, of C otherwise.
+        const auto g = rows->row_gradient(C,
+                                          x[n_fields * k] - x[n_fields * k + 1],
+                                          x[n_fields * k + 2]);
+        alpha[k]     = g[0];
+        beta[k]      = g[1];
         // A node is tied where beta vanishes (Newton-min's nodes in contact)
         // and also where D alpha / beta exceeds the penalty (Fischer-
         // Burmeister near contact): there d3 = (r3 - alpha w) / beta would

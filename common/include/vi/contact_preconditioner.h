@@ -19,7 +19,9 @@ namespace VI
    *   [  0   mu2 S  +D] [d2] = [r2],     (node-interleaved, see NodalFields)
    *   [  J_C rows     ] [d3]   [r3]
    *
-   * whose C-function rows read alpha_i (d1_i - d2_i) + beta_i d3_i = r3_i.
+   * whose C-function rows read alpha_i (d1_i - d2_i) + beta_i d3_i = r3_i
+   * (alpha, beta the gradient of the rows: of C, or of the smoothed C_mu on
+   * the continuation's path, where both are nonzero near contact).
    * It rests on an exact decoupling: with the mean and the gap
    *
    *   m = (mu1 d1 + mu2 d2) / (mu1 + mu2),    w = d1 - d2,
