@@ -84,10 +84,10 @@ namespace StepHHO
                 const unsigned int l,
                 const Map         &map)
     {
-      std::array<FullMatrix<double>, 2> matrices{FullMatrix<double>(n, m),
-                                                 FullMatrix<double>(n, l)};
-      Vector<double>                    x(m);
-      std::vector<double>               y(l, 0.);
+      std::array<FullMatrix<double>, 2> matrices{
+        {FullMatrix<double>(n, m), FullMatrix<double>(n, l)}};
+      Vector<double>      x(m);
+      std::vector<double> y(l, 0.);
       for (unsigned int j = 0; j < m + l; ++j)
         {
           x = 0;
