@@ -20,9 +20,11 @@ Meshes from about 3e3 to 2.6e5 unknowns per field; about 25 minutes on two
 cores. Writes
 doc/data/cold_start_adaptive.{csv,md}. Usage, from the repository root
 after ./demo.sh or ./test.sh:
-  bench/cold_start_adaptive.py [--reuse]
---reuse takes the runs whose summary.json the last run left in
-output/bench-cold-start-adaptive. STEP_MEMBRANES names another binary.
+  bench/cold_start_adaptive.py [--amg] [--reuse]
+--amg preconditions GMRES with the contact AMG instead of ILU and writes
+doc/data/cold_start_adaptive_amg.{csv,md}; --reuse takes the runs whose
+summary.json the last run left in output/bench-cold-start-adaptive[-amg].
+STEP_MEMBRANES names another binary.
 """
 import json
 import os
@@ -32,7 +34,10 @@ import sys
 from vi_bench import ROOT, cold_start_settings, program, run, write_table
 
 PROGRAM = program("membranes")
-OUT = os.path.join(ROOT, "output", "bench-cold-start-adaptive")
+AMG = "--amg" in sys.argv
+NAME = "cold_start_adaptive" + ("_amg" if AMG else "")
+OUT = os.path.join(ROOT, "output",
+                   "bench-cold-start-adaptive" + ("-amg" if AMG else ""))
 REUSE = "--reuse" in sys.argv
 
 # (scene, parameter file, initial refinements of the meshes)
@@ -51,6 +56,7 @@ def solve(scene, prm, refinements, guess, c_function):
     settings = cold_start_settings(refinements, guess, c_function)
     settings.update({"Nonlinear solver/Strategy": "adaptive",
                      "Linear solver/Solver": "gmres",
+                     "Linear solver/Preconditioner": "amg" if AMG else "ilu",
                      "Estimators/Enabled": "true"})
     try:
         return run(PROGRAM, prm, settings, directory)
@@ -94,7 +100,7 @@ for scene, prm, meshes in SCENES:
                       f"Newton steps, {r['linear']} GMRES, error {r['error']}",
                       flush=True)
 
-write_table("cold_start_adaptive", rows,
+write_table(NAME, rows,
             ["scene", "start", "C-function", "unknowns per field",
              "Newton steps", "continuation after step", "GMRES iterations",
              "energy error", "eta", "effectivity", "seconds"],
@@ -103,4 +109,4 @@ write_table("cold_start_adaptive", rows,
              ("continuation_from", "{}"), ("linear", "{}"),
              ("error", "{:.3e}"), ("eta", "{:.3e}"), ("effectivity", "{:.2f}"),
              ("seconds", "{}")])
-print("wrote doc/data/cold_start_adaptive.{csv,md}")
+print(f"wrote doc/data/{NAME}.{{csv,md}}")
