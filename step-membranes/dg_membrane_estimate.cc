@@ -164,12 +164,15 @@ namespace StepMembranes
   // Q1(K) of M_K^{-1} m), written in the broken space (Q1 in Q_p). Summed
   // over the cells, (v, psi_a) = <lambda_h, psi_a>_h for every vertex hat
   // psi_a, which is all the patch problems of the flux reconstruction ask
-  // for: they equilibrate v itself.
+  // for: they equilibrate v itself. v[j] for moments[j], with one inverse
+  // Q1 mass matrix per cell for all of them.
   template <int dim>
   void
-  DGMembraneProblem<dim>::vertex_moment_function(const Vector &moments,
-                                                 Vector       &v) const
+  DGMembraneProblem<dim>::vertex_moment_functions(
+    const std::vector<const Vector *> &moments,
+    const std::vector<Vector *>       &v) const
   {
+    AssertDimension(moments.size(), v.size());
     const unsigned int n = fe.n_dofs_per_cell();
     const FE_Q<dim>    q1(1);
     const unsigned int n_v = q1.n_dofs_per_cell();
@@ -183,7 +186,7 @@ namespace StepMembranes
                             update_values | update_JxW_values);
     FullMatrix<double>     mass(n_v, n_v);
     dealii::Vector<double> vertex_moments(n_v), coefficients(n_v);
-    Vector                 owned(owned_nodes, comm);
+    std::vector<Vector>    owned(moments.size(), Vector(owned_nodes, comm));
     for_each_owned_cell(quadrature, [&](const auto &values, const auto &dofs) {
       q1_values.reinit(
         typename Triangulation<dim>::cell_iterator(values.get_cell()));
@@ -194,21 +197,27 @@ namespace StepMembranes
             mass(k, l) += q1_values.shape_value(k, q) *
                           q1_values.shape_value(l, q) * q1_values.JxW(q);
       mass.gauss_jordan();
-      vertex_moments = 0;
-      for (unsigned int k = 0; k < n_v; ++k)
-        for (unsigned int i = 0; i < n; ++i)
-          vertex_moments(k) += psi(k, i) * moments(dofs[i]);
-      mass.vmult(coefficients, vertex_moments);
-      for (unsigned int i = 0; i < n; ++i)
+      for (unsigned int j = 0; j < moments.size(); ++j)
         {
-          double value = 0;
+          vertex_moments = 0;
           for (unsigned int k = 0; k < n_v; ++k)
-            value += coefficients(k) * psi(k, i);
-          owned(dofs[i]) = value;
+            for (unsigned int i = 0; i < n; ++i)
+              vertex_moments(k) += psi(k, i) * (*moments[j])(dofs[i]);
+          mass.vmult(coefficients, vertex_moments);
+          for (unsigned int i = 0; i < n; ++i)
+            {
+              double value = 0;
+              for (unsigned int k = 0; k < n_v; ++k)
+                value += coefficients(k) * psi(k, i);
+              owned[j](dofs[i]) = value;
+            }
         }
     });
-    owned.compress(VectorOperation::insert);
-    ghosted_nodes.copy(owned, v);
+    for (unsigned int j = 0; j < moments.size(); ++j)
+      {
+        owned[j].compress(VectorOperation::insert);
+        ghosted_nodes.copy(owned[j], *v[j]);
+      }
   }
 
 
@@ -452,8 +461,8 @@ namespace StepMembranes
     const std::vector<double> transmitted = transmitted_load(*contact, s, G);
     moments -= G;
     nonnegative -= G;
-    vertex_moment_function(moments, lambda_source);
-    vertex_moment_function(nonnegative, nonnegative_function);
+    vertex_moment_functions({&moments, &nonnegative},
+                            {&lambda_source, &nonnegative_function});
     limited_function(moments, &lambda_source, &transmitted, lambda);
     limited_function(nonnegative,
                      &nonnegative_function,
@@ -647,7 +656,9 @@ namespace StepMembranes
                                          const std::vector<double> *,
                                          Vector &) const;
   template void
-  DGMembraneProblem<2>::vertex_moment_function(const Vector &, Vector &) const;
+  DGMembraneProblem<2>::vertex_moment_functions(
+    const std::vector<const Vector *> &,
+    const std::vector<Vector *> &) const;
   template void
   DGMembraneProblem<2>::moments_of_function(const Vector &v,
                                             Vector       &moments) const;

@@ -205,10 +205,11 @@ namespace StepMembranes
                      const Vector              *function,
                      const std::vector<double> *load,
                      Vector                    &lambda) const;
-    /// The cellwise Q1 function with the moments against the vertex
-    /// functions of <lambda_h, .>_h given by `moments`; ghosted.
+    /// v[j]: the cellwise Q1 function with the moments against the vertex
+    /// functions of <lambda_h, .>_h given by moments[j]; ghosted.
     void
-    vertex_moment_function(const Vector &moments, Vector &v) const;
+    vertex_moment_functions(const std::vector<const Vector *> &moments,
+                            const std::vector<Vector *>       &v) const;
     /// The inverse map: moments_I = (v, psi_I)_K; v ghosted, moments not.
     void
     moments_of_function(const Vector &v, Vector &moments) const;
