@@ -435,6 +435,11 @@ namespace StepHHO
       data.mu1, data.mu2, oswald[0], oswald[1], averaged[0], averaged[1]);
     const MPIVector s[2] = {continuous.ghosted(averaged[0]),
                             continuous.ghosted(averaged[1])};
+    // The averaging changes the Oswald interpolates only where the nodal
+    // complementarity fails, so its part of eta_nonc1 goes to Newton's error
+    // (eta_lin) and vanishes once Newton has converged.
+    const MPIVector unaveraged[2] = {continuous.ghosted(oswald[0]),
+                                     continuous.ghosted(oswald[1])};
 
     MPIVector sigma_owned[2];
     equilibrated_fluxes(flux.dofs, quadrature, face_quadrature, sigma_owned);
@@ -465,6 +470,8 @@ namespace StepHHO
     in.r2                 = &no_residual;
     in.s1                 = &s[0];
     in.s2                 = &s[1];
+    in.oswald1            = &unaveraged[0];
+    in.oswald2            = &unaveraged[1];
     in.sigma1             = &sigma[0];
     in.sigma2             = &sigma[1];
     return VI::estimate_dg_contact_error(in);

@@ -15,17 +15,14 @@ namespace StepHHO
   // Results.
 
   // The cell unknowns as FE_DGP functions: u_alpha,K = sum_j (T X_alpha)_j
-  // P_j, lambda_h with coefficients M^{-1} V^T X3 (from X3 = T^T M c), and
-  // the nodes in contact.
+  // P_j, lambda_h with coefficients M^{-1} V^T X3 (from X3 = T^T M c).
   template <int dim>
   void
-  HHOProblem<dim>::postprocess()
+  HHOProblem<dim>::cell_fields()
   {
-    TimerOutput::Scope            t(timer, "postprocess");
     const unsigned int            n_c = cell_fe.n_dofs_per_cell();
     TrilinosWrappers::MPI::Vector u1(owned_nodes, comm), u2(owned_nodes, comm),
-      gap(owned_nodes, comm), lambda(owned_nodes, comm),
-      indicator(owned_nodes, comm);
+      gap(owned_nodes, comm), lambda(owned_nodes, comm);
 
     std::vector<types::global_dof_index> nodes(n_c);
     Vector<double>                       x(n_c), c(n_c), Vx(n_c);
@@ -62,8 +59,22 @@ namespace StepHHO
     ghosted_nodes.copy(u2, u2_h);
     ghosted_nodes.copy(gap, gap_h);
     ghosted_nodes.copy(lambda, lambda_h);
+  }
+
+
+  // The cell fields of the solution, the contact set and the estimate (that
+  // of Newton's stopping test if it has computed one at this iterate).
+  template <int dim>
+  void
+  HHOProblem<dim>::postprocess()
+  {
+    TimerOutput::Scope t(timer, "postprocess");
+    cell_fields();
 
     // Nodes where u1 = u2 is enforced, and their share on each cell.
+    const unsigned int                   n_c = cell_fe.n_dofs_per_cell();
+    std::vector<types::global_dof_index> nodes(n_c);
+    TrilinosWrappers::MPI::Vector        indicator(owned_nodes, comm);
     n_contact_nodes = contact_rows.contact_set(solution, indicator);
     contact_fraction.reinit(triangulation.n_active_cells());
     for (const auto &cell : cell_dof_handler.active_cell_iterators())
@@ -78,7 +89,7 @@ namespace StepHHO
 
     last_estimate.reset();
     if (parameters.estimators)
-      last_estimate = estimate();
+      last_estimate = newton_estimate ? *newton_estimate : estimate();
   }
 
 
@@ -174,6 +185,15 @@ namespace StepHHO
     // their active sets and, during the continuation, the smoothing).
     record["timing"]       = run_record.cycle_timing();
     record["newton_steps"] = VI::newton_steps(newton_report);
+    if (!newton_estimates.empty())
+      {
+        // The adaptive stopping of Newton: the split of every iterate.
+        VI::Json steps = VI::Json::array();
+        for (const auto &[k, eta_disc, eta_lin] : newton_estimates)
+          steps.push_back(VI::Json::object(
+            {{"k", k}, {"eta_disc", eta_disc}, {"eta_lin", eta_lin}}));
+        record["newton_estimates"] = steps;
+      }
     if (last_estimate)
       {
         // The parts of the bound (doc/reference.md, "A posteriori estimate
@@ -185,7 +205,13 @@ namespace StepHHO
                                                {"nonconformity_2", e.nonc_2},
                                                {"nonconformity_3", e.nonc_3},
                                                {"contact", e.contact_cone},
-                                               {"jump", e.jump}});
+                                               {"jump", e.jump},
+                                               {"eta_disc", e.broken_disc},
+                                               {"eta_lin", e.eta_lin},
+                                               {"eta_alg", e.eta_alg},
+                                               {"nonc_1_lin", e.nonc_1_lin},
+                                               {"nonc_2_lin", e.nonc_2_lin},
+                                               {"contact_lin", e.contact_lin}});
       }
     run_record.add(record);
   }
@@ -211,6 +237,8 @@ namespace StepHHO
   }
 
 
+  template void
+  HHOProblem<2>::cell_fields();
   template void
   HHOProblem<2>::postprocess();
   template void

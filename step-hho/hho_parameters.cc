@@ -50,7 +50,7 @@ namespace StepHHO
                         "for p >= 2, which spoils the multiplier).");
     }
     prm.leave_subsection();
-    VI::NonlinearSolverParameters::declare(prm, "exact");
+    VI::NonlinearSolverParameters::declare(prm, "exact|adaptive");
     VI::LinearSolverParameters::declare(prm, "direct|cg", "cg");
     prm.enter_subsection("Linear solver");
     {
@@ -72,7 +72,8 @@ namespace StepHHO
     }
     prm.leave_subsection();
     // Only the switch: the estimate of step-hho has no choices of its own
-    // yet (hho_estimate.cc), and the adaptive strategy is not offered.
+    // yet (hho_estimate.cc). The adaptive strategy stops Newton with it; the
+    // face system is still solved to Linear solver/Tolerance.
     prm.enter_subsection("Estimators");
     {
       prm.declare_entry("Enabled",
@@ -111,6 +112,10 @@ namespace StepHHO
       throw VI::InputError(
         "Nonlinear solver/Initial guess = data is implemented for "
         "step-membranes; step-hho starts from zero (set it to zero)");
+    if (nonlinear_solver.strategy == VI::Strategy::adaptive && !estimators)
+      throw VI::InputError(
+        "Nonlinear solver/Strategy = adaptive stops Newton with the "
+        "estimators: set Estimators/Enabled = true");
     if (linear_solver.solver == VI::LinearSolverType::cg &&
         !static_condensation)
       throw VI::InputError(

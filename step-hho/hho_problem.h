@@ -29,6 +29,7 @@
 
 #include "static_condensation.h"
 
+#include <array>
 #include <map>
 #include <memory>
 #include <optional>
@@ -137,10 +138,13 @@ namespace StepHHO
     solve() override;
     void
     postprocess() override;
+    /// u1_h, u2_h, gap_h and lambda_h (FE_DGP, ghosted) of `solution`.
+    void
+    cell_fields();
     void
     compute_errors() override;
-    /// The a posteriori estimate of the converged iterate (hho_estimate.cc)
-    /// and its parts.
+    /// The a posteriori estimate of the iterate in u1_h, u2_h, lambda_h
+    /// (hho_estimate.cc) and its parts.
     VI::DGContactEstimate
     estimate() const;
     void
@@ -309,6 +313,11 @@ namespace StepHHO
     /// The bound of the energy error of the cell polynomials on this mesh
     /// (Estimators/Enabled), with its parts.
     std::optional<VI::DGContactEstimate> last_estimate;
+    /// Nonlinear solver/Strategy = adaptive: the estimate of the last Newton
+    /// iterate, which the stopping test computed (reused as last_estimate),
+    /// and (k, eta_disc, eta_lin) of every Newton iterate of this mesh.
+    std::optional<VI::DGContactEstimate> newton_estimate;
+    std::vector<std::array<double, 3>>   newton_estimates;
 
     std::unique_ptr<parallel::distributed::
                       SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>

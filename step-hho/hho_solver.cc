@@ -473,6 +473,27 @@ namespace StepHHO
         pcout << "      k = " << std::setw(2) << step.iteration << ": "
               << VI::describe(step, "CG") << std::endl;
       };
+    // The adaptive strategy: Newton stops once eta_lin <= gamma_lin
+    // eta_disc. Every Newton iterate satisfies the balance equations (they
+    // are linear, and each step solves them), so HHO's fluxes equilibrate
+    // it and its estimate is guaranteed, converged or not.
+    newton_estimate.reset();
+    newton_estimates.clear();
+    if (p.strategy == VI::Strategy::adaptive)
+      newton.stopping_criterion = [&](const auto &,
+                                      const VI::NewtonStep &step) {
+        cell_fields();
+        newton_estimate       = estimate();
+        const double eta_disc = newton_estimate->broken_disc,
+                     eta_lin  = newton_estimate->eta_lin;
+        newton_estimates.push_back(
+          {{double(step.iteration), eta_disc, eta_lin}});
+        if (parameters.output.verbose)
+          pcout << "              eta_disc " << std::scientific
+                << std::setprecision(2) << eta_disc << ", eta_lin " << eta_lin
+                << std::defaultfloat << std::endl;
+        return p.linearisation_error_small(eta_disc, eta_lin);
+      };
 
     newton_report = newton.solve(solution);
     mean_solver.reset();

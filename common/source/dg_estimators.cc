@@ -452,8 +452,9 @@ namespace VI
       const double D = eta_flux + e.nonc_1_disc + e.nonc_2_disc +
                        cross(e.nonc_1_disc) +
                        std::sqrt(std::max(e.contact_disc, 0.) / 2.);
-      e.eta_disc = std::sqrt(D * D + e.jump * e.jump);
-      e.eta_lin  = e.nonc_1_lin + cross(e.nonc_1_lin) + e.nonc_2_lin +
+      e.broken_disc = D;
+      e.eta_disc    = std::sqrt(D * D + e.jump * e.jump);
+      e.eta_lin     = e.nonc_1_lin + cross(e.nonc_1_lin) + e.nonc_2_lin +
                   std::sqrt(std::max(e.contact_lin, 0.) / 2.);
       e.eta_alg = e.remainder;
     }

@@ -32,6 +32,9 @@ namespace VI
   {
     /// Guaranteed bound of the broken part |||u - u_h|||_h.
     double broken = 0;
+    /// Its discretisation part: broken <= broken_disc + eta_lin + eta_alg
+    /// (eta_disc adds the jumps to it in quadrature).
+    double broken_disc = 0;
     /// |u_h|_J (= |u - u_h|_J): the jump part of the error.
     double jump = 0;
     /// sum_alpha mu_alpha |grad_h u_alpha,h - grad s_alpha|^2, the
