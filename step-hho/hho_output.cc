@@ -89,7 +89,9 @@ namespace StepHHO
 
     last_estimate.reset();
     if (parameters.estimators)
-      last_estimate = newton_estimate ? *newton_estimate : estimate();
+      last_estimate = stopping.final_estimate ?
+                        std::move(stopping.final_estimate) :
+                        std::optional(estimate());
   }
 
 
@@ -185,15 +187,8 @@ namespace StepHHO
     // their active sets and, during the continuation, the smoothing).
     record["timing"]       = run_record.cycle_timing();
     record["newton_steps"] = VI::newton_steps(newton_report);
-    if (!newton_estimates.empty())
-      {
-        // The adaptive stopping of Newton: the split of every iterate.
-        VI::Json steps = VI::Json::array();
-        for (const auto &[k, eta_disc, eta_lin] : newton_estimates)
-          steps.push_back(VI::Json::object(
-            {{"k", k}, {"eta_disc", eta_disc}, {"eta_lin", eta_lin}}));
-        record["newton_estimates"] = steps;
-      }
+    if (stopping.adaptive())
+      record["iterations"] = VI::to_json(stopping.records, true);
     if (last_estimate)
       {
         // The parts of the bound (doc/reference.md, "A posteriori estimate

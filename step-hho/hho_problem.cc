@@ -88,6 +88,9 @@ namespace StepHHO
       , face_fe(degree - 1)
       , cell_dof_handler(triangulation)
       , face_dof_handler(triangulation)
+      , stopping(parameters.nonlinear_solver,
+                 stopping_hooks(),
+                 parameters.output.verbose ? &pcout : nullptr)
   {
     static_assert(dim == 2,
                   "The contact nodes are those of the square "

@@ -15,6 +15,7 @@
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <vi/adaptive_stopping.h>
 #include <vi/complementarity.h>
 #include <vi/contact_rows.h>
 #include <vi/dg_estimators.h>
@@ -313,11 +314,19 @@ namespace StepHHO
     /// The bound of the energy error of the cell polynomials on this mesh
     /// (Estimators/Enabled), with its parts.
     std::optional<VI::DGContactEstimate> last_estimate;
-    /// Nonlinear solver/Strategy = adaptive: the estimate of the last Newton
-    /// iterate, which the stopping test computed (reused as last_estimate),
-    /// and (k, eta_disc, eta_lin) of every Newton iterate of this mesh.
-    std::optional<VI::DGContactEstimate> newton_estimate;
-    std::vector<std::array<double, 3>>   newton_estimates;
+
+    /// Nonlinear solver/Strategy = adaptive: Newton stopped by the estimate
+    /// of its iterates (the shared VI::AdaptiveStopping; CG is not watched:
+    /// its iterates do not equilibrate, and the face systems are solved to
+    /// Linear solver/Tolerance).
+    struct Iterate
+    {
+      TrilinosWrappers::MPI::Vector X;
+      unsigned int                  linear_iteration = 0;
+    };
+    typename VI::AdaptiveStopping<Iterate, VI::DGContactEstimate>::Hooks
+                                                         stopping_hooks();
+    VI::AdaptiveStopping<Iterate, VI::DGContactEstimate> stopping;
 
     std::unique_ptr<parallel::distributed::
                       SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>

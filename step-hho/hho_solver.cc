@@ -477,27 +477,44 @@ namespace StepHHO
     // eta_disc. Every Newton iterate satisfies the balance equations (they
     // are linear, and each step solves them), so HHO's fluxes equilibrate
     // it and its estimate is guaranteed, converged or not.
-    newton_estimate.reset();
-    newton_estimates.clear();
-    if (p.strategy == VI::Strategy::adaptive)
-      newton.stopping_criterion = [&](const auto &,
-                                      const VI::NewtonStep &step) {
-        cell_fields();
-        newton_estimate       = estimate();
-        const double eta_disc = newton_estimate->broken_disc,
-                     eta_lin  = newton_estimate->eta_lin;
-        newton_estimates.push_back(
-          {{double(step.iteration), eta_disc, eta_lin}});
-        if (parameters.output.verbose)
-          pcout << "              eta_disc " << std::scientific
-                << std::setprecision(2) << eta_disc << ", eta_lin " << eta_lin
-                << std::defaultfloat << std::endl;
-        return p.linearisation_error_small(eta_disc, eta_lin);
-      };
+    stopping.start_solve();
+    if (stopping.adaptive())
+      {
+        newton.setup_jacobian = [&](const auto &X) {
+          stopping.start_step(X);
+          setup_jacobian(X);
+        };
+        stopping.attach_criteria(newton);
+      }
 
     newton_report = newton.solve(solution);
     mean_solver.reset();
     jacobian_solver.reset();
+  }
+
+
+  // What the adaptive stopping sees of this program: the estimate of a
+  // Newton iterate, which is `solution` (SemismoothNewton works on it).
+  // Only Newton iterates are estimated, so the hooks of the GMRES checks
+  // are never called.
+  template <int dim>
+  typename VI::AdaptiveStopping<typename HHOProblem<dim>::Iterate,
+                                VI::DGContactEstimate>::Hooks
+  HHOProblem<dim>::stopping_hooks()
+  {
+    typename VI::AdaptiveStopping<Iterate, VI::DGContactEstimate>::Hooks hooks;
+    hooks.estimate_iterate = [this](const TrilinosWrappers::MPI::Vector &) {
+      cell_fields();
+      return estimate();
+    };
+    // The bound of |||u - u_T|||_h, the error HHO reports (the jumps of the
+    // cell polynomials are not in it).
+    hooks.components = [](const VI::DGContactEstimate &e) {
+      return VI::StoppingComponents{
+        true, e.broken, e.broken_disc, e.eta_lin, e.eta_alg, e.eta_lin};
+    };
+    hooks.look_ahead = false;
+    return hooks;
   }
 
 
@@ -524,4 +541,7 @@ namespace StepHHO
                                        TrilinosWrappers::MPI::Vector &);
   template void
   HHOProblem<2>::solve();
+  template typename VI::AdaptiveStopping<typename HHOProblem<2>::Iterate,
+                                         VI::DGContactEstimate>::Hooks
+  HHOProblem<2>::stopping_hooks();
 } // namespace StepHHO
