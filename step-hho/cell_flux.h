@@ -13,6 +13,7 @@
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/vector.h>
 
+#include <array>
 #include <vector>
 
 namespace StepHHO
@@ -56,6 +57,14 @@ namespace StepHHO
       for (unsigned int i = 0; i < n; ++i)
         if (!on_face[i])
           interior.push_back(i);
+      // The non-constant Legendre polynomials at the quadrature points of
+      // the reference cell, the same on every cell.
+      legendre_values.resize(legendre.n_dofs_per_cell() - 1,
+                             std::vector<double>(quadrature.size()));
+      for (unsigned int m = 0; m < legendre_values.size(); ++m)
+        for (unsigned int q = 0; q < quadrature.size(); ++q)
+          legendre_values[m][q] =
+            legendre.shape_value(m + 1, quadrature.point(q));
     }
 
     /// `phi[f][q]`: the outward normal flux at the face quadrature points;
@@ -66,80 +75,134 @@ namespace StepHHO
             const std::vector<Tensor<1, dim>>                    &mu_grad_u,
             const std::vector<double>                            &source)
     {
+      reinit(cell);
+      return solve(phi, mu_grad_u, source);
+    }
+
+    /// What depends on the cell only: the inverse matrices of the face
+    /// projections and of the interior saddle-point system, and the shape
+    /// functions at the quadrature points. The flux is linear in the data,
+    /// so each cell is prepared once for both membranes (and for all the
+    /// columns of a shape's linear map, hho_estimate.cc).
+    void
+    reinit(const typename DoFHandler<dim>::active_cell_iterator &cell)
+    {
       const FiniteElement<dim>        &fe = values.get_fe();
       const FEValuesExtractors::Vector flux(0);
-      Vector<double>                   sigma(fe.n_dofs_per_cell());
+      const unsigned int               n = fe.n_dofs_per_cell();
 
-      // The face degrees of freedom: the L2 projection of phi onto the
-      // normal traces of the face's basis functions (exact).
+      // The face degrees of freedom: the L2 projection onto the normal
+      // traces of the face's basis functions (exact for phi in P_{p-1}).
       for (const unsigned int f : cell->face_indices())
         {
           face_values.reinit(cell, f);
-          const unsigned int        n_F = fe.n_dofs_per_face(f);
-          FullMatrix<double>        A(n_F, n_F);
-          Vector<double>            b(n_F), x(n_F);
-          std::vector<unsigned int> dofs(n_F);
+          const unsigned int n_F  = fe.n_dofs_per_face(f);
+          FaceData          &face = faces[f];
+          face.dofs.resize(n_F);
           for (unsigned int k = 0; k < n_F; ++k)
-            dofs[k] = fe.face_to_cell_index(k, f);
+            face.dofs[k] = fe.face_to_cell_index(k, f);
+          face.weighted_traces.reinit(n_F, face_values.n_quadrature_points);
+          face.inverse_mass.reinit(n_F, n_F);
           for (const unsigned int q : face_values.quadrature_point_indices())
             {
-              const Tensor<1, dim> &n  = face_values.normal_vector(q);
-              const double          ds = face_values.JxW(q);
+              const Tensor<1, dim> &normal = face_values.normal_vector(q);
+              const double          ds     = face_values.JxW(q);
               for (unsigned int k = 0; k < n_F; ++k)
                 {
-                  const double psi_k = face_values[flux].value(dofs[k], q) * n;
-                  b(k) += phi[f][q] * psi_k * ds;
+                  const double psi_k =
+                    face_values[flux].value(face.dofs[k], q) * normal;
+                  face.weighted_traces(k, q) = psi_k * ds;
                   for (unsigned int l = 0; l < n_F; ++l)
-                    A(k, l) +=
-                      psi_k * (face_values[flux].value(dofs[l], q) * n) * ds;
+                    face.inverse_mass(k, l) +=
+                      psi_k *
+                      (face_values[flux].value(face.dofs[l], q) * normal) * ds;
                 }
             }
-          A.gauss_jordan();
-          A.vmult(x, b);
-          for (unsigned int k = 0; k < n_F; ++k)
-            sigma(dofs[k]) = x(k);
+          face.inverse_mass.gauss_jordan();
         }
 
       // The interior ones: the saddle-point system of the constrained
       // minimisation, [M B^T; B 0] [sigma_I; gamma] = [-(sigma_b + mu grad
       // u, psi_i); (source - div sigma_b, q_m)].
       values.reinit(cell);
-      const unsigned int n_I = interior.size();
-      const unsigned int n_m = legendre.n_dofs_per_cell() - 1;
-      FullMatrix<double> K(n_I + n_m, n_I + n_m);
-      Vector<double>     rhs(n_I + n_m), x(n_I + n_m);
+      const unsigned int n_q = values.n_quadrature_points;
+      shape_values.resize(n * n_q);
+      shape_divergences.resize(n * n_q);
+      JxW.resize(n_q);
       for (const unsigned int q : values.quadrature_point_indices())
         {
-          const double   dx = values.JxW(q);
+          JxW[q] = values.JxW(q);
+          for (unsigned int j = 0; j < n; ++j)
+            {
+              shape_values[j * n_q + q]      = values[flux].value(j, q);
+              shape_divergences[j * n_q + q] = values[flux].divergence(j, q);
+            }
+        }
+      const unsigned int n_I = interior.size();
+      const unsigned int n_m = legendre_values.size();
+      inverse_system.reinit(n_I + n_m, n_I + n_m);
+      for (unsigned int q = 0; q < n_q; ++q)
+        for (unsigned int i = 0; i < n_I; ++i)
+          {
+            const Tensor<1, dim> &psi_i = shape_values[interior[i] * n_q + q];
+            for (unsigned int j = 0; j < n_I; ++j)
+              inverse_system(i, j) +=
+                psi_i * shape_values[interior[j] * n_q + q] * JxW[q];
+            const double div_i = shape_divergences[interior[i] * n_q + q];
+            for (unsigned int m = 0; m < n_m; ++m)
+              {
+                const double q_m = legendre_values[m][q];
+                inverse_system(n_I + m, i) += div_i * q_m * JxW[q];
+                inverse_system(i, n_I + m) += div_i * q_m * JxW[q];
+              }
+          }
+      inverse_system.gauss_jordan();
+    }
+
+    /// The flux of the data on the cell of the last reinit().
+    Vector<double>
+    solve(const std::vector<std::vector<double>> &phi,
+          const std::vector<Tensor<1, dim>>      &mu_grad_u,
+          const std::vector<double>              &source) const
+    {
+      const unsigned int n   = values.get_fe().n_dofs_per_cell();
+      const unsigned int n_q = JxW.size();
+      Vector<double>     sigma(n);
+      for (unsigned int f = 0; f < GeometryInfo<dim>::faces_per_cell; ++f)
+        {
+          const FaceData    &face = faces[f];
+          const unsigned int n_F  = face.dofs.size();
+          Vector<double>     b(n_F), x(n_F);
+          for (unsigned int q = 0; q < face.weighted_traces.n(); ++q)
+            for (unsigned int k = 0; k < n_F; ++k)
+              b(k) += phi[f][q] * face.weighted_traces(k, q);
+          face.inverse_mass.vmult(x, b);
+          for (unsigned int k = 0; k < n_F; ++k)
+            sigma(face.dofs[k]) = x(k);
+        }
+
+      const unsigned int n_I = interior.size();
+      const unsigned int n_m = legendre_values.size();
+      Vector<double>     rhs(n_I + n_m), x(n_I + n_m);
+      for (unsigned int q = 0; q < n_q; ++q)
+        {
           Tensor<1, dim> boundary_part;
           double         boundary_divergence = 0;
-          for (unsigned int j = 0; j < fe.n_dofs_per_cell(); ++j)
+          for (unsigned int j = 0; j < n; ++j)
             if (sigma(j) != 0.)
               {
-                boundary_part += sigma(j) * values[flux].value(j, q);
-                boundary_divergence += sigma(j) * values[flux].divergence(j, q);
+                boundary_part += sigma(j) * shape_values[j * n_q + q];
+                boundary_divergence +=
+                  sigma(j) * shape_divergences[j * n_q + q];
               }
-          const Point<dim> &x_ref = values.get_quadrature().point(q);
           for (unsigned int i = 0; i < n_I; ++i)
-            {
-              const Tensor<1, dim> psi_i = values[flux].value(interior[i], q);
-              rhs(i) -= (boundary_part + mu_grad_u[q]) * psi_i * dx;
-              for (unsigned int j = 0; j < n_I; ++j)
-                K(i, j) += psi_i * values[flux].value(interior[j], q) * dx;
-              const double div_i = values[flux].divergence(interior[i], q);
-              for (unsigned int m = 0; m < n_m; ++m)
-                {
-                  const double q_m = legendre.shape_value(m + 1, x_ref);
-                  K(n_I + m, i) += div_i * q_m * dx;
-                  K(i, n_I + m) += div_i * q_m * dx;
-                }
-            }
+            rhs(i) -= (boundary_part + mu_grad_u[q]) *
+                      shape_values[interior[i] * n_q + q] * JxW[q];
           for (unsigned int m = 0; m < n_m; ++m)
             rhs(n_I + m) += (source[q] - boundary_divergence) *
-                            legendre.shape_value(m + 1, x_ref) * dx;
+                            legendre_values[m][q] * JxW[q];
         }
-      K.gauss_jordan();
-      K.vmult(x, rhs);
+      inverse_system.vmult(x, rhs);
       for (unsigned int i = 0; i < n_I; ++i)
         sigma(interior[i]) = x(i);
       return sigma;
@@ -150,5 +213,23 @@ namespace StepHHO
     FEFaceValues<dim>         face_values;
     const FE_DGQLegendre<dim> legendre;
     std::vector<unsigned int> interior;
+    /// legendre_values[m][q]: the (m + 1)-th Legendre polynomial at point q.
+    std::vector<std::vector<double>> legendre_values;
+
+    // The cell of the last reinit(): per face, its degrees of freedom, the
+    // normal traces of their basis functions times the weights at the face
+    // quadrature points, and the inverse of their mass matrix; the shape
+    // functions and their divergences at the cell's points ([j * n_q + q]),
+    // the weights, and the inverse of the interior system.
+    struct FaceData
+    {
+      std::vector<unsigned int> dofs;
+      FullMatrix<double>        weighted_traces, inverse_mass;
+    };
+    std::array<FaceData, GeometryInfo<dim>::faces_per_cell> faces;
+    std::vector<Tensor<1, dim>>                             shape_values;
+    std::vector<double>                                     shape_divergences;
+    std::vector<double>                                     JxW;
+    FullMatrix<double>                                      inverse_system;
   };
 } // namespace StepHHO

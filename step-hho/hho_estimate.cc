@@ -289,11 +289,10 @@ namespace StepHHO
                                               G,
                                               gradient_mass);
     };
-    // The coefficients of sigma on `cell` (whose G_K is reconstructed) for
-    // the tension mu, the local vector and the source f -/+ lambda_h at the
-    // quadrature points.
+    // The coefficients of sigma on `cell` (whose G_K is reconstructed, and
+    // for which cell_flux is prepared) for the tension mu, the local vector
+    // and the source f -/+ lambda_h at the quadrature points.
     const auto cell_sigma = [&](const CellIterator        &cell,
-                                const auto                &flux_cell,
                                 const double               mu,
                                 const Vector<double>      &local,
                                 const std::vector<double> &source) {
@@ -303,7 +302,7 @@ namespace StepHHO
       for (const unsigned int q : cell_values.quadrature_point_indices())
         for (unsigned int i = 0; i < n_c; ++i)
           mu_grad_u[q] += mu * local(i) * cell_values.shape_grad(i, q);
-      return cell_flux.compute(flux_cell, phi, mu_grad_u, source);
+      return cell_flux.solve(phi, mu_grad_u, source);
     };
 
     // sigma is linear in (mu local, source). Where many cells share a shape
@@ -325,14 +324,14 @@ namespace StepHHO
       if (added)
         {
           reconstruct_gradient(cell);
-          it->second =
-            linear_maps(n_rt,
-                        n_c + n_f,
-                        n_q,
-                        [&](const Vector<double>      &unit,
-                            const std::vector<double> &source) {
-                          return cell_sigma(cell, flux_cell, 1., unit, source);
-                        });
+          cell_flux.reinit(flux_cell);
+          it->second = linear_maps(n_rt,
+                                   n_c + n_f,
+                                   n_q,
+                                   [&](const Vector<double>      &unit,
+                                       const std::vector<double> &source) {
+                                     return cell_sigma(cell, 1., unit, source);
+                                   });
         }
       return &it->second;
     };
@@ -355,7 +354,10 @@ namespace StepHHO
           source_values.get_function_values(lambda_h, lambda_values);
           const auto *map = map_of(cell, flux_cell);
           if (!map)
-            reconstruct_gradient(cell);
+            {
+              reconstruct_gradient(cell);
+              cell_flux.reinit(flux_cell);
+            }
           for (unsigned int a = 0; a < 2; ++a)
             {
               for (unsigned int i = 0; i < n_c; ++i)
@@ -377,8 +379,7 @@ namespace StepHHO
                   (*map)[0].vmult_add(coefficients, local);
                 }
               else
-                coefficients =
-                  cell_sigma(cell, flux_cell, mu[a], local, source);
+                coefficients = cell_sigma(cell, mu[a], local, source);
               for (unsigned int i = 0; i < n_rt; ++i)
                 if (owned.is_element(flux_dofs[i]))
                   sigma[a](flux_dofs[i]) = coefficients(i);
