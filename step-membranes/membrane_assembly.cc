@@ -32,7 +32,10 @@ namespace StepMembranes
     TimerOutput::Scope t(timer, "setup");
 
     distribute_nodes();
-    make_constraints(*data.g1, *data.g2, data.obstacle.get());
+    make_constraints(*data.g1,
+                     *data.g2,
+                     data.obstacle.get(),
+                     data.smooth_obstacle);
     VI::NodalFields::make_system_constraints(hanging_node_constraints,
                                              hanging_node_constraints,
                                              relevant_system,

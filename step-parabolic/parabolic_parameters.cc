@@ -226,6 +226,9 @@ namespace StepParabolic
                 "estimators: set Estimators/Enabled = true");
       }
 
+    require(!problem.smooth_obstacle,
+            "Problem/Smooth obstacle serves the stationary estimate of "
+            "step-membranes; step-parabolic does not use it: remove it");
     const VI::Strategy strategy = nonlinear_solver.strategy;
     require(strategy == VI::Strategy::exact ||
               linear_solver.solver == VI::LinearSolverType::gmres,

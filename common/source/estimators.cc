@@ -52,6 +52,8 @@ namespace VI
       contact_cone,       // 2 (c_K lambda^pos, (s1 - s2)^+)
       contact_linearised, // 2 (lambda, u1 - u2)
       dirichlet_squared,  // |||G|||^2
+      cone_cross,         // over an obstacle: a bound of a(u - s~, w), see
+                          // add_obstacle_cross_term()
       n_sums
     };
     using ContactSums = EstimateSums<ContactSum>;
@@ -684,6 +686,37 @@ namespace VI
               dx;
             cell[ContactSum::contact_linearised] += 2. * lambda[q] * gap * dx;
           }
+        if (in.obstacle && in.smooth_obstacle && !dt_vectors[0])
+          add_obstacle_cross_term(scratch, cell);
+      }
+
+      // Over an obstacle (stationary): w = (psi - s1)^+, where s~ = psi.
+      // With -mu1 Lap u = f1 + lambda and lambda = (-f1 - mu1 Lap psi) where
+      // u = psi, 0 elsewhere (u and psi twice differentiable there),
+      //   a(u - s~, w) = (f1 + lambda, w) - mu1 (grad psi, grad w)
+      //               <= (f1 + (-f1 - mu1 Lap psi)^+, w) - mu1 (grad psi, grad
+      //               w),
+      // which bound_with_remainder() uses to add |||u - s~||| and |||w||| in
+      // quadrature.
+      void
+      add_obstacle_cross_term(const ContactScratch<dim> &scratch,
+                              ContactSums               &cell) const
+      {
+        const FEValues<dim> &values = scratch.potential_values;
+        const auto          &s = scratch.s, &grad_s = scratch.grad_s;
+        for (unsigned int q = 0; q < n_q; ++q)
+          if (s[1][q] > s[0][q])
+            {
+              const Point<dim> &x = values.quadrature_point(q);
+              const double      w = s[1][q] - s[0][q];
+              const double      f = pairs.f[0]->value(x);
+              const double      load =
+                std::max(-f - mu[0] * in.obstacle->laplacian(x), 0.);
+              cell[ContactSum::cone_cross] +=
+                ((f + load) * w -
+                 mu[0] * grad_s[1][q] * (grad_s[1][q] - grad_s[0][q])) *
+                values.JxW(q);
+            }
       }
 
       const ContactEstimatorInput<dim>    &in;
@@ -721,11 +754,12 @@ namespace VI
     // The bound and its split for a bound of the remainder, which enters
     // eta_1, the cross terms and eta_alg: all of them grow with it.
     inline void
-    bound_with_remainder(const ContactSums &total,
-                         const bool         with_fluxes,
-                         const double       remainder_bound,
-                         const bool         obstacle,
-                         ContactEstimate   &e)
+    bound_with_remainder(const ContactSums          &total,
+                         const bool                  with_fluxes,
+                         const double                remainder_bound,
+                         const bool                  obstacle,
+                         ContactEstimate            &e,
+                         const std::optional<double> cone_cross = {})
     {
       e.remainder = remainder_bound;
       e.eta_1 =
@@ -746,12 +780,23 @@ namespace VI
           e.eta_1_cone =
             std::sqrt(total[ContactSum::flux_residual_cone]) + remainder_bound;
           const double a_cone = e.eta_1_cone + e.nonc_2;
-          e.eta               = std::min(e.eta,
-                           0.5 * a_cone +
-                             std::sqrt(std::max(0.25 * a_cone * a_cone +
-                                                  0.5 * e.contact_cone,
-                                                0.)) +
-                             e.nonc_1 + e.dirichlet);
+          const double cone_error =
+            0.5 * a_cone +
+            std::sqrt(
+              std::max(0.25 * a_cone * a_cone + 0.5 * e.contact_cone, 0.));
+          e.eta = std::min(e.eta, cone_error + e.nonc_1 + e.dirichlet);
+          // A third: with w = (psi - s1)^+ (so that s~ - u_h = (s1 - u_h)
+          // + w), |||u - u_h||| <= |||u - s~ + w||| + |||s1 - u_h||| and
+          // |||u - s~ + w|||^2 = |||u - s~|||^2 + |||w|||^2 + 2 a(u - s~, w),
+          // the last bounded by cone_cross (stationary problems only): the
+          // free part and the interpolation error of psi then add in
+          // quadrature.
+          if (cone_cross)
+            e.eta = std::min(e.eta,
+                             std::sqrt(cone_error * cone_error +
+                                       e.nonc_1_disc * e.nonc_1_disc +
+                                       2. * std::max(*cone_cross, 0.)) +
+                               e.nonc_1_lin + e.dirichlet);
         }
       const auto cross = [&](const double nonc_1_part) {
         return std::sqrt((e.eta_1 + e.nonc_2) * nonc_1_part);
@@ -870,9 +915,13 @@ namespace VI
       e.dirichlet  = std::sqrt(total[ContactSum::dirichlet_squared]);
       e.eta_1_disc = std::sqrt(total[ContactSum::flux_residual_disc]);
 
-      const bool obstacle = in.obstacle != nullptr;
+      const bool                  obstacle = in.obstacle != nullptr;
+      const std::optional<double> cone_cross =
+        obstacle && in.smooth_obstacle && !terms.dt_vectors[0] ?
+          std::optional<double>(total[ContactSum::cone_cross]) :
+          std::nullopt;
       bound_with_remainder(
-        total, with_fluxes, friedrichs_remainder, obstacle, e);
+        total, with_fluxes, friedrichs_remainder, obstacle, e, cone_cross);
       // The dual norm bounds cost a Poisson solve and a reconstruction each
       // (the remainder's two fields share one):
       // they are computed only where Friedrichs' bound is not negligible,
@@ -890,7 +939,8 @@ namespace VI
                                std::sqrt(rho[0] * rho[0] / in.mu1 +
                                          rho[1] * rho[1] / in.mu2),
                                obstacle,
-                               e);
+                               e,
+                               cone_cross);
         }
       if (!with_fluxes)
         mark_unknown_terms(e);

@@ -195,6 +195,28 @@ namespace VI
   }
 
 
+  template <int dim>
+  double
+  ExpressionFunction<dim>::laplacian(const Point<dim> &p,
+                                     const unsigned int) const
+  {
+    Evaluator   &e      = evaluator();
+    const double centre = evaluate(e, p);
+    double       sum    = 0;
+    for (unsigned int i = 0; i < dim; ++i)
+      {
+        Tensor<1, dim> step;
+        step[i]               = h;
+        const Point<dim> near = p + step, far = near + step;
+        const Point<dim> near_below = p - step, far_below = near_below - step;
+        sum += (-evaluate(e, far) + 16 * evaluate(e, near) - 30 * centre +
+                16 * evaluate(e, near_below) - evaluate(e, far_below)) /
+               (12 * h * h);
+      }
+    return sum;
+  }
+
+
   template class ExpressionFunction<1>;
   template class ExpressionFunction<2>;
 } // namespace VI

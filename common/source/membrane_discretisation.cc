@@ -81,9 +81,11 @@ namespace VI
   void
   MembraneDiscretisation<dim>::make_constraints(const Function<dim> &g1,
                                                 const Function<dim> &g2,
-                                                const Function<dim> *obstacle)
+                                                const Function<dim> *obstacle,
+                                                const bool smooth_obstacle)
   {
     this->obstacle            = obstacle;
+    this->smooth_obstacle     = smooth_obstacle;
     const auto make_dirichlet = [&](const Function<dim>       &g,
                                     AffineConstraints<double> &constraints) {
       constraints.clear();

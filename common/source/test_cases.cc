@@ -259,9 +259,10 @@ namespace VI
     data.name += " (obstacle)";
     data.obstacle = parse_expression<dim>(
       "obstacle", e.obstacle, parse_expression_constants(e.constants), center);
-    data.g2  = data.obstacle;
-    data.f2  = std::make_shared<Functions::ZeroFunction<dim>>();
-    data.mu2 = data.mu1;
+    data.g2              = data.obstacle;
+    data.smooth_obstacle = problem.smooth_obstacle;
+    data.f2              = std::make_shared<Functions::ZeroFunction<dim>>();
+    data.mu2             = data.mu1;
     if (data.exact_u1)
       data.exact_u2 = data.obstacle;
   }

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <map>
 #include <memory>
 #include <string>
@@ -141,4 +142,27 @@ TEST(ExpressionFunction, BadFormulasAreInputErrorsWithMuparsersDiagnosis)
   // t is a variable only of time-dependent functions
   EXPECT_EQ(message("x + t"), "Unexpected token \"t\" found at position 4.");
   EXPECT_EQ(message(""), "Expression is empty.");
+}
+
+
+// The Laplacian by fourth-order second differences (the third bound of the
+// estimate over a smooth obstacle needs it): that of the obstacle of the
+// radial test, sqrt(1 - r^2), is -(2 - r^2) / (1 - r^2)^(3/2), here within
+// 1e-7 relative inside r <= 0.9, and a quadratic's is exact to rounding.
+TEST(ExpressionFunction, LaplacianOfSmoothFunctions)
+{
+  VI::ExpressionFunction<2> cap(
+    "sqrt(1 - x^2 - y^2)", {}, Point<2>(), false, 1e-4);
+  VI::ExpressionFunction<2> quadratic(
+    "3*x^2 - x*y + 2*y^2 + x", {}, Point<2>(), false, 1e-4);
+  for (const Point<2> &p : points())
+    {
+      const double r2 = p.norm_square();
+      if (r2 <= 0.81)
+        {
+          const double exact = -(2 - r2) / std::pow(1 - r2, 1.5);
+          EXPECT_NEAR(cap.laplacian(p), exact, 1e-7 * std::abs(exact));
+        }
+      EXPECT_NEAR(quadratic.laplacian(p), 10., 1e-6);
+    }
 }

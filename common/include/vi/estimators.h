@@ -119,6 +119,9 @@ namespace VI
     /// cone reconstruction moves membrane 1 only: theta = 1); null for two
     /// membranes.
     const dealii::Function<dim> *obstacle = nullptr;
+    /// The obstacle is twice differentiable where u1h dips below it
+    /// (Problem/Smooth obstacle): a third bound (stationary problems).
+    bool smooth_obstacle = false;
 
     using Vector     = dealii::TrilinosWrappers::MPI::Vector;
     const Vector *u1 = nullptr, *u2 = nullptr;

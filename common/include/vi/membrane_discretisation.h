@@ -104,11 +104,13 @@ namespace VI
     /// The constraints of u1, u2 (hanging nodes and Dirichlet data g1, g2
     /// on the clamped boundary) and of X (no multiplier on constrained
     /// nodes). With an `obstacle` (Model = obstacle) u2 is fixed to it at
-    /// every node: membrane 1 then lies over the obstacle's interpolant.
+    /// every node: membrane 1 then lies over the obstacle's interpolant;
+    /// `smooth_obstacle`: Problem/Smooth obstacle (for the estimate).
     void
     make_constraints(const dealii::Function<dim> &g1,
                      const dealii::Function<dim> &g2,
-                     const dealii::Function<dim> *obstacle = nullptr);
+                     const dealii::Function<dim> *obstacle        = nullptr,
+                     const bool                   smooth_obstacle = false);
 
     /// The sparsity of the system matrix A (in `contact_system`), of S and,
     /// for p >= 2, of the Gram matrix M of the multiplier.
@@ -298,6 +300,7 @@ namespace VI
       in.sigma2_disc                = &it.sigma2;
       in.mass_lumped                = fe.degree == 1;
       in.obstacle                   = obstacle;
+      in.smooth_obstacle            = smooth_obstacle;
       in.complementarity            = it.complementarity;
       in.lambda_ahead               = &ahead.lambda;
       in.f1_values                  = &load_values[0];
@@ -331,7 +334,8 @@ namespace VI
     const MPI_Comm comm;
     const Domain   domain;
     /// The obstacle of Model = obstacle (set by make_constraints()), or null.
-    const dealii::Function<dim> *obstacle = nullptr;
+    const dealii::Function<dim> *obstacle        = nullptr;
+    bool                         smooth_obstacle = false;
 
     dealii::parallel::distributed::Triangulation<dim> triangulation;
     /// The geometry's mapping, and the one used everywhere: its support

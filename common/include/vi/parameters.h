@@ -137,10 +137,13 @@ namespace VI
 
   struct ProblemParameters
   {
-    std::string          test_case = "seed-smooth";
-    Model                model     = Model::two_membranes;
-    double               mu1       = 1.;
-    double               mu2       = 1.;
+    std::string test_case = "seed-smooth";
+    Model       model     = Model::two_membranes;
+    double      mu1       = 1.;
+    double      mu2       = 1.;
+    /// Model = obstacle: the obstacle is twice differentiable where the
+    /// discrete solution dips below it (Problem/Smooth obstacle).
+    bool                 smooth_obstacle = false;
     ExpressionParameters expression;
     BoundaryParameters   boundary;
 

@@ -50,6 +50,8 @@ namespace VI
     /// for membrane 2 (g2 = exact u2 = obstacle, f2 = 0, mu2 = mu1: u2 is
     /// fixed to it, and only membrane 1 has an error).
     std::shared_ptr<const dealii::Function<dim>> obstacle;
+    /// Problem/Smooth obstacle.
+    bool smooth_obstacle = false;
 
     bool
     has_exact_solution() const
