@@ -50,22 +50,12 @@ namespace StepHHO
                         "for p >= 2, which spoils the multiplier).");
     }
     prm.leave_subsection();
-    VI::NonlinearSolverParameters::declare(prm, "exact|adaptive");
-    // The shared description speaks of GMRES, which step-hho does not
-    // watch: the entry again, with what it does here.
-    prm.enter_subsection("Nonlinear solver");
-    {
-      prm.declare_entry("Strategy",
-                        "exact",
-                        Patterns::Selection("exact|adaptive"),
-                        "exact: Newton to its tolerance; adaptive: Newton "
-                        "stops when the linearisation estimator is below "
-                        "gamma_lin times the discretisation estimator "
-                        "(needs Estimators/Enabled). Either way each "
-                        "condensed face system is solved to 'Linear "
-                        "solver/Tolerance'.");
-    }
-    prm.leave_subsection();
+    // (CG on the face systems is not watched: the adaptive strategy stops
+    // Newton only)
+    VI::NonlinearSolverParameters::declare(prm,
+                                           "exact|adaptive",
+                                           /*mesh_starts=*/true,
+                                           /*linear_solver_watched=*/false);
     VI::LinearSolverParameters::declare(prm, "direct|cg", "cg");
     prm.enter_subsection("Linear solver");
     {

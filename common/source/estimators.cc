@@ -694,10 +694,11 @@ namespace VI
       // With -mu1 Lap u = f1 + lambda and lambda = (-f1 - mu1 Lap psi) where
       // u = psi, 0 elsewhere (u and psi twice differentiable there),
       //   a(u - s~, w) = (f1 + lambda, w) - mu1 (grad psi, grad w)
-      //               <= (f1 + (-f1 - mu1 Lap psi)^+, w) - mu1 (grad psi, grad
-      //               w),
+      //               <= (f1 + (-f1 - mu1 Lap psi)^+, w)
+      //                  - mu1 (grad psi, grad w),
       // which bound_with_remainder() uses to add |||u - s~||| and |||w||| in
-      // quadrature.
+      // quadrature. scratch.f holds f1 at the points (membrane 1 is the only
+      // one add_flux_residual_terms() reads over an obstacle).
       void
       add_obstacle_cross_term(const ContactScratch<dim> &scratch,
                               ContactSums               &cell) const
@@ -709,7 +710,7 @@ namespace VI
             {
               const Point<dim> &x = values.quadrature_point(q);
               const double      w = s[1][q] - s[0][q];
-              const double      f = pairs.f[0]->value(x);
+              const double      f = scratch.f[q];
               const double      load =
                 std::max(-f - mu[0] * in.obstacle->laplacian(x), 0.);
               cell[ContactSum::cone_cross] +=
