@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
-"""Newton stopped by the HHO estimate against Newton run to its tolerance
-(doc/step-hho.md, "Newton stopped by the estimate").
+"""CG and Newton stopped by the HHO estimate against both run to their
+tolerances (doc/step-hho.md, "The adaptive strategy").
 
 step-hho with the estimate, nested iteration, CG + AMG on the condensed
 systems, p = 1, 2, 3, on the four scenes of bench/hho_estimator.py, once with
-Nonlinear solver/Strategy = exact and once with adaptive (Newton stops when
-eta_lin <= 0.3 eta_disc). Per scene and degree: the Newton steps and CG
+Nonlinear solver/Strategy = exact and once with adaptive (CG stops when
+eta_alg <= 0.03 max(eta_disc, eta_lin), Newton when eta_lin <= 0.3
+eta_disc). Per scene and degree: the Newton steps and CG
 iterations summed over the meshes, and on the finest mesh the energy error
 of the cell polynomials, the effectivity and the L2 error of the multiplier,
 all in one run per strategy. Writes doc/data/hho-adaptive.{csv,md}. About

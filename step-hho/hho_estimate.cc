@@ -23,6 +23,15 @@
 //   an equilibrated H(div) flux. On each cell, sigma in RT_p(K) takes the
 //   normal trace phi_KF, the divergence Pi_{Q_p}(f -/+ lambda_h) and is
 //   otherwise closest to -mu grad u_K: a mixed problem of the cell alone.
+// - An iterate whose face rows are not solved (CG stopped early, a damped
+//   Newton step) has two traces on a face, phi_KF + phi_K'F = delta_F, with
+//   (delta_F, v)_F = -R_F(v) the face rows of its residual. The flux takes
+//   their mean, phi_KF - delta_F / 2, which is single-valued (on a free
+//   boundary face delta_F = phi_KF, and the flux takes 0), and each cell
+//   keeps its imbalance as r_K = mean of (f -/+ lambda_h - div sigma) on K,
+//   the remainder r_h of the broken bound (eta_alg = C_F |r_h|, weighted
+//   by the tensions). Once the face rows vanish, r_h = 0 and the flux is
+//   that of the solved system.
 
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/dofs/dof_tools.h>
@@ -75,33 +84,181 @@ namespace StepHHO
     };
 
 
-    /// The matrices [A, B] of a linear map (x, y) -> A x + B y to R^n, from
-    /// its values on the unit vectors (x in R^m, y in R^l).
-    template <typename Map>
-    std::array<FullMatrix<double>, 2>
-    linear_maps(const unsigned int n,
-                const unsigned int m,
-                const unsigned int l,
-                const Map         &map)
+    /// The matrices [A_0, ..., A_{N-1}] of a linear map (x_0, ..., x_{N-1})
+    /// -> sum_b A_b x_b to R^n, from its values on the unit vectors (x_b of
+    /// size sizes[b]).
+    template <std::size_t N, typename Map>
+    std::array<FullMatrix<double>, N>
+    linear_maps(const unsigned int                 n,
+                const std::array<unsigned int, N> &sizes,
+                const Map                         &map)
     {
-      std::array<FullMatrix<double>, 2> matrices{
-        {FullMatrix<double>(n, m), FullMatrix<double>(n, l)}};
-      Vector<double>      x(m);
-      std::vector<double> y(l, 0.);
-      for (unsigned int j = 0; j < m + l; ++j)
+      std::array<FullMatrix<double>, N> matrices;
+      std::array<Vector<double>, N>     inputs;
+      for (unsigned int b = 0; b < N; ++b)
         {
-          x = 0;
-          std::fill(y.begin(), y.end(), 0.);
-          if (j < m)
-            x(j) = 1;
-          else
-            y[j - m] = 1;
-          const Vector<double> column = map(x, y);
-          for (unsigned int i = 0; i < n; ++i)
-            matrices[j < m ? 0 : 1](i, j < m ? j : j - m) = column(i);
+          matrices[b].reinit(n, sizes[b]);
+          inputs[b].reinit(sizes[b]);
         }
+      for (unsigned int b = 0; b < N; ++b)
+        for (unsigned int j = 0; j < sizes[b]; ++j)
+          {
+            inputs[b](j)                = 1;
+            const Vector<double> column = map(inputs);
+            for (unsigned int i = 0; i < n; ++i)
+              matrices[b](i, j) = column(i);
+            inputs[b](j) = 0;
+          }
       return matrices;
     }
+
+
+    /**
+     * The flux of one membrane on one cell from the cell's HHO unknowns: the
+     * normal traces phi_KF - d_F on its faces, with phi_KF = -mu Pi_F (G_K u
+     * . n_K + h_K^(-1) (u_F - u_K)) (the first comment of this file) and a
+     * correction d_F in P_{p-1}(F), completed inside by CellFlux.
+     */
+    template <int dim>
+    class CellSigma
+    {
+    public:
+      using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
+
+      CellSigma(const Mapping<dim>              &mapping,
+                const FiniteElement<dim>        &cell_fe,
+                const FiniteElement<dim>        &face_fe,
+                const FiniteElement<dim>        &flux_fe,
+                const std::vector<unsigned int> &gradient_basis,
+                const Quadrature<dim>           &quadrature,
+                const Quadrature<dim - 1>       &face_quadrature,
+                const unsigned int               p)
+          : cell_values(mapping,
+                        cell_fe,
+                        quadrature,
+                        update_values | update_gradients |
+                          update_quadrature_points | update_JxW_values)
+          , trace_values(mapping,
+                         cell_fe,
+                         face_quadrature,
+                         update_values | update_quadrature_points |
+                           update_normal_vectors | update_JxW_values)
+          , face_values(mapping, face_fe, face_quadrature, update_values)
+          , cell_flux(mapping, flux_fe, quadrature, face_quadrature, p)
+          , gradient_basis(gradient_basis)
+          , Gu(dim * gradient_basis.size())
+          , phi(GeometryInfo<dim>::faces_per_cell,
+                std::vector<double>(face_quadrature.size()))
+          , mu_grad_u(quadrature.size())
+      {
+      }
+
+      /// Prepare `cell` (G_K) and its copy `flux_cell` (CellFlux).
+      void
+      reinit(const CellIterator &cell, const CellIterator &flux_cell)
+      {
+        this->cell = cell;
+        LocalOperators::gradient_reconstruction(cell,
+                                                cell_values,
+                                                trace_values,
+                                                face_values,
+                                                gradient_basis,
+                                                G,
+                                                gradient_mass);
+        cell_flux.reinit(flux_cell);
+      }
+
+      /// The coefficients of sigma for the tension mu, the local vector
+      /// (u_K in FE_DGP's basis, u_dK), the source f -/+ lambda_h at the
+      /// quadrature points and the moments (d_F, v_k)_F at the face DoFs.
+      Vector<double>
+      compute(const double               mu,
+              const Vector<double>      &local,
+              const std::vector<double> &source,
+              const Vector<double>      &correction)
+      {
+        G.vmult(Gu, local);
+        normal_fluxes(mu, local, correction);
+        const unsigned int n_c = cell_values.get_fe().n_dofs_per_cell();
+        std::fill(mu_grad_u.begin(), mu_grad_u.end(), Tensor<1, dim>());
+        for (const unsigned int q : cell_values.quadrature_point_indices())
+          for (unsigned int i = 0; i < n_c; ++i)
+            mu_grad_u[q] += mu * local(i) * cell_values.shape_grad(i, q);
+        return cell_flux.solve(phi, mu_grad_u, source);
+      }
+
+    private:
+      // phi[f][q] = phi_KF - d_F at the points of the face quadrature.
+      void
+      normal_fluxes(const double          mu,
+                    const Vector<double> &local,
+                    const Vector<double> &correction)
+      {
+        const FiniteElement<dim> &face_fe = face_values.get_fe();
+        const unsigned int        n_c = cell_values.get_fe().n_dofs_per_cell();
+        const unsigned int        n_g = gradient_basis.size();
+        const double              inverse_h = 1. / cell->diameter();
+        for (const unsigned int face : cell->face_indices())
+          {
+            trace_values.reinit(cell, face);
+            face_values.reinit(cell, face);
+            const unsigned int        n_F = face_fe.n_dofs_per_face(face);
+            std::vector<unsigned int> dofs(n_F);
+            for (unsigned int k = 0; k < n_F; ++k)
+              dofs[k] = face_fe.face_to_cell_index(k, face);
+            // The L2 projection onto P_{p-1}(F) of w = G_K u . n + (u_F -
+            // u_K)/h_K.
+            FullMatrix<double> M(n_F, n_F);
+            Vector<double>     b(n_F), c(n_F);
+            for (const unsigned int q : trace_values.quadrature_point_indices())
+              {
+                double w = 0;
+                for (unsigned int d = 0; d < dim; ++d)
+                  for (unsigned int m = 0; m < n_g; ++m)
+                    w += Gu(d * n_g + m) *
+                         trace_values.shape_value(gradient_basis[m], q) *
+                         trace_values.normal_vector(q)[d];
+                for (unsigned int i = 0; i < n_c; ++i)
+                  w -= inverse_h * local(i) * trace_values.shape_value(i, q);
+                for (const unsigned int i : dofs)
+                  w +=
+                    inverse_h * local(n_c + i) * face_values.shape_value(i, q);
+                const double ds = trace_values.JxW(q);
+                for (unsigned int k = 0; k < n_F; ++k)
+                  {
+                    const double psi_k = face_values.shape_value(dofs[k], q);
+                    b(k) += w * psi_k * ds;
+                    for (unsigned int l = 0; l < n_F; ++l)
+                      M(k, l) +=
+                        psi_k * face_values.shape_value(dofs[l], q) * ds;
+                  }
+              }
+            // c = -mu Pi_F w - d_F in the face's basis.
+            M.gauss_jordan();
+            M.vmult(c, b);
+            c *= -mu;
+            for (unsigned int k = 0; k < n_F; ++k)
+              b(k) = -correction(dofs[k]);
+            M.vmult_add(c, b);
+            for (const unsigned int q : trace_values.quadrature_point_indices())
+              {
+                phi[face][q] = 0;
+                for (unsigned int k = 0; k < n_F; ++k)
+                  phi[face][q] += c(k) * face_values.shape_value(dofs[k], q);
+              }
+          }
+      }
+
+      FEValues<dim>                    cell_values;
+      FEFaceValues<dim>                trace_values, face_values;
+      CellFlux<dim>                    cell_flux;
+      const std::vector<unsigned int> &gradient_basis;
+      CellIterator                     cell;
+      FullMatrix<double>               G, gradient_mass;
+      Vector<double>                   Gu;
+      std::vector<std::vector<double>> phi;
+      std::vector<Tensor<1, dim>>      mu_grad_u;
+    };
   } // namespace
 
 
@@ -170,168 +327,82 @@ namespace StepHHO
   }
 
 
-  // The normal fluxes phi_KF = -mu Pi_F (G_K u . n_K + h_K^(-1) (u_F - u_K))
-  // of membrane `a` on the faces of `cell` at the points of `face_values`
-  // (the first comment of this file). `local` is the local vector (u_K in
-  // FE_DGP's basis, u_dK), `Gu` the coefficients of G_K u.
-  template <int dim>
-  void
-  HHOProblem<dim>::normal_fluxes(const CellIterator               &cell,
-                                 const double                      mu,
-                                 const Vector<double>             &local,
-                                 const Vector<double>             &Gu,
-                                 FEFaceValues<dim>                &trace_values,
-                                 FEFaceValues<dim>                &face_values,
-                                 std::vector<std::vector<double>> &phi) const
-  {
-    const unsigned int n_c       = cell_fe.n_dofs_per_cell();
-    const unsigned int n_g       = gradient_basis.size();
-    const double       inverse_h = 1. / cell->diameter();
-    for (const unsigned int face : cell->face_indices())
-      {
-        trace_values.reinit(cell, face);
-        face_values.reinit(cell, face);
-        const unsigned int        n_F = face_fe.n_dofs_per_face(face);
-        std::vector<unsigned int> dofs(n_F);
-        for (unsigned int k = 0; k < n_F; ++k)
-          dofs[k] = face_fe.face_to_cell_index(k, face);
-        // The L2 projection onto P_{p-1}(F) of w = G_K u . n + (u_F - u_K)/h_K.
-        FullMatrix<double> M(n_F, n_F);
-        Vector<double>     b(n_F), c(n_F);
-        for (const unsigned int q : trace_values.quadrature_point_indices())
-          {
-            double w = 0;
-            for (unsigned int d = 0; d < dim; ++d)
-              for (unsigned int m = 0; m < n_g; ++m)
-                w += Gu(d * n_g + m) *
-                     trace_values.shape_value(gradient_basis[m], q) *
-                     trace_values.normal_vector(q)[d];
-            for (unsigned int i = 0; i < n_c; ++i)
-              w -= inverse_h * local(i) * trace_values.shape_value(i, q);
-            for (const unsigned int i : dofs)
-              w += inverse_h * local(n_c + i) * face_values.shape_value(i, q);
-            const double ds = trace_values.JxW(q);
-            for (unsigned int k = 0; k < n_F; ++k)
-              {
-                const double psi_k = face_values.shape_value(dofs[k], q);
-                b(k) += w * psi_k * ds;
-                for (unsigned int l = 0; l < n_F; ++l)
-                  M(k, l) += psi_k * face_values.shape_value(dofs[l], q) * ds;
-              }
-          }
-        M.gauss_jordan();
-        M.vmult(c, b);
-        for (const unsigned int q : trace_values.quadrature_point_indices())
-          {
-            double projection = 0;
-            for (unsigned int k = 0; k < n_F; ++k)
-              projection += c(k) * face_values.shape_value(dofs[k], q);
-            phi[face][q] = -mu * projection;
-          }
-      }
-  }
-
-
   // The equilibrated fluxes sigma_1, sigma_2 in RT_p on `flux`, cell by cell
-  // (CellFlux). A face's degrees of freedom are written by the owner of the
-  // face's unknowns, from one of its cells: the two sides agree to the
-  // tolerance of the solve. Vectors of the owned entries.
+  // (CellSigma), from the mean normal traces: d_F = delta_F / 2 is taken off
+  // each side of an interior face, all of delta_F = phi_KF off a free
+  // boundary face, whose flux must vanish (the rows of the clamped faces are
+  // 0). And what each cell leaves unbalanced, r_alpha,K = ((f_alpha -/+
+  // lambda_h, 1)_K - (div sigma_alpha, 1)_K) / |K| on `broken`, so that div
+  // sigma_alpha = Pi_{Q_p}(f_alpha -/+ lambda_h) - r_alpha: with the cell
+  // rows R_I of the residual, sum_I R_I = sum_F (phi_KF, 1)_F - (f_alpha -/+
+  // lambda_h, 1)_K (the nodal basis sums to 1, and a_K(u, (1, 1)) = 0), so
+  // r_alpha,K |K| = sum_F (d_F, 1)_F - sum_I R_I: what the rows of the
+  // iterate leave unsolved, and no quadrature error of the data. Vectors of
+  // the owned entries.
   template <int dim>
   void
   HHOProblem<dim>::equilibrated_fluxes(
     const DoFHandler<dim>     &flux,
+    const DoFHandler<dim>     &broken,
     const Quadrature<dim>     &quadrature,
     const Quadrature<dim - 1> &face_quadrature,
-    TrilinosWrappers::MPI::Vector (&sigma)[2]) const
+    TrilinosWrappers::MPI::Vector (&sigma)[2],
+    TrilinosWrappers::MPI::Vector (&r)[2]) const
   {
     const unsigned int n_c   = cell_fe.n_dofs_per_cell();
     const unsigned int n_f   = face_fe.n_dofs_per_cell();
+    const unsigned int n_q   = quadrature.size();
+    const unsigned int n_rt  = flux.get_fe().n_dofs_per_cell();
     const double       mu[2] = {data.mu1, data.mu2};
     const IndexSet     owned = flux.locally_owned_dofs();
     for (MPIVector &v : sigma)
       v.reinit(owned, comm);
-    MPIVector X;
+    for (MPIVector &v : r)
+      v.reinit(broken.locally_owned_dofs(), comm);
+    MPIVector X, residual_rows, R;
     ghosted_system.copy(solution, X);
+    // The face rows of the residual, R_F(v_k) = -(delta_F, v_k)_F.
+    R.reinit(solution);
+    equation_residual(solution, R);
+    ghosted_system.copy(R, residual_rows);
 
-    FEValues<dim>     cell_values(*mapping,
+    CellSigma<dim> cell_sigma(*mapping,
                               cell_fe,
+                              face_fe,
+                              flux.get_fe(),
+                              gradient_basis,
                               quadrature,
-                              update_values | update_gradients |
-                                update_quadrature_points | update_JxW_values);
-    FEFaceValues<dim> trace_values(*mapping,
-                                   cell_fe,
-                                   face_quadrature,
-                                   update_values | update_quadrature_points |
-                                     update_normal_vectors | update_JxW_values);
-    FEFaceValues<dim> face_values(*mapping,
-                                  face_fe,
-                                  face_quadrature,
-                                  update_values);
-    CellFlux<dim>     cell_flux(
-      *mapping, flux.get_fe(), quadrature, face_quadrature, degree);
-    FullMatrix<double> G, gradient_mass;
-    Vector<double>     local(n_c + n_f), Gu(dim * gradient_basis.size());
-    std::vector<std::vector<double>> phi(GeometryInfo<dim>::faces_per_cell,
-                                         std::vector<double>(
-                                           face_quadrature.size()));
-    std::vector<Tensor<1, dim>>      mu_grad_u(quadrature.size());
-    std::vector<double>              source(quadrature.size()),
-      lambda_values(quadrature.size());
-    std::vector<types::global_dof_index> cell_dofs(n_c),
-      flux_dofs(flux.get_fe().n_dofs_per_cell());
-    // G_K of `cell` (and cell_values on it), for cell_sigma.
-    const auto reconstruct_gradient = [&](const CellIterator &cell) {
-      LocalOperators::gradient_reconstruction(cell,
-                                              cell_values,
-                                              trace_values,
-                                              face_values,
-                                              gradient_basis,
-                                              G,
-                                              gradient_mass);
-    };
-    // The coefficients of sigma on `cell` (whose G_K is reconstructed, and
-    // for which cell_flux is prepared) for the tension mu, the local vector
-    // and the source f -/+ lambda_h at the quadrature points.
-    const auto cell_sigma = [&](const CellIterator        &cell,
-                                const double               mu,
-                                const Vector<double>      &local,
-                                const std::vector<double> &source) {
-      G.vmult(Gu, local);
-      normal_fluxes(cell, mu, local, Gu, trace_values, face_values, phi);
-      std::fill(mu_grad_u.begin(), mu_grad_u.end(), Tensor<1, dim>());
-      for (const unsigned int q : cell_values.quadrature_point_indices())
-        for (unsigned int i = 0; i < n_c; ++i)
-          mu_grad_u[q] += mu * local(i) * cell_values.shape_grad(i, q);
-      return cell_flux.solve(phi, mu_grad_u, source);
-    };
+                              face_quadrature,
+                              degree);
 
-    // sigma is linear in (mu local, source). Where many cells share a shape
-    // (translates, see compute_local_matrices()), its two matrices are
-    // computed once, on the first of them, column by column.
-    const unsigned int n_q = quadrature.size(), n_rt = flux_dofs.size();
+    // sigma is linear in (mu local, source, correction). Where many cells
+    // share a shape (translates, see compute_local_matrices()), its three
+    // matrices are computed once, on the first of them, column by column.
+    using Maps = std::array<FullMatrix<double>, 3>;
     std::map<unsigned int, unsigned int> cells_of_shape;
     for (const auto &cell : cell_dof_handler.active_cell_iterators())
       if (cell->is_locally_owned())
         ++cells_of_shape[cell_shape[cell->active_cell_index()]];
-    std::map<unsigned int, std::array<FullMatrix<double>, 2>> maps;
-    const auto                                                map_of =
-      [&](const CellIterator &cell,
-          const auto &flux_cell) -> const std::array<FullMatrix<double>, 2> * {
+    std::map<unsigned int, Maps> maps;
+    const auto                   map_of = [&](const CellIterator &cell,
+                            const CellIterator &flux_cell) -> const Maps                   *{
       const unsigned int shape = cell_shape[cell->active_cell_index()];
-      if (cells_of_shape[shape] <= n_c + n_f + n_q)
+      if (cells_of_shape[shape] <= n_c + 2 * n_f + n_q)
         return nullptr;
       auto [it, added] = maps.try_emplace(shape);
       if (added)
         {
-          reconstruct_gradient(cell);
-          cell_flux.reinit(flux_cell);
-          it->second = linear_maps(n_rt,
-                                   n_c + n_f,
-                                   n_q,
-                                   [&](const Vector<double>      &unit,
-                                       const std::vector<double> &source) {
-                                     return cell_sigma(cell, 1., unit, source);
-                                   });
+          cell_sigma.reinit(cell, flux_cell);
+          it->second = linear_maps<3>(
+            n_rt,
+            {{n_c + n_f, n_q, n_f}},
+            [&](const std::array<Vector<double>, 3> &unit) {
+              return cell_sigma.compute(1.,
+                                        unit[0],
+                                        std::vector<double>(unit[1].begin(),
+                                                            unit[1].end()),
+                                        unit[2]);
+            });
         }
       return &it->second;
     };
@@ -341,8 +412,17 @@ namespace StepHHO
     FEValues<dim>        source_values(*mapping,
                                 cell_fe,
                                 quadrature,
-                                update_values | update_quadrature_points);
-    Vector<double>       coefficients(n_rt), source_vector(n_q);
+                                update_values | update_quadrature_points |
+                                  update_JxW_values);
+    Vector<double>       local(n_c + n_f), correction(n_f), coefficients(n_rt),
+      source_vector(n_q);
+    std::vector<double>                  source(n_q), lambda_values(n_q);
+    std::vector<types::global_dof_index> cell_dofs(n_c), flux_dofs(n_rt),
+      broken_dofs(broken.get_fe().n_dofs_per_cell());
+    std::vector<unsigned int> face_of_dof(n_f);
+    for (const unsigned int face : GeometryInfo<dim>::face_indices())
+      for (unsigned int k = 0; k < face_fe.n_dofs_per_face(face); ++k)
+        face_of_dof[face_fe.face_to_cell_index(k, face)] = face;
     for (const auto &cell : cell_dof_handler.active_cell_iterators())
       if (cell->is_locally_owned())
         {
@@ -350,20 +430,24 @@ namespace StepHHO
           const auto flux_cell = VI::same_cell(cell, flux);
           flux_cell->get_dof_indices(flux_dofs);
           cell->get_dof_indices(cell_dofs);
+          VI::same_cell(cell, broken)->get_dof_indices(broken_dofs);
           source_values.reinit(cell);
           source_values.get_function_values(lambda_h, lambda_values);
-          const auto *map = map_of(cell, flux_cell);
+          const Maps *map = map_of(cell, flux_cell);
           if (!map)
-            {
-              reconstruct_gradient(cell);
-              cell_flux.reinit(flux_cell);
-            }
+            cell_sigma.reinit(cell, flux_cell);
           for (unsigned int a = 0; a < 2; ++a)
             {
               for (unsigned int i = 0; i < n_c; ++i)
                 local(i) = (*u_h[a])(cell_dofs[i]);
               for (unsigned int k = 0; k < n_f; ++k)
-                local(n_c + k) = X(unknowns[n_fields * n_c + a * n_f + k]);
+                {
+                  const auto unknown = unknowns[n_fields * n_c + a * n_f + k];
+                  local(n_c + k)     = X(unknown);
+                  correction(k) =
+                    (cell->at_boundary(face_of_dof[k]) ? -1. : -0.5) *
+                    residual_rows(unknown);
+                }
               // f_alpha -/+ lambda_h (membrane 1 is pushed up by lambda,
               // membrane 2 down).
               f[a]->value_list(source_values.get_quadrature_points(), source);
@@ -375,18 +459,31 @@ namespace StepHHO
                             source.end(),
                             source_vector.begin());
                   (*map)[1].vmult(coefficients, source_vector);
+                  (*map)[2].vmult_add(coefficients, correction);
                   local *= mu[a];
                   (*map)[0].vmult_add(coefficients, local);
                 }
               else
-                coefficients = cell_sigma(cell, mu[a], local, source);
+                coefficients =
+                  cell_sigma.compute(mu[a], local, source, correction);
               for (unsigned int i = 0; i < n_rt; ++i)
                 if (owned.is_element(flux_dofs[i]))
                   sigma[a](flux_dofs[i]) = coefficients(i);
+
+              double imbalance = 0, area = 0;
+              for (unsigned int k = 0; k < n_f; ++k)
+                imbalance += correction(k);
+              for (unsigned int I = 0; I < n_c; ++I)
+                imbalance -= residual_rows(unknowns[a * n_c + I]);
+              for (const unsigned int q :
+                   source_values.quadrature_point_indices())
+                area += source_values.JxW(q);
+              for (const types::global_dof_index i : broken_dofs)
+                r[a](i) = imbalance / area;
             }
         }
-    for (MPIVector &v : sigma)
-      v.compress(VectorOperation::insert);
+    for (MPIVector *v : {&sigma[0], &sigma[1], &r[0], &r[1]})
+      v->compress(VectorOperation::insert);
   }
 
 
@@ -442,11 +539,17 @@ namespace StepHHO
     const MPIVector unaveraged[2] = {continuous.ghosted(oswald[0]),
                                      continuous.ghosted(oswald[1])};
 
-    MPIVector sigma_owned[2];
-    equilibrated_fluxes(flux.dofs, quadrature, face_quadrature, sigma_owned);
-    const MPIVector sigma[2]    = {flux.ghosted(sigma_owned[0]),
-                                   flux.ghosted(sigma_owned[1])};
-    const MPIVector no_residual = broken.ghosted(MPIVector(broken.owned, comm));
+    MPIVector sigma_owned[2], r_owned[2];
+    equilibrated_fluxes(flux.dofs,
+                        broken.dofs,
+                        quadrature,
+                        face_quadrature,
+                        sigma_owned,
+                        r_owned);
+    const MPIVector sigma[2] = {flux.ghosted(sigma_owned[0]),
+                                flux.ghosted(sigma_owned[1])};
+    const MPIVector r[2]     = {broken.ghosted(r_owned[0]),
+                                broken.ghosted(r_owned[1])};
 
     // The jumps of u_T are reported with the weight of SIPG's default
     // penalty; the bound of the cell polynomials does not use them.
@@ -467,8 +570,8 @@ namespace StepHHO
     in.u2                 = &u[1];
     in.lambda             = &lambda;
     in.lambda_nonnegative = &positive;
-    in.r1                 = &no_residual;
-    in.r2                 = &no_residual;
+    in.r1                 = &r[0];
+    in.r2                 = &r[1];
     in.s1                 = &s[0];
     in.s2                 = &s[1];
     in.oswald1            = &unaveraged[0];
@@ -486,18 +589,12 @@ namespace StepHHO
                                TrilinosWrappers::MPI::Vector &,
                                TrilinosWrappers::MPI::Vector &) const;
   template void
-  HHOProblem<2>::normal_fluxes(const CellIterator &,
-                               const double,
-                               const Vector<double> &,
-                               const Vector<double> &,
-                               FEFaceValues<2> &,
-                               FEFaceValues<2> &,
-                               std::vector<std::vector<double>> &) const;
-  template void
   HHOProblem<2>::equilibrated_fluxes(
+    const DoFHandler<2> &,
     const DoFHandler<2> &,
     const Quadrature<2> &,
     const Quadrature<1> &,
+    TrilinosWrappers::MPI::Vector (&)[2],
     TrilinosWrappers::MPI::Vector (&)[2]) const;
   template VI::DGContactEstimate
   HHOProblem<2>::estimate() const;

@@ -50,12 +50,20 @@ namespace StepHHO
                         "for p >= 2, which spoils the multiplier).");
     }
     prm.leave_subsection();
-    // (CG on the face systems is not watched: the adaptive strategy stops
-    // Newton only)
-    VI::NonlinearSolverParameters::declare(prm,
-                                           "exact|adaptive",
-                                           /*mesh_starts=*/true,
-                                           /*linear_solver_watched=*/false);
+    VI::NonlinearSolverParameters::declare(prm, "exact|inexact|adaptive");
+    prm.enter_subsection("Nonlinear solver");
+    {
+      prm.declare_entry("gamma_alg",
+                        "0.03",
+                        Patterns::Double(0, 1),
+                        "Adaptive strategy: CG stops when the algebraic "
+                        "estimator is below gamma_alg times the larger of "
+                        "the other two. Smaller than the other programs' "
+                        "0.3: a CG iteration costs little beside the "
+                        "estimate of a Newton step, and rougher directions "
+                        "cost Newton steps (doc/step-hho.md).");
+    }
+    prm.leave_subsection();
     VI::LinearSolverParameters::declare(prm, "direct|cg", "cg");
     prm.enter_subsection("Linear solver");
     {
@@ -74,11 +82,18 @@ namespace StepHHO
                         "systems (the mean and the difference of the "
                         "membranes): amg (Trilinos ML) or ilu (Trilinos "
                         "Ifpack).");
+      prm.declare_entry("Check interval",
+                        "1",
+                        Patterns::Integer(1),
+                        "Adaptive strategy: every how many CG iterations "
+                        "eta_alg of the current iterate is evaluated (from "
+                        "the residual of the face rows: a matrix-vector "
+                        "product and a sum over the cells).");
     }
     prm.leave_subsection();
     // Only the switch: the estimate of step-hho has no choices of its own
-    // yet (hho_estimate.cc). The adaptive strategy stops Newton with it; the
-    // face system is still solved to Linear solver/Tolerance.
+    // yet (hho_estimate.cc). The adaptive strategy stops CG and Newton with
+    // it.
     prm.enter_subsection("Estimators");
     {
       prm.declare_entry("Enabled",
@@ -119,8 +134,8 @@ namespace StepHHO
         "step-membranes; step-hho starts from zero (set it to zero)");
     if (nonlinear_solver.strategy == VI::Strategy::adaptive && !estimators)
       throw VI::InputError(
-        "Nonlinear solver/Strategy = adaptive stops Newton with the "
-        "estimators: set Estimators/Enabled = true");
+        "Nonlinear solver/Strategy = adaptive stops CG and Newton with "
+        "the estimators: set Estimators/Enabled = true");
     if (linear_solver.solver == VI::LinearSolverType::cg &&
         !static_condensation)
       throw VI::InputError(

@@ -156,9 +156,11 @@ namespace StepHHO
                   TrilinosWrappers::MPI::Vector &positive) const;
     void
     equilibrated_fluxes(const DoFHandler<dim>     &flux,
+                        const DoFHandler<dim>     &broken,
                         const Quadrature<dim>     &quadrature,
                         const Quadrature<dim - 1> &face_quadrature,
-                        TrilinosWrappers::MPI::Vector (&sigma)[2]) const;
+                        TrilinosWrappers::MPI::Vector (&sigma)[2],
+                        TrilinosWrappers::MPI::Vector (&r)[2]) const;
     void
     output_results(const unsigned int cycle) const override;
     void
@@ -193,6 +195,13 @@ namespace StepHHO
     void
     recover_cell_unknowns(const TrilinosWrappers::MPI::Vector &rhs,
                           TrilinosWrappers::MPI::Vector       &dX);
+    /// eta_alg from the residuals of the two face systems (hho_solver.cc).
+    double
+    algebraic_estimate(const TrilinosWrappers::MPI::Vector &rho_s,
+                       const TrilinosWrappers::MPI::Vector &rho_d) const;
+    /// gamma_alg max(eta_disc, eta_lin) at the start of a Newton step.
+    double
+    algebraic_tolerance() const;
 
     void
     compute_local_matrices();
@@ -201,15 +210,6 @@ namespace StepHHO
     using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
     CellIterator
     face_cell(const CellIterator &cell) const;
-    /// (hho_estimate.cc)
-    void
-    normal_fluxes(const CellIterator               &cell,
-                  const double                      mu,
-                  const Vector<double>             &local,
-                  const Vector<double>             &Gu,
-                  FEFaceValues<dim>                &trace_values,
-                  FEFaceValues<dim>                &face_values,
-                  std::vector<std::vector<double>> &phi) const;
     types::global_dof_index
     face_unknown(const types::global_dof_index face_dof,
                  const unsigned int            alpha) const;
@@ -316,9 +316,8 @@ namespace StepHHO
     std::optional<VI::DGContactEstimate> last_estimate;
 
     /// Nonlinear solver/Strategy = adaptive: Newton stopped by the estimate
-    /// of its iterates (the shared VI::AdaptiveStopping; CG is not watched:
-    /// its iterates do not equilibrate, and the face systems are solved to
-    /// Linear solver/Tolerance).
+    /// of its iterates (the shared VI::AdaptiveStopping), CG by eta_alg <=
+    /// algebraic_threshold (0: CG runs to its tolerance).
     struct Iterate
     {
       TrilinosWrappers::MPI::Vector X;
@@ -327,6 +326,7 @@ namespace StepHHO
     typename VI::AdaptiveStopping<Iterate, VI::DGContactEstimate>::Hooks
                                                          stopping_hooks();
     VI::AdaptiveStopping<Iterate, VI::DGContactEstimate> stopping;
+    double algebraic_threshold = 0;
 
     std::unique_ptr<parallel::distributed::
                       SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>

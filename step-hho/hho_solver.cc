@@ -16,6 +16,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 namespace StepHHO
@@ -85,7 +86,8 @@ namespace StepHHO
   JacobianSolver::solve(const TrilinosWrappers::SparseMatrix &A,
                         TrilinosWrappers::MPI::Vector        &x,
                         const TrilinosWrappers::MPI::Vector  &b,
-                        const double                          tolerance)
+                        const double                          tolerance,
+                        const CGWatch                        &watch)
   {
     if (parameters.solver == VI::LinearSolverType::direct)
       return direct.solve(b, x);
@@ -95,6 +97,18 @@ namespace StepHHO
                           /*log_history=*/false,
                           /*log_result=*/false);
     SolverCG<TrilinosWrappers::MPI::Vector> cg(control);
+    // deal.II's CG stops with success only when every slot says so; the
+    // watch stops it by a failure that is then not one.
+    std::optional<unsigned int> stopped_at;
+    if (watch.stop)
+      cg.connect([&](const unsigned int i,
+                     const double,
+                     const TrilinosWrappers::MPI::Vector &iterate) {
+        if (i % watch.interval != 0 || !watch.stop(iterate))
+          return SolverControl::success;
+        stopped_at = i;
+        return SolverControl::failure;
+      });
     x = 0;
     try
       {
@@ -102,6 +116,8 @@ namespace StepHHO
       }
     catch (const SolverControl::NoConvergence &failure)
       {
+        if (stopped_at)
+          return *stopped_at;
         std::ostringstream message;
         message << "CG on the condensed system: no convergence in "
                 << failure.last_step << " iterations (residual "
@@ -355,24 +371,54 @@ namespace StepHHO
 
 
   // The two face systems, each by CG to a residual below Linear
-  // solver/Tolerance times the norm of the whole right-hand side (so that
-  // the mean's system, whose right-hand side vanishes once its equations
-  // are solved, costs no iterations in later Newton steps); then the face
-  // updates of both membranes, dy1 = ds + mu2 / m dd, dy2 = ds - mu1 / m dd.
+  // solver/Tolerance (the forcing term of the inexact strategy) times the
+  // norm of the whole right-hand side (so that the mean's system, whose
+  // right-hand side vanishes once its equations are solved, costs no
+  // iterations in later Newton steps). The adaptive strategy stops them
+  // earlier, once eta_alg of the iterate is below algebraic_threshold: half
+  // of it for the mean, whose CG runs first, all of it for both. Then the
+  // face updates of both membranes, dy1 = ds + mu2 / m dd, dy2 = ds - mu1 / m
+  // dd.
   template <int dim>
   unsigned int
   HHOProblem<dim>::solve_condensed_system()
   {
     TimerOutput::Scope t(timer, "solve");
     const double       tolerance =
-      parameters.linear_solver.tolerance *
+      VI::linear_tolerance(parameters.nonlinear_solver,
+                           parameters.linear_solver) *
       std::sqrt(mean_rhs.norm_sqr() + difference_rhs.norm_sqr());
-    const unsigned int iterations =
-      mean_solver->solve(mean_matrix, mean_update, mean_rhs, tolerance) +
-      jacobian_solver->solve(difference_matrix,
-                             difference_update,
-                             difference_rhs,
-                             tolerance);
+    TrilinosWrappers::MPI::Vector mean_residual(mean_rhs),
+      difference_residual(difference_rhs);
+    CGWatch mean_watch, difference_watch;
+    if (algebraic_threshold > 0)
+      {
+        const unsigned int interval = parameters.linear_solver.check_interval;
+        difference_residual         = 0;
+        mean_watch       = {[&](const TrilinosWrappers::MPI::Vector &x) {
+                        mean_matrix.residual(mean_residual, x, mean_rhs);
+                        return algebraic_estimate(mean_residual,
+                                                  difference_residual) <=
+                               0.5 * algebraic_threshold;
+                      },
+                            interval};
+        difference_watch = {
+          [&](const TrilinosWrappers::MPI::Vector &x) {
+            difference_matrix.residual(difference_residual, x, difference_rhs);
+            return algebraic_estimate(mean_residual, difference_residual) <=
+                   algebraic_threshold;
+          },
+          interval};
+      }
+    unsigned int iterations = mean_solver->solve(
+      mean_matrix, mean_update, mean_rhs, tolerance, mean_watch);
+    if (algebraic_threshold > 0)
+      mean_matrix.residual(mean_residual, mean_update, mean_rhs);
+    iterations += jacobian_solver->solve(difference_matrix,
+                                         difference_update,
+                                         difference_rhs,
+                                         tolerance,
+                                         difference_watch);
     face_constraints.distribute(mean_update);
     face_constraints.distribute(difference_update);
     ghosted_faces.copy(mean_update, ghosted_mean_update);
@@ -435,6 +481,84 @@ namespace StepHHO
   }
 
 
+  // eta_alg of the iterate whose face rows leave the residuals rho_s of the
+  // mean's system and rho_d of the difference's (owned entries): the rows of
+  // the membranes are rho_1 = mu1 / m rho_s + rho_d and rho_2 = mu2 / m rho_s
+  // - rho_d, and each cell keeps half the imbalance of each interior face
+  // and all of it of a free boundary face, r_K = sum_j w_j rho_j / |K| over
+  // its face DoFs j (the face basis sums to 1, hho_estimate.cc). Then
+  // eta_alg = C_F (sum_K |K| (r_1,K^2 / mu1 + r_2,K^2 / mu2))^(1/2), the
+  // remainder of the estimate, without its fluxes.
+  template <int dim>
+  double
+  HHOProblem<dim>::algebraic_estimate(
+    const TrilinosWrappers::MPI::Vector &rho_s,
+    const TrilinosWrappers::MPI::Vector &rho_d) const
+  {
+    TrilinosWrappers::MPI::Vector s, d;
+    ghosted_faces.copy(rho_s, s);
+    ghosted_faces.copy(rho_d, d);
+    const unsigned int n_c = cell_fe.n_dofs_per_cell();
+    const unsigned int n_f = face_fe.n_dofs_per_cell();
+    const double       m   = data.mu1 + data.mu2;
+    double             sum = 0;
+    for (const auto &cell : cell_dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          const auto unknowns = local_unknowns(cell);
+          double     sum_s = 0, sum_d = 0;
+          for (const unsigned int face : cell->face_indices())
+            {
+              const double w = cell->at_boundary(face) ? 1. : 0.5;
+              for (unsigned int k = 0; k < face_fe.n_dofs_per_face(face); ++k)
+                {
+                  const types::global_dof_index j =
+                    face_dof(unknowns[n_fields * n_c +
+                                      face_fe.face_to_cell_index(k, face)]);
+                  sum_s += w * s(j);
+                  sum_d += w * d(j);
+                }
+            }
+          const double area = cell->measure();
+          const double r1   = (data.mu1 / m * sum_s + sum_d) / area;
+          const double r2   = (data.mu2 / m * sum_s - sum_d) / area;
+          sum += area * (r1 * r1 / data.mu1 + r2 * r2 / data.mu2);
+        }
+    return domain.friedrichs_constant() *
+           std::sqrt(Utilities::MPI::sum(sum, comm));
+  }
+
+
+  namespace
+  {
+    // What the adaptive stopping reads of HHO's estimate: the bound of
+    // |||u - u_T|||_h, the error HHO reports (the jumps of the cell
+    // polynomials are not in it).
+    VI::StoppingComponents
+    stopping_components(const VI::DGContactEstimate &e)
+    {
+      return {true, e.broken, e.broken_disc, e.eta_lin, e.eta_alg, e.eta_lin};
+    }
+  } // namespace
+
+
+  // The adaptive strategy's bound for eta_alg in the Newton step from X:
+  // gamma_alg max(eta_disc, eta_lin) of the estimate of X, the last Newton
+  // iterate. The first step on a mesh has none (an estimate of the start
+  // would cost more than CG to its tolerance): 0, CG is not stopped.
+  template <int dim>
+  double
+  HHOProblem<dim>::algebraic_tolerance() const
+  {
+    if (!stopping.final_estimate)
+      return 0.;
+    const VI::StoppingComponents c =
+      stopping_components(*stopping.final_estimate);
+    return parameters.nonlinear_solver.gamma_alg *
+           std::max(c.eta_disc, c.eta_lin);
+  }
+
+
   template <int dim>
   void
   HHOProblem<dim>::solve()
@@ -473,21 +597,26 @@ namespace StepHHO
         pcout << "      k = " << std::setw(2) << step.iteration << ": "
               << VI::describe(step, "CG") << std::endl;
       };
-    // The adaptive strategy: Newton stops once eta_lin <= gamma_lin
-    // eta_disc. Every Newton iterate satisfies the balance equations (they
-    // are linear, and each step solves them), so HHO's fluxes equilibrate
-    // it and its estimate is guaranteed, converged or not.
+    // The adaptive strategy [DMV20]: CG stops once eta_alg <= gamma_alg
+    // max(eta_disc, eta_lin), Newton once eta_lin <= gamma_lin eta_disc.
+    // The estimate of an iterate holds whether its face rows are solved or
+    // not (hho_estimate.cc), so each test reads a guaranteed bound. eta_alg
+    // is cheap (the face residual) and is evaluated at every check of CG;
+    // eta_disc and eta_lin there are those of the iterate the step starts
+    // from.
     stopping.start_solve();
     if (stopping.adaptive())
       {
         newton.setup_jacobian = [&](const auto &X) {
           stopping.start_step(X);
+          algebraic_threshold = algebraic_tolerance();
           setup_jacobian(X);
         };
         stopping.attach_criteria(newton);
       }
 
-    newton_report = newton.solve(solution);
+    newton_report       = newton.solve(solution);
+    algebraic_threshold = 0;
     mean_solver.reset();
     jacobian_solver.reset();
   }
@@ -495,8 +624,8 @@ namespace StepHHO
 
   // What the adaptive stopping sees of this program: the estimate of a
   // Newton iterate, which is `solution` (SemismoothNewton works on it).
-  // Only Newton iterates are estimated, so the hooks of the GMRES checks
-  // are never called.
+  // CG's checks are made by solve_condensed_system() with eta_alg alone, so
+  // the hooks of the GMRES checks are never called.
   template <int dim>
   typename VI::AdaptiveStopping<typename HHOProblem<dim>::Iterate,
                                 VI::DGContactEstimate>::Hooks
@@ -507,12 +636,7 @@ namespace StepHHO
       cell_fields();
       return estimate();
     };
-    // The bound of |||u - u_T|||_h, the error HHO reports (the jumps of the
-    // cell polynomials are not in it).
-    hooks.components = [](const VI::DGContactEstimate &e) {
-      return VI::StoppingComponents{
-        true, e.broken, e.broken_disc, e.eta_lin, e.eta_alg, e.eta_lin};
-    };
+    hooks.components = stopping_components;
     hooks.look_ahead = false;
     return hooks;
   }
@@ -539,6 +663,12 @@ namespace StepHHO
   template void
   HHOProblem<2>::recover_cell_unknowns(const TrilinosWrappers::MPI::Vector &,
                                        TrilinosWrappers::MPI::Vector &);
+  template double
+  HHOProblem<2>::algebraic_estimate(
+    const TrilinosWrappers::MPI::Vector &,
+    const TrilinosWrappers::MPI::Vector &) const;
+  template double
+  HHOProblem<2>::algebraic_tolerance() const;
   template void
   HHOProblem<2>::solve();
   template typename VI::AdaptiveStopping<typename HHOProblem<2>::Iterate,

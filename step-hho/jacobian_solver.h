@@ -7,12 +7,22 @@
 #include <vi/linear_solvers.h>
 #include <vi/parameters.h>
 
+#include <functional>
 #include <memory>
 #include <vector>
 
 namespace StepHHO
 {
   using namespace dealii;
+
+  /// Asked every `interval` CG iterations (and before the first) with the
+  /// iterate x: true to stop CG there.
+  struct CGWatch
+  {
+    std::function<bool(const TrilinosWrappers::MPI::Vector &x)> stop;
+    unsigned int                                                interval = 1;
+  };
+
 
   /**
    * The solver of one linear system of a Newton step (the whole Jacobian, or
@@ -40,14 +50,15 @@ namespace StepHHO
     initialize(const TrilinosWrappers::SparseMatrix &A);
 
     /**
-     * Solve A x = b, by CG to |b - A x| <= tolerance; return the number of
-     * CG iterations (0 for LU).
+     * Solve A x = b, by CG to |b - A x| <= tolerance or until `watch` stops
+     * it; return the number of CG iterations (0 for LU).
      */
     unsigned int
     solve(const TrilinosWrappers::SparseMatrix &A,
           TrilinosWrappers::MPI::Vector        &x,
           const TrilinosWrappers::MPI::Vector  &b,
-          const double                          tolerance);
+          const double                          tolerance,
+          const CGWatch                        &watch = {});
 
   private:
     const VI::LinearSolverParameters                    parameters;

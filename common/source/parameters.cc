@@ -453,8 +453,7 @@ namespace VI
   void
   NonlinearSolverParameters::declare(ParameterHandler  &prm,
                                      const std::string &strategies,
-                                     const bool         mesh_starts,
-                                     const bool         linear_solver_watched)
+                                     const bool         mesh_starts)
   {
     const ParameterSubsection section(prm, "Nonlinear solver");
     prm.declare_entry("C-function",
@@ -466,18 +465,13 @@ namespace VI
     prm.declare_entry("Strategy",
                       "exact",
                       Selection(strategies),
-                      linear_solver_watched ?
-                        "exact: Newton to the tolerance below, each linear "
-                        "system solved to 'Linear solver/Tolerance'; "
-                        "inexact: the linear solver stops at the relative "
-                        "residual 'Forcing term'; adaptive: the linear "
-                        "solver stops when eta_alg <= gamma_alg "
-                        "max(eta_disc, eta_lin), Newton when eta_lin <= "
-                        "gamma_lin eta_disc." :
-                        "exact: Newton to the tolerance below; adaptive: "
-                        "Newton stops when eta_lin <= gamma_lin eta_disc "
-                        "(needs the estimators). Either way each linear "
-                        "system is solved to 'Linear solver/Tolerance'.");
+                      "exact: Newton to the tolerance below, each linear "
+                      "system solved to 'Linear solver/Tolerance'; "
+                      "inexact: the linear solver stops at the relative "
+                      "residual 'Forcing term'; adaptive: the linear "
+                      "solver stops when eta_alg <= gamma_alg "
+                      "max(eta_disc, eta_lin), Newton when eta_lin <= "
+                      "gamma_lin eta_disc.");
     prm.declare_entry("gamma_lin",
                       "0.3",
                       Double(0, 1),

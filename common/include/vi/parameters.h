@@ -238,12 +238,9 @@ namespace VI
     /// iteration", "Initial guess"); step-parabolic and step-twophase start
     /// every time step from the previous one and do not declare them.
     static void
-    /// `linear_solver_watched`: whether the adaptive strategy also stops
-    /// the linear solver (step-hho: its CG runs to its tolerance).
     declare(dealii::ParameterHandler &prm,
             const std::string        &strategies,
-            const bool                mesh_starts           = true,
-            const bool                linear_solver_watched = true);
+            const bool                mesh_starts = true);
     void
     parse(dealii::ParameterHandler &prm, const bool mesh_starts = true);
   };
