@@ -327,6 +327,8 @@ namespace StepHHO
                                                          stopping_hooks();
     VI::AdaptiveStopping<Iterate, VI::DGContactEstimate> stopping;
     double algebraic_threshold = 0;
+    /// eta_disc at the end of the last adaptive solve, and its mesh's cells.
+    std::pair<double, types::global_cell_index> last_eta_disc{0., 0};
 
     std::unique_ptr<parallel::distributed::
                       SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>

@@ -545,13 +545,20 @@ namespace StepHHO
   // The adaptive strategy's bound for eta_alg in the Newton step from X:
   // gamma_alg max(eta_disc, eta_lin) of the estimate of X, the last Newton
   // iterate. The first step on a mesh has none (an estimate of the start
-  // would cost more than CG to its tolerance): 0, CG is not stopped.
+  // would cost more than the step): gamma_alg times the eta_disc of the last
+  // mesh carried to this one at the optimal rate, eta_disc ~ N^(-p/d) in the
+  // number of cells N (0 on the first mesh: CG is not stopped).
   template <int dim>
   double
   HHOProblem<dim>::algebraic_tolerance() const
   {
     if (!stopping.final_estimate)
-      return 0.;
+      return last_eta_disc.second == 0 ?
+               0. :
+               parameters.nonlinear_solver.gamma_alg * last_eta_disc.first *
+                 std::pow(double(last_eta_disc.second) /
+                            double(triangulation.n_global_active_cells()),
+                          double(degree) / dim);
     const VI::StoppingComponents c =
       stopping_components(*stopping.final_estimate);
     return parameters.nonlinear_solver.gamma_alg *
@@ -617,6 +624,9 @@ namespace StepHHO
 
     newton_report       = newton.solve(solution);
     algebraic_threshold = 0;
+    if (stopping.final_estimate)
+      last_eta_disc = {stopping_components(*stopping.final_estimate).eta_disc,
+                       triangulation.n_global_active_cells()};
     mean_solver.reset();
     jacobian_solver.reset();
   }
