@@ -444,9 +444,8 @@ namespace StepHHO
                 {
                   const auto unknown = unknowns[n_fields * n_c + a * n_f + k];
                   local(n_c + k)     = X(unknown);
-                  correction(k) =
-                    (cell->at_boundary(face_of_dof[k]) ? -1. : -0.5) *
-                    residual_rows(unknown);
+                  correction(k)      = -imbalance_share(cell, face_of_dof[k]) *
+                                  residual_rows(unknown);
                 }
               // f_alpha -/+ lambda_h (membrane 1 is pushed up by lambda,
               // membrane 2 down).

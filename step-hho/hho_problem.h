@@ -210,6 +210,14 @@ namespace StepHHO
     using CellIterator = typename DoFHandler<dim>::active_cell_iterator;
     CellIterator
     face_cell(const CellIterator &cell) const;
+    /// The share of a face's imbalance that `cell` keeps (hho_estimate.cc):
+    /// half on an interior face, all of it on a free boundary face (the
+    /// rows of the clamped faces are 0).
+    static double
+    imbalance_share(const CellIterator &cell, const unsigned int face)
+    {
+      return cell->at_boundary(face) ? 1. : 0.5;
+    }
     types::global_dof_index
     face_unknown(const types::global_dof_index face_dof,
                  const unsigned int            alpha) const;
@@ -327,8 +335,9 @@ namespace StepHHO
                                                          stopping_hooks();
     VI::AdaptiveStopping<Iterate, VI::DGContactEstimate> stopping;
     double algebraic_threshold = 0;
-    /// eta_disc at the end of the last adaptive solve, and its mesh's cells.
-    std::pair<double, types::global_cell_index> last_eta_disc{0., 0};
+    /// From eta_disc at the end of the last adaptive solve and its mesh's
+    /// cells.
+    VI::EtaDiscPrediction eta_disc_prediction;
 
     std::unique_ptr<parallel::distributed::
                       SolutionTransfer<dim, TrilinosWrappers::MPI::Vector>>

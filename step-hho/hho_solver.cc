@@ -388,13 +388,13 @@ namespace StepHHO
       VI::linear_tolerance(parameters.nonlinear_solver,
                            parameters.linear_solver) *
       std::sqrt(mean_rhs.norm_sqr() + difference_rhs.norm_sqr());
-    TrilinosWrappers::MPI::Vector mean_residual(mean_rhs),
-      difference_residual(difference_rhs);
-    CGWatch mean_watch, difference_watch;
+    TrilinosWrappers::MPI::Vector mean_residual, difference_residual;
+    CGWatch                       mean_watch, difference_watch;
     if (algebraic_threshold > 0)
       {
         const unsigned int interval = parameters.linear_solver.check_interval;
-        difference_residual         = 0;
+        mean_residual.reinit(mean_rhs);
+        difference_residual.reinit(difference_rhs);
         mean_watch       = {[&](const TrilinosWrappers::MPI::Vector &x) {
                         mean_matrix.residual(mean_residual, x, mean_rhs);
                         return algebraic_estimate(mean_residual,
@@ -499,7 +499,6 @@ namespace StepHHO
     ghosted_faces.copy(rho_s, s);
     ghosted_faces.copy(rho_d, d);
     const unsigned int n_c = cell_fe.n_dofs_per_cell();
-    const unsigned int n_f = face_fe.n_dofs_per_cell();
     const double       m   = data.mu1 + data.mu2;
     double             sum = 0;
     for (const auto &cell : cell_dof_handler.active_cell_iterators())
@@ -509,7 +508,7 @@ namespace StepHHO
           double     sum_s = 0, sum_d = 0;
           for (const unsigned int face : cell->face_indices())
             {
-              const double w = cell->at_boundary(face) ? 1. : 0.5;
+              const double w = imbalance_share(cell, face);
               for (unsigned int k = 0; k < face_fe.n_dofs_per_face(face); ++k)
                 {
                   const types::global_dof_index j =
@@ -553,12 +552,10 @@ namespace StepHHO
   HHOProblem<dim>::algebraic_tolerance() const
   {
     if (!stopping.final_estimate)
-      return last_eta_disc.second == 0 ?
-               0. :
-               parameters.nonlinear_solver.gamma_alg * last_eta_disc.first *
-                 std::pow(double(last_eta_disc.second) /
-                            double(triangulation.n_global_active_cells()),
-                          double(degree) / dim);
+      return parameters.nonlinear_solver.gamma_alg *
+             eta_disc_prediction
+               .predict(triangulation.n_global_active_cells(), degree, dim)
+               .value_or(0.);
     const VI::StoppingComponents c =
       stopping_components(*stopping.final_estimate);
     return parameters.nonlinear_solver.gamma_alg *
@@ -625,8 +622,9 @@ namespace StepHHO
     newton_report       = newton.solve(solution);
     algebraic_threshold = 0;
     if (stopping.final_estimate)
-      last_eta_disc = {stopping_components(*stopping.final_estimate).eta_disc,
-                       triangulation.n_global_active_cells()};
+      eta_disc_prediction.remember(
+        stopping_components(*stopping.final_estimate).eta_disc,
+        triangulation.n_global_active_cells());
     mean_solver.reset();
     jacobian_solver.reset();
   }

@@ -65,12 +65,7 @@ namespace StepMembranes
   std::optional<double>
   MembraneProblem<dim>::predicted_eta_disc() const
   {
-    if (last_eta_disc_dofs == 0 || !(last_eta_disc > 0))
-      return std::nullopt;
-    // eta_disc ~ N^(-p/d) at the optimal rate
-    return last_eta_disc *
-           std::pow(double(last_eta_disc_dofs) / double(dof_handler.n_dofs()),
-                    double(fe.degree) / dim);
+    return eta_disc_prediction.predict(dof_handler.n_dofs(), fe.degree, dim);
   }
 
 
@@ -79,10 +74,7 @@ namespace StepMembranes
   MembraneProblem<dim>::remember_eta_disc(const VI::ContactEstimate &e)
   {
     if (e.complete)
-      {
-        last_eta_disc      = e.eta_disc;
-        last_eta_disc_dofs = dof_handler.n_dofs();
-      }
+      eta_disc_prediction.remember(e.eta_disc, dof_handler.n_dofs());
   }
 
 

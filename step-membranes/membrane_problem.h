@@ -266,10 +266,9 @@ namespace StepMembranes
     std::optional<double> step_predicted_eta_disc;
     /// Whether sharpen_final_estimate() replaced final_estimate.
     bool final_estimate_sharpened = false;
-    /// The eta_disc of the last complete estimate and the unknowns per
+    /// From the eta_disc of the last complete estimate and the unknowns per
     /// field of its mesh (for predicted_eta_disc()).
-    double                  last_eta_disc      = 0;
-    types::global_dof_index last_eta_disc_dofs = 0;
+    VI::EtaDiscPrediction eta_disc_prediction;
 
     std::unique_ptr<parallel::distributed::SolutionTransfer<dim, Vector>>
       solution_transfer;

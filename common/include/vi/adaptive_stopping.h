@@ -8,6 +8,7 @@
 #include <vi/semismooth_newton.h>
 #include <vi/summary.h>
 
+#include <cmath>
 #include <functional>
 #include <iomanip>
 #include <optional>
@@ -25,6 +26,39 @@ namespace VI
     /// The part of eta_lin that the current Newton iteration controls (all
     /// of it for a steady problem).
     double eta_lin_controlled = 0;
+  };
+
+
+  /**
+   * What a program expects of eta_disc on a new mesh before it has
+   * estimated anything there: the eta_disc of the last complete estimate,
+   * carried over at the optimal rate eta_disc ~ N^(-p/d) in the size N of
+   * the mesh (unknowns or cells, the same measure each time).
+   */
+  class EtaDiscPrediction
+  {
+  public:
+    void
+    remember(const double eta_disc, const double size)
+    {
+      last_eta_disc = eta_disc;
+      last_size     = size;
+    }
+
+    /// None before the first remember() or after an eta_disc of 0.
+    std::optional<double>
+    predict(const double       size,
+            const unsigned int degree,
+            const unsigned int dim) const
+    {
+      if (last_size == 0 || !(last_eta_disc > 0))
+        return std::nullopt;
+      return last_eta_disc *
+             std::pow(last_size / size, double(degree) / double(dim));
+    }
+
+  private:
+    double last_eta_disc = 0, last_size = 0;
   };
 
 
