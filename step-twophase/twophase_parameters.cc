@@ -265,6 +265,17 @@ namespace StepTwoPhase
                                              /*mesh_starts=*/false);
       prm.enter_subsection("Nonlinear solver");
       prm.set("Tolerance", "1e-8");
+      prm.declare_entry("Watchdog steps",
+                        "8",
+                        Integer(0),
+                        "Fischer-Burmeister's line search: up to this many "
+                        "full Newton steps are taken without the Armijo "
+                        "test against the last iterate that passed it; if "
+                        "the merit function has not fallen below that "
+                        "iterate's by then, Newton returns to it and "
+                        "backtracks. 0: every step is tested (Armijo "
+                        "backtracking alone, which cuts most steps of a "
+                        "time step, doc/step-twophase.md).");
       prm.declare_entry("Solver",
                         "semismooth-newton",
                         Selection("semismooth-newton|kinsol"),
@@ -507,7 +518,8 @@ namespace StepTwoPhase
     {
       nonlinear_solver.parse(prm, /*mesh_starts=*/false);
       prm.enter_subsection("Nonlinear solver");
-      package = prm.get("Solver");
+      nonlinear_solver.watchdog_steps = prm.get_integer("Watchdog steps");
+      package                         = prm.get("Solver");
       prm.leave_subsection();
       if (package == "kinsol")
         {

@@ -285,8 +285,8 @@ namespace StepTwoPhase
     const double relative_tolerance =
       VI::linear_tolerance(p, parameters.linear_solver);
 
-    const typename VI::SemismoothNewton<Vector<double>>::AdditionalData
-                                         settings(p, C);
+    const auto settings = VI::SemismoothNewton<
+      Vector<double>>::AdditionalData::with_merit_line_search(p, C);
     VI::SemismoothNewton<Vector<double>> newton(settings);
 
     newton.residual = [&](const Vector<double> &X, Vector<double> &R) {

@@ -460,8 +460,9 @@ namespace VI
                       "min",
                       Selection("min|fischer-burmeister"),
                       "Complementarity function of the semismooth Newton "
-                      "method. Fischer-Burmeister comes with a backtracking "
-                      "line search on its merit function.");
+                      "method. In step-twophase, Fischer-Burmeister comes "
+                      "with a backtracking line search on its merit "
+                      "function.");
     prm.declare_entry("Strategy",
                       "exact",
                       Selection(strategies),
@@ -501,32 +502,18 @@ namespace VI
                       "(balance equations relative to the load, "
                       "complementarity relative to the size of u and "
                       "lambda) are below it.");
-    prm.declare_entry("Watchdog steps",
-                      "8",
-                      Integer(0),
-                      "With a C-function that has a line search "
-                      "(Fischer-Burmeister): up to this many full Newton "
-                      "steps are taken without the Armijo test against "
-                      "the last iterate that passed it; if the merit "
-                      "function has not fallen below that iterate's by "
-                      "then, Newton returns to it and backtracks. 0: every "
-                      "step is tested (Armijo backtracking alone, which "
-                      "cuts most steps from a transferred or a cold "
-                      "iterate; 5 was too few on the cold disk start, "
-                      "doc/performance.md).");
     prm.declare_entry("Continuation",
                       "true",
                       Bool(),
-                      "Newton-min: when the active set stalls (six steps "
-                      "in a row that switch rows and shrink the "
-                      "complementarity residual by less than half), "
-                      "follow the central path of the smoothed C-function "
-                      "instead, back to the C-function below the "
-                      "tolerance (doc/reference.md, Continuation). false: "
-                      "plain semismooth Newton throughout. "
-                      "Fischer-Burmeister keeps its line search (the "
-                      "continuation costs it steps, doc/stress.md), and "
-                      "step-twophase has no smoothed rows.");
+                      "When the active set stalls (six steps in a row "
+                      "that switch rows and shrink the complementarity "
+                      "residual by less than half), follow the central "
+                      "path of the smoothed C-function instead, back to "
+                      "the C-function below the tolerance (doc/reference.md, "
+                      "Continuation). false: plain semismooth Newton "
+                      "throughout. step-twophase has no smoothed rows and "
+                      "globalises Fischer-Burmeister by a line search "
+                      "(Watchdog steps).");
     if (!mesh_starts)
       return;
     prm.declare_entry("Nested iteration",
@@ -559,7 +546,6 @@ namespace VI
     forcing_term   = prm.get_double("Forcing term");
     max_iterations = prm.get_integer("Maximum iterations");
     tolerance      = prm.get_double("Tolerance");
-    watchdog_steps = prm.get_integer("Watchdog steps");
     continuation   = prm.get_bool("Continuation");
     if (mesh_starts)
       {

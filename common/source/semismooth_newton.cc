@@ -39,13 +39,23 @@ namespace VI
     const ComplementarityFunction   &C)
       : max_iterations(parameters.max_iterations)
       , tolerance(parameters.tolerance)
-      , line_search(C.has_smooth_merit_function())
-      , watchdog_steps(parameters.watchdog_steps)
       , name("semismooth Newton-" + C.name())
-      // Fischer-Burmeister converges from cold starts with its line
-      // search; the continuation costs it steps (doc/stress.md).
-      , continuation(parameters.continuation && !C.has_smooth_merit_function())
+      , continuation(parameters.continuation)
   {
+  }
+
+
+  template <typename VectorType>
+  typename SemismoothNewton<VectorType>::AdditionalData
+  SemismoothNewton<VectorType>::AdditionalData::with_merit_line_search(
+    const NonlinearSolverParameters &parameters,
+    const ComplementarityFunction   &C)
+  {
+    AdditionalData data(parameters, C);
+    data.line_search    = C.has_smooth_merit_function();
+    data.watchdog_steps = parameters.watchdog_steps;
+    data.continuation   = false;
+    return data;
   }
 
 

@@ -57,9 +57,9 @@ namespace VI
      * (a, b). Away from the kink this is the gradient. At the kink:
      * - min, a == b: (1, 0), a limit of gradients from the side a < b, so the
      *   constraint a = 0 is enforced (the node is treated as in contact);
-     * - Fischer-Burmeister, (0, 0): (xi - 1, zeta - 1) with
-     *   (xi, zeta) = (1, 1)/sqrt(2) on the unit circle, a limit of gradients
-     *   along the diagonal.
+     * - Fischer-Burmeister, (0, 0): (-1, 0), the limit of gradients from
+     *   the side a = 0, b > 0, so that, as for min, the node is treated as
+     *   in contact.
      */
     std::array<double, 2>
     generalized_gradient(const double a, const double b) const;

@@ -215,7 +215,7 @@ namespace VI
     double       forcing_term     = 1e-2;
     unsigned int max_iterations   = 50;
     double       tolerance        = 1e-10;
-    unsigned int watchdog_steps   = 8;
+    unsigned int watchdog_steps   = 8; ///< step-twophase only
     bool         continuation     = true;
     bool         nested_iteration = true;
     InitialGuess initial_guess    = InitialGuess::zero;

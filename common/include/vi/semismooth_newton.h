@@ -98,27 +98,28 @@ namespace VI
    * membrane problems is the paper's A^{k-1} X^k = B^{k-1} written for the
    * update. Optionally, the step is cut back until the merit function
    * theta = 1/2 |R|^2 decreases by the Armijo factor (1 - 2 sigma t): this is
-   * the globalisation used with Fischer-Burmeister, whose merit function is
-   * continuously differentiable.
+   * the globalisation of Fischer-Burmeister, whose merit function is
+   * continuously differentiable, for nonlinear balance equations
+   * (AdditionalData::with_merit_line_search).
    *
    * Plain semismooth Newton-min is the primal-dual active set method, and on
-   * a fine mesh it can need a number of steps that grows with the mesh: where
-   * the load presses the membranes together but the boundary data hold them
-   * apart, the active set from a cold start covers the whole domain and
-   * loses one ring of nodes per step (O(1/h) steps), since each step only
-   * sees the multiplier change sign next to the free nodes. No line search
-   * can help, the direction itself is too local. When the problem provides
-   * set_smoothing(), a stalled active set (see AdditionalData::stall_ratio)
-   * starts a continuation instead: Newton follows the central path of the
-   * smoothed C-function C_mu (ComplementarityFunction::smoothed_value),
-   * whose Jacobian couples the gap and the multiplier at every node where
-   * both are below mu, so that a step moves the contact zone by a distance
-   * of order one, not a mesh width. mu falls with the length of each step
-   * (see solve()), a nonmonotone line search on 1/2 |R_mu|^2 keeps the
-   * steps safe, and once mu is below the tolerance the last steps use C
-   * itself, so that the iterate solves the unsmoothed system to the
-   * tolerance (doc/reference.md, "Continuation").
-   * Where plain Newton converges, nothing of this runs.
+   * a fine mesh it (and Newton-Fischer-Burmeister with full steps) can need a
+   * number of steps that grows with the mesh: where the load presses the
+   * membranes together but the boundary data hold them apart, the active set
+   * from a cold start covers the whole domain and loses one ring of nodes per
+   * step (O(1/h) steps), since each step only sees the multiplier change sign
+   * next to the free nodes. No line search can help, the direction itself is
+   * too local. When the problem provides set_smoothing(), a stalled active set
+   * (see AdditionalData::stall_ratio) starts a continuation instead: Newton
+   * follows the central path of the smoothed C-function C_mu
+   * (ComplementarityFunction::smoothed_value), whose Jacobian couples the gap
+   * and the multiplier at every node where both are below mu, so that a step
+   * moves the contact zone by a distance of order one, not a mesh width. mu
+   * falls with the length of each step (see solve()), a nonmonotone line search
+   * on 1/2 |R_mu|^2 keeps the steps safe, and once mu is below the tolerance
+   * the last steps use C itself, so that the iterate solves the unsmoothed
+   * system to the tolerance (doc/reference.md, "Continuation"). Where plain
+   * Newton converges, nothing of this runs.
    *
    * The class knows nothing of meshes or finite elements: a problem plugs in
    * through the three callbacks below, in the manner of deal.II's interfaces
@@ -134,11 +135,22 @@ namespace VI
     struct AdditionalData
     {
       AdditionalData() = default;
-      /// What `Nonlinear solver` asks for: its iteration limit, tolerance
-      /// and watchdog, the line search if C has a smooth merit function
-      /// (Fischer-Burmeister), and the name "semismooth Newton-<C>".
+      /// What `Nonlinear solver` asks for in a contact problem, whose
+      /// balance equations are linear: its iteration limit, tolerance and
+      /// `Continuation`, full steps with either C-function, and the name
+      /// "semismooth Newton-<C>". A merit line search does not help there:
+      /// the stalls are those of the active set, which only the
+      /// continuation cures (doc/stress.md, "Cold starts").
       AdditionalData(const NonlinearSolverParameters &parameters,
                      const ComplementarityFunction   &C);
+      /// The same, but with the backtracking line search and its watchdog
+      /// (`Watchdog steps`) if C has a smooth merit function
+      /// (Fischer-Burmeister), and without the continuation: for nonlinear
+      /// balance equations (step-twophase), where a full step can leave
+      /// the region in which Newton's model holds.
+      static AdditionalData
+      with_merit_line_search(const NonlinearSolverParameters &parameters,
+                             const ComplementarityFunction   &C);
 
       unsigned int max_iterations        = 50;
       double       tolerance             = 1e-10;
@@ -159,12 +171,14 @@ namespace VI
       /// it by far more) or leave its smallest value above `stall_ratio`
       /// times the smallest before them (a cycle). Six steps: no plain run
       /// of the test suite is touched (cold starts on coarse meshes
-      /// converge while still slow, e.g. the disk of 768 cells in 8 steps).
+      /// converge while still slow, e.g. the disk of 768 cells in 8 steps;
+      /// with two, HHO's seed-smooth needs 15 steps instead of 8 on its
+      /// second mesh and a time step of step-parabolic 12 instead of 4).
       double       stall_ratio = 0.5;
       unsigned int stall_steps = 6;
       /// Whether a stalled active set starts the continuation (if the
       /// problem provides set_smoothing). From `Nonlinear solver`: its
-      /// `Continuation`, with Newton-min only.
+      /// `Continuation`.
       bool continuation = true;
       /// Factor by which a full step of the continuation reduces mu.
       double smoothing_reduction = 0.1;
