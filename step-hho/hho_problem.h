@@ -195,7 +195,8 @@ namespace StepHHO
     void
     recover_cell_unknowns(const TrilinosWrappers::MPI::Vector &rhs,
                           TrilinosWrappers::MPI::Vector       &dX);
-    /// eta_alg from the residuals of the two face systems (hho_solver.cc).
+    /// eta_alg from the residuals of the two face systems, with ghosts
+    /// (hho_solver.cc).
     double
     algebraic_estimate(const TrilinosWrappers::MPI::Vector &rho_s,
                        const TrilinosWrappers::MPI::Vector &rho_d) const;

@@ -388,28 +388,32 @@ namespace StepHHO
       VI::linear_tolerance(parameters.nonlinear_solver,
                            parameters.linear_solver) *
       std::sqrt(mean_rhs.norm_sqr() + difference_rhs.norm_sqr());
-    TrilinosWrappers::MPI::Vector mean_residual, difference_residual;
-    CGWatch                       mean_watch, difference_watch;
-    if (algebraic_threshold > 0)
-      {
-        const unsigned int interval = parameters.linear_solver.check_interval;
-        mean_residual.reinit(mean_rhs);
-        difference_residual.reinit(difference_rhs);
-        mean_watch       = {[&](const TrilinosWrappers::MPI::Vector &x) {
-                        mean_matrix.residual(mean_residual, x, mean_rhs);
-                        return algebraic_estimate(mean_residual,
-                                                  difference_residual) <=
-                               0.5 * algebraic_threshold;
-                      },
-                            interval};
-        difference_watch = {
-          [&](const TrilinosWrappers::MPI::Vector &x) {
-            difference_matrix.residual(difference_residual, x, difference_rhs);
-            return algebraic_estimate(mean_residual, difference_residual) <=
-                   algebraic_threshold;
-          },
-          interval};
-      }
+    // The residuals of the two face systems at their last checked iterates,
+    // and their ghosted copies, allocated once for all checks.
+    TrilinosWrappers::MPI::Vector mean_residual, difference_residual,
+      ghosted_mean_residual, ghosted_difference_residual;
+    const auto watch = [&](const TrilinosWrappers::SparseMatrix &A,
+                           TrilinosWrappers::MPI::Vector        &residual,
+                           const TrilinosWrappers::MPI::Vector  &rhs,
+                           const double                          share) {
+      if (algebraic_threshold <= 0)
+        return CGWatch{};
+      residual.reinit(rhs);
+      return CGWatch{[&, A = &A, residual = &residual, rhs = &rhs, share](
+                       const TrilinosWrappers::MPI::Vector &x) {
+                       A->residual(*residual, x, *rhs);
+                       ghosted_faces.copy(mean_residual, ghosted_mean_residual);
+                       ghosted_faces.copy(difference_residual,
+                                          ghosted_difference_residual);
+                       return algebraic_estimate(ghosted_mean_residual,
+                                                 ghosted_difference_residual) <=
+                              share * algebraic_threshold;
+                     },
+                     parameters.linear_solver.check_interval};
+    };
+    const CGWatch mean_watch = watch(mean_matrix, mean_residual, mean_rhs, 0.5);
+    const CGWatch difference_watch =
+      watch(difference_matrix, difference_residual, difference_rhs, 1.);
     unsigned int iterations = mean_solver->solve(
       mean_matrix, mean_update, mean_rhs, tolerance, mean_watch);
     if (algebraic_threshold > 0)
@@ -482,7 +486,7 @@ namespace StepHHO
 
 
   // eta_alg of the iterate whose face rows leave the residuals rho_s of the
-  // mean's system and rho_d of the difference's (owned entries): the rows of
+  // mean's system and rho_d of the difference's (with ghosts): the rows of
   // the membranes are rho_1 = mu1 / m rho_s + rho_d and rho_2 = mu2 / m rho_s
   // - rho_d, and each cell keeps half the imbalance of each interior face
   // and all of it of a free boundary face, r_K = sum_j w_j rho_j / |K| over
@@ -495,9 +499,6 @@ namespace StepHHO
     const TrilinosWrappers::MPI::Vector &rho_s,
     const TrilinosWrappers::MPI::Vector &rho_d) const
   {
-    TrilinosWrappers::MPI::Vector s, d;
-    ghosted_faces.copy(rho_s, s);
-    ghosted_faces.copy(rho_d, d);
     const unsigned int n_c = cell_fe.n_dofs_per_cell();
     const double       m   = data.mu1 + data.mu2;
     double             sum = 0;
@@ -514,8 +515,8 @@ namespace StepHHO
                   const types::global_dof_index j =
                     face_dof(unknowns[n_fields * n_c +
                                       face_fe.face_to_cell_index(k, face)]);
-                  sum_s += w * s(j);
-                  sum_d += w * d(j);
+                  sum_s += w * rho_s(j);
+                  sum_d += w * rho_d(j);
                 }
             }
           const double area = cell->measure();
