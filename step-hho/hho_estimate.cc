@@ -513,7 +513,10 @@ namespace StepHHO
                     positive = broken.ghosted(positive_owned);
 
     // The potential: Oswald interpolates with the nodal values of g on the
-    // clamped boundary, averaged where s1 < s2.
+    // clamped boundary, averaged where s1 < s2, continuous at hanging nodes.
+    AffineConstraints<double> hanging_nodes(continuous.relevant);
+    DoFTools::make_hanging_node_constraints(continuous.dofs, hanging_nodes);
+    hanging_nodes.close();
     const Function<dim> *g[2] = {data.g1.get(), data.g2.get()};
     MPIVector            oswald[2], averaged[2];
     for (unsigned int a = 0; a < 2; ++a)
@@ -526,10 +529,13 @@ namespace StepHHO
                                  continuous.dofs,
                                  g[a],
                                  oswald[a],
-                                 &domain);
+                                 &domain,
+                                 &hanging_nodes);
       }
     VI::average_at_violated_nodes(
       data.mu1, data.mu2, oswald[0], oswald[1], averaged[0], averaged[1]);
+    for (MPIVector &v : averaged)
+      hanging_nodes.distribute(v);
     const MPIVector s[2] = {continuous.ghosted(averaged[0]),
                             continuous.ghosted(averaged[1])};
     // The averaging changes the Oswald interpolates only where the nodal

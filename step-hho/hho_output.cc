@@ -1,5 +1,6 @@
 
 #include <vi/field_output.h>
+#include <vi/marking.h>
 #include <vi/membrane_errors.h>
 #include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
@@ -133,14 +134,18 @@ namespace StepHHO
   }
 
 
-  // Global refinement; with nested iteration the cell polynomials u1,K,
-  // u2,K and lambda_h are carried to the new mesh by SolutionTransfer.
+  // Global refinement, or adaptive: the cells marked by the estimate's
+  // indicators (faces between refinement levels: constrain_hanging_faces()).
+  // With nested iteration the cell polynomials u1,K, u2,K and lambda_h are
+  // carried to the new mesh by SolutionTransfer.
   template <int dim>
   void
   HHOProblem<dim>::refine_mesh()
   {
     TimerOutput::Scope t(timer, "refinement");
-    VI::flag_all_cells(triangulation);
+    VI::flag_next_mesh(triangulation,
+                       parameters.mesh,
+                       last_estimate ? &last_estimate->cell_total : nullptr);
     solution_transfer =
       VI::refine_flagged_cells(triangulation,
                                cell_dof_handler,
@@ -152,13 +157,14 @@ namespace StepHHO
   // Unknowns as counted in the seed: 2 (cells dim P_p + interior faces dim
   // P_{p-1}) + cells dim P_p (the multiplier) without static condensation,
   // 2 (interior faces) dim P_{p-1} with it; the fixed boundary face values
-  // are not unknowns.
+  // and the coarse faces between refinement levels are not unknowns.
   template <int dim>
   VI::CycleNumbers
   HHOProblem<dim>::cycle_numbers(const unsigned int cycle) const
   {
     const unsigned long long condensed =
-      2 * (face_dof_handler.n_dofs() - n_boundary_face_dofs);
+      2 *
+      (face_dof_handler.n_dofs() - n_boundary_face_dofs - n_hanging_face_dofs);
     VI::CycleNumbers numbers =
       measured(cycle,
                triangulation.n_global_active_cells(),

@@ -233,7 +233,7 @@ namespace StepHHO
     TimerOutput::Scope t(timer, "setup");
     distribute_unknowns();
     index_local_unknowns();
-    project_boundary_data();
+    make_face_constraints();
     // Every cell node carries a complementarity pair.
     contact_rows.reinit(owned_nodes, AffineConstraints<double>());
 
@@ -277,8 +277,8 @@ namespace StepHHO
   }
 
 
-  // The positions in X of the unknowns of every locally owned cell, in the
-  // local order of static_condensation.h (local_unknowns()).
+  // The positions in X of the unknowns of every locally owned and ghost
+  // cell, in the local order of static_condensation.h (local_unknowns()).
   template <int dim>
   void
   HHOProblem<dim>::index_local_unknowns()
@@ -290,7 +290,7 @@ namespace StepHHO
                            numbers::invalid_dof_index);
     std::vector<types::global_dof_index> nodes(n_c), face_dofs(n_f);
     for (const auto &cell : cell_dof_handler.active_cell_iterators())
-      if (cell->is_locally_owned())
+      if (!cell->is_artificial())
         {
           cell->get_dof_indices(nodes);
           face_cell(cell)->get_dof_indices(face_dofs);
@@ -307,6 +307,129 @@ namespace StepHHO
   }
 
 
+  // The constraints of the face DoFs (clamped boundary faces, and the halves
+  // of faces between refinement levels) and of the face unknowns in X.
+  template <int dim>
+  void
+  HHOProblem<dim>::make_face_constraints()
+  {
+    face_constraints.clear();
+    face_constraints.reinit(relevant_faces);
+    project_boundary_data();
+    n_boundary_face_dofs =
+      Utilities::MPI::sum(face_constraints.n_constraints(), comm);
+    constrain_hanging_faces();
+    face_constraints.close();
+
+    // The same for both membranes' unknowns; the hanging ones also on
+    // their own, for the iterate X (whose boundary values are not 0).
+    system_constraints.clear();
+    system_constraints.reinit(relevant_system);
+    hanging_unknowns.clear();
+    hanging_unknowns.reinit(relevant_system);
+    for (const auto &line : face_constraints.get_lines())
+      for (unsigned int alpha = 0; alpha < 2; ++alpha)
+        {
+          const types::global_dof_index i = face_unknown(line.index, alpha);
+          system_constraints.add_line(i);
+          if (line.entries.empty())
+            continue;
+          hanging_unknowns.add_line(i);
+          for (const auto &[j, weight] : line.entries)
+            {
+              system_constraints.add_entry(i, face_unknown(j, alpha), weight);
+              hanging_unknowns.add_entry(i, face_unknown(j, alpha), weight);
+            }
+        }
+    system_constraints.close();
+    hanging_unknowns.close();
+  }
+
+
+  // Faces between refinement levels (adaptive meshes). The coarse cell K
+  // sees one face F, the two fine cells its halves F_c. The unknowns are
+  // the polynomials of P_{p-1}(F_c) on the halves, as if K were a pentagon;
+  // the coarse face's DoFs hold their L2 projection onto P_{p-1}(F), which
+  // is all that K's local operators (four faces) see of them. The
+  // interpolant of a smooth u then has Pi_F u on F (the projection onto the
+  // halves, then onto F) and Pi_F_c u on F_c, so each cell keeps the
+  // consistency of HHO, and testing the halves' rows shows that the fine
+  // cells' numerical fluxes are minus the restrictions of the coarse one
+  // (doc/reference.md, "HHO on adaptive meshes"). Constraints: coarse DoF
+  // k (nodal, basis phi_k of P_{p-1}(F)) = sum_{c,j} W_k,cj y_cj, W =
+  // M^(-1) B with M_lk = (phi_k, phi_l)_F and B_l,cj = (psi_cj, phi_l)_F_c,
+  // psi_cj the nodal basis of F_c.
+  template <int dim>
+  void
+  HHOProblem<dim>::constrain_hanging_faces()
+  {
+    const unsigned int                   n_F = face_fe.n_dofs_per_face();
+    const QGauss<dim - 1>                quadrature(degree + 1);
+    FEFaceValues<dim>                    on_face(*mapping,
+                              face_fe,
+                              quadrature,
+                              update_values | update_JxW_values);
+    FESubfaceValues<dim>                 on_half(*mapping,
+                                 face_fe,
+                                 quadrature,
+                                 update_values | update_JxW_values);
+    std::vector<types::global_dof_index> coarse_dofs(n_F), half_dofs(n_F);
+    FullMatrix<double>      M(n_F, n_F), B(n_F, 2 * n_F), W(n_F, 2 * n_F);
+    types::global_dof_index n_owned = 0;
+    for (const auto &cell : face_dof_handler.active_cell_iterators())
+      if (!cell->is_artificial())
+        for (const unsigned int f : cell->face_indices())
+          {
+            if (cell->at_boundary(f) || !cell->face(f)->has_children())
+              continue;
+            const auto basis = [&](const unsigned int k) {
+              return face_fe.face_to_cell_index(k, f);
+            };
+            const typename Triangulation<dim>::cell_iterator geometry(cell);
+            on_face.reinit(geometry, f);
+            M = 0;
+            for (const unsigned int q : on_face.quadrature_point_indices())
+              for (unsigned int l = 0; l < n_F; ++l)
+                for (unsigned int k = 0; k < n_F; ++k)
+                  M(l, k) += on_face.shape_value(basis(l), q) *
+                             on_face.shape_value(basis(k), q) * on_face.JxW(q);
+            // psi_cj at the points of the half, which are those of the full
+            // face's quadrature mapped onto it: L_j(x_q) = phi_j on F.
+            B = 0;
+            for (unsigned int c = 0; c < 2; ++c)
+              {
+                on_half.reinit(geometry, f, c);
+                for (const unsigned int q : on_half.quadrature_point_indices())
+                  for (unsigned int l = 0; l < n_F; ++l)
+                    for (unsigned int j = 0; j < n_F; ++j)
+                      B(l, c * n_F + j) += on_face.shape_value(basis(j), q) *
+                                           on_half.shape_value(basis(l), q) *
+                                           on_half.JxW(q);
+              }
+            M.gauss_jordan();
+            M.mmult(W, B);
+
+            cell->face(f)->get_dof_indices(coarse_dofs);
+            for (unsigned int k = 0; k < n_F; ++k)
+              {
+                if (face_constraints.is_constrained(coarse_dofs[k]))
+                  continue;
+                face_constraints.add_line(coarse_dofs[k]);
+                n_owned += owned_faces.is_element(coarse_dofs[k]);
+                for (unsigned int c = 0; c < 2; ++c)
+                  {
+                    cell->face(f)->child(c)->get_dof_indices(half_dofs);
+                    for (unsigned int j = 0; j < n_F; ++j)
+                      face_constraints.add_entry(coarse_dofs[k],
+                                                 half_dofs[j],
+                                                 W(k, c * n_F + j));
+                  }
+              }
+          }
+    n_hanging_face_dofs = Utilities::MPI::sum(n_owned, comm);
+  }
+
+
   // Dirichlet data: on each boundary face F, u_alpha,F = Pi_F g_alpha, the
   // L2 projection onto P_{p-1}(F). These face unknowns are fixed: Newton
   // updates vanish there (homogeneous constraints), and X carries the
@@ -315,8 +438,6 @@ namespace StepHHO
   void
   HHOProblem<dim>::project_boundary_data()
   {
-    face_constraints.clear();
-    face_constraints.reinit(relevant_faces);
     boundary_values.reinit(owned_system, comm);
     {
       FEFaceValues<dim>    face_values(*mapping,
@@ -353,17 +474,7 @@ namespace StepHHO
                   }
               }
     }
-    face_constraints.close();
     boundary_values.compress(VectorOperation::insert);
-    n_boundary_face_dofs =
-      Utilities::MPI::sum(face_constraints.n_constraints(), comm);
-
-    system_constraints.clear();
-    system_constraints.reinit(relevant_system);
-    for (const auto &line : face_constraints.get_lines())
-      for (unsigned int alpha = 0; alpha < 2; ++alpha)
-        system_constraints.add_line(face_unknown(line.index, alpha));
-    system_constraints.close();
   }
 
 
@@ -474,8 +585,9 @@ namespace StepHHO
 
   // The face unknowns of X from its cell polynomials: on every interior
   // face the average of the projections of the two traces onto P_{p-1}(F),
-  // on a free boundary face the projection of its trace
-  // (used to start Newton on a refined mesh).
+  // on a free boundary face and a half of a face between refinement levels
+  // the projection of its (fine) trace (used to start Newton on a refined
+  // mesh).
   template <int dim>
   void
   HHOProblem<dim>::set_face_unknowns_from_traces(
@@ -509,8 +621,16 @@ namespace StepHHO
             if (!cell->face(f)->at_boundary() ||
                 !domain.is_clamped(cell->face(f)->boundary_id()))
               {
-                // (a free boundary face has one trace, with weight 1)
-                const double weight = cell->face(f)->at_boundary() ? 1. : 0.5;
+                // A free boundary face has one trace, with weight 1, and so
+                // has a half of a face between refinement levels: that of
+                // the fine cell (the coarse face's DoFs are the projection
+                // of the halves, set below).
+                if (cell->face(f)->has_children())
+                  continue;
+                const double weight =
+                  cell->face(f)->at_boundary() || cell->neighbor_is_coarser(f) ?
+                    1. :
+                    0.5;
                 trace_values.reinit(cell, f);
                 // (the face element's values need only the geometry)
                 face_values.reinit(
@@ -539,6 +659,7 @@ namespace StepHHO
         }
     faces.compress(VectorOperation::add);
     X.add(1., faces);
+    hanging_unknowns.distribute(X);
   }
 
 

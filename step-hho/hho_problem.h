@@ -124,7 +124,11 @@ namespace StepHHO
     void
     index_local_unknowns();
     void
+    make_face_constraints();
+    void
     project_boundary_data();
+    void
+    constrain_hanging_faces();
     void
     make_face_sparsity();
     void
@@ -213,11 +217,16 @@ namespace StepHHO
     face_cell(const CellIterator &cell) const;
     /// The share of a face's imbalance that `cell` keeps (hho_estimate.cc):
     /// half on an interior face, all of it on a free boundary face (the
-    /// rows of the clamped faces are 0).
+    /// rows of the clamped faces are 0) and on a half of a face between
+    /// refinement levels, whose coarse side has no rows.
     static double
     imbalance_share(const CellIterator &cell, const unsigned int face)
     {
-      return cell->at_boundary(face) ? 1. : 0.5;
+      if (cell->at_boundary(face))
+        return 1.;
+      if (cell->face(face)->has_children())
+        return 0.;
+      return cell->neighbor_is_coarser(face) ? 1. : 0.5;
     }
     types::global_dof_index
     face_unknown(const types::global_dof_index face_dof,
@@ -280,10 +289,15 @@ namespace StepHHO
     /// and import built once per mesh).
     VI::GhostedCopy ghosted_nodes, ghosted_faces, ghosted_system;
 
-    AffineConstraints<double>     face_constraints;   ///< boundary face DoFs
+    /// Face DoFs: those of the clamped boundary faces (fixed) and of the
+    /// coarse faces between refinement levels (the projection of their
+    /// halves, constrain_hanging_faces()).
+    AffineConstraints<double>     face_constraints;
     AffineConstraints<double>     system_constraints; ///< their unknowns in X
+    AffineConstraints<double>     hanging_unknowns;   ///< the coarse faces'
     TrilinosWrappers::MPI::Vector boundary_values;    ///< X with Pi_F g only
     types::global_dof_index       n_boundary_face_dofs = 0;
+    types::global_dof_index       n_hanging_face_dofs  = 0;
     VI::ContactRows               contact_rows;
     std::vector<bool> active_rows; ///< of the last Newton linearisation
 

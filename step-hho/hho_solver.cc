@@ -28,20 +28,24 @@ namespace StepHHO
     using CellVectorCopy = MeshWorker::CopyData<0, 1, 1>;
 
     // Runs `cell_worker` on the locally owned cells and puts each cell's
-    // vector into `target` at the cell's unknowns: added (a residual, a
-    // condensed right-hand side) or inserted (unknowns recovered cell by
-    // cell, each owned by one cell).
+    // vector into `target` at the cell's unknowns: added through the
+    // constraints of the face unknowns (a residual, a condensed right-hand
+    // side: the rows of the clamped faces are dropped, those of a coarse
+    // face between refinement levels go to the rows of its halves), or
+    // inserted (unknowns recovered cell by cell, each owned by one cell).
     template <int dim, typename CellWorker, typename Scratch>
     void
-    gather_cell_vectors(const DoFHandler<dim>         &cells,
-                        const CellWorker              &cell_worker,
-                        const Scratch                 &scratch,
-                        const VectorOperation::values  operation,
-                        TrilinosWrappers::MPI::Vector &target)
+    gather_cell_vectors(const DoFHandler<dim>           &cells,
+                        const CellWorker                &cell_worker,
+                        const Scratch                   &scratch,
+                        const AffineConstraints<double> *constraints,
+                        TrilinosWrappers::MPI::Vector   &target)
     {
       const auto copier = [&](const CellVectorCopy &copy) {
-        if (operation == VectorOperation::add)
-          target.add(copy.local_dof_indices[0], copy.vectors[0]);
+        if (constraints)
+          constraints->distribute_local_to_global(copy.vectors[0],
+                                                  copy.local_dof_indices[0],
+                                                  target);
         else
           target.set(copy.local_dof_indices[0], copy.vectors[0]);
       };
@@ -52,7 +56,8 @@ namespace StepHHO
                             scratch,
                             CellVectorCopy(0),
                             MeshWorker::assemble_own_cells);
-      target.compress(operation);
+      target.compress(constraints ? VectorOperation::add :
+                                    VectorOperation::insert);
     }
   } // namespace
 
@@ -196,16 +201,14 @@ namespace StepHHO
             for (unsigned int I = 0; I < n_c; ++I)
               copy.vectors[0](alpha * n_c + I) =
                 mu[alpha] * Av(I) + sign * x(2 * n_c + I) - b(alpha * n_c + I);
-            // (no equation in the rows of the fixed boundary face values)
             for (unsigned int k = 0; k < n_f; ++k)
-              if (!system_constraints.is_constrained(
-                    face_unknowns[alpha * n_f + k]))
-                copy.vectors[0](2 * n_c + alpha * n_f + k) =
-                  mu[alpha] * Av(n_c + k);
+              copy.vectors[0](2 * n_c + alpha * n_f + k) =
+                mu[alpha] * Av(n_c + k);
           }
       };
+    // (no equation in the rows of the fixed boundary face values)
     gather_cell_vectors(
-      cell_dof_handler, cell_worker, CellVectors(), VectorOperation::add, R);
+      cell_dof_handler, cell_worker, CellVectors(), &system_constraints, R);
   }
 
 
@@ -310,7 +313,11 @@ namespace StepHHO
     if (!parameters.static_condensation)
       {
         TimerOutput::Scope t(timer, "solve");
-        return jacobian_solver->solve(system_matrix, dX, rhs, 0.);
+        const unsigned int iterations =
+          jacobian_solver->solve(system_matrix, dX, rhs, 0.);
+        // (the coarse faces between refinement levels)
+        hanging_unknowns.distribute(dX);
+        return iterations;
       }
     condense_rhs(rhs);
     const unsigned int iterations = solve_condensed_system();
@@ -329,7 +336,6 @@ namespace StepHHO
   {
     TimerOutput::Scope            t(timer, "static condensation");
     const unsigned int            n_c = cell_fe.n_dofs_per_cell();
-    const unsigned int            n_f = face_fe.n_dofs_per_cell();
     TrilinosWrappers::MPI::Vector condensed(owned_system, comm);
     std::copy(rhs.begin() + n_fields * owned_nodes.n_elements(),
               rhs.end(),
@@ -347,14 +353,11 @@ namespace StepHHO
           local_matrices_of(cell).operators, r_L, copy.vectors[0]);
         copy.local_dof_indices[0].assign(unknowns.begin() + n_fields * n_c,
                                          unknowns.end());
-        for (unsigned int k = 0; k < 2 * n_f; ++k)
-          if (system_constraints.is_constrained(copy.local_dof_indices[0][k]))
-            copy.vectors[0](k) = 0;
       };
     gather_cell_vectors(cell_dof_handler,
                         cell_worker,
                         CellVectors(),
-                        VectorOperation::add,
+                        &system_constraints,
                         condensed);
 
     const double  m = data.mu1 + data.mu2;
@@ -468,11 +471,8 @@ namespace StepHHO
         eliminations[cell->active_cell_index()].recover(
           local_matrices_of(cell).operators, r_L, dy, copy.vectors[0]);
       };
-    gather_cell_vectors(cell_dof_handler,
-                        cell_worker,
-                        CellVectors(),
-                        VectorOperation::insert,
-                        dX);
+    gather_cell_vectors(
+      cell_dof_handler, cell_worker, CellVectors(), nullptr, dX);
 
     double *faces = dX.begin() + n_fields * owned_nodes.n_elements();
     for (std::size_t k = 0; k < owned_faces.n_elements(); ++k)
@@ -490,7 +490,9 @@ namespace StepHHO
   // the membranes are rho_1 = mu1 / m rho_s + rho_d and rho_2 = mu2 / m rho_s
   // - rho_d, and each cell keeps half the imbalance of each interior face
   // and all of it of a free boundary face, r_K = sum_j w_j rho_j / |K| over
-  // its face DoFs j (the face basis sums to 1, hho_estimate.cc). Then
+  // its face DoFs j (the face basis sums to 1, hho_estimate.cc; on a face
+  // between refinement levels the fine cell keeps all, imbalance_share()).
+  // Then
   // eta_alg = C_F (sum_K |K| (r_1,K^2 / mu1 + r_2,K^2 / mu2))^(1/2), the
   // remainder of the estimate, without its fluxes.
   template <int dim>
