@@ -355,9 +355,9 @@ namespace StepHHO
   // halves, then onto F) and Pi_F_c u on F_c, so each cell keeps the
   // consistency of HHO, and testing the halves' rows shows that the fine
   // cells' numerical fluxes are minus the restrictions of the coarse one
-  // (doc/reference.md, "HHO on adaptive meshes"). Constraints: coarse DoF
-  // k (nodal, basis phi_k of P_{p-1}(F)) = sum_{c,j} W_k,cj y_cj, W =
-  // M^(-1) B with M_lk = (phi_k, phi_l)_F and B_l,cj = (psi_cj, phi_l)_F_c,
+  // (doc/reference.md, 2.3, "Faces between refinement levels"). Constraints:
+  // coarse DoF k (nodal, basis phi_k of P_{p-1}(F)) = sum_{c,j} W_k,cj y_cj, W
+  // = M^(-1) B with M_lk = (phi_k, phi_l)_F and B_l,cj = (psi_cj, phi_l)_F_c,
   // psi_cj the nodal basis of F_c.
   template <int dim>
   void
