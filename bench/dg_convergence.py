@@ -15,7 +15,7 @@ and a penalty sweep; writes into doc/data/:
 Usage: bench/dg_convergence.py [--quick] [--penalty]   (from the repository
 root, after ./demo.sh or ./test.sh has built the programs). --quick runs
 fewer cycles; --penalty only the penalty sweep (a minute). The whole study
-takes about 25 minutes on 2 cores.
+takes about five minutes on 2 cores.
 """
 import json
 import math
