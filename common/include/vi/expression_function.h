@@ -31,8 +31,12 @@ namespace VI
    *   (-f(p + 2h e_i) + 8 f(p + h e_i) - 8 f(p - h e_i) + f(p - 2h e_i))
    *   / (12 h),
    * evaluated in the order of deal.II's AutoDerivativeFunction::FourthOrder,
-   * so the values are those of FunctionParser with that formula. A kink of
-   * the function closer than 2h to a point spoils its gradient there.
+   * so the values are those of FunctionParser with that formula where the
+   * function is smooth. Near a singularity closer than 2h to a point (the
+   * corner of the L-shape, on cells smaller than h) the stencil would
+   * straddle it: there the step shrinks by 4 until the differences of two
+   * successive steps agree to 1e-6, at most to h / 4^8 (where they never
+   * do, a jump, the gradient is that of step h).
    *
    * A malformed formula or an unknown name throws InputError with
    * muparser's diagnosis (at construction: the formula is evaluated once at
@@ -81,6 +85,10 @@ namespace VI
     evaluator() const;
     double
     evaluate(Evaluator &e, const dealii::Point<dim> &p) const;
+    /// Fourth-order differences of the given step.
+    dealii::Tensor<1, dim>
+    differences(Evaluator &e, const dealii::Point<dim> &p, double step) const;
+    /// The gradient: differences of step h, or smaller near a singularity.
     dealii::Tensor<1, dim>
     differentiate(Evaluator &e, const dealii::Point<dim> &p) const;
 
