@@ -373,7 +373,8 @@ namespace StepHHO
                                  face_fe,
                                  quadrature,
                                  update_values | update_JxW_values);
-    std::vector<types::global_dof_index> coarse_dofs(n_F), half_dofs(n_F);
+    std::vector<types::global_dof_index> coarse_dofs(n_F), half_dofs(n_F),
+      both_halves(2 * n_F);
     FullMatrix<double>      M(n_F, n_F), B(n_F, 2 * n_F), W(n_F, 2 * n_F);
     types::global_dof_index n_owned = 0;
     for (const auto &cell : face_dof_handler.active_cell_iterators())
@@ -410,20 +411,23 @@ namespace StepHHO
             M.mmult(W, B);
 
             cell->face(f)->get_dof_indices(coarse_dofs);
+            for (unsigned int c = 0; c < 2; ++c)
+              {
+                cell->face(f)->child(c)->get_dof_indices(half_dofs);
+                std::copy(half_dofs.begin(),
+                          half_dofs.end(),
+                          both_halves.begin() + c * n_F);
+              }
             for (unsigned int k = 0; k < n_F; ++k)
               {
                 if (face_constraints.is_constrained(coarse_dofs[k]))
                   continue;
                 face_constraints.add_line(coarse_dofs[k]);
                 n_owned += owned_faces.is_element(coarse_dofs[k]);
-                for (unsigned int c = 0; c < 2; ++c)
-                  {
-                    cell->face(f)->child(c)->get_dof_indices(half_dofs);
-                    for (unsigned int j = 0; j < n_F; ++j)
-                      face_constraints.add_entry(coarse_dofs[k],
-                                                 half_dofs[j],
-                                                 W(k, c * n_F + j));
-                  }
+                for (unsigned int j = 0; j < 2 * n_F; ++j)
+                  face_constraints.add_entry(coarse_dofs[k],
+                                             both_halves[j],
+                                             W(k, j));
               }
           }
     n_hanging_face_dofs = Utilities::MPI::sum(n_owned, comm);
