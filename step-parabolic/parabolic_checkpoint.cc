@@ -30,7 +30,7 @@ namespace StepParabolic
     using VI::Checkpoint::read_entry;
 
     const std::string checkpoint_name = "checkpoint.txt";
-    const std::string checkpoint_head = "step-parabolic checkpoint, format 1";
+    const std::string checkpoint_head = "step-parabolic checkpoint, format 2";
     const std::string wrong_head      = "not a checkpoint of step-parabolic";
 
     /// The files Triangulation::save() writes for `name`.
@@ -124,6 +124,9 @@ namespace StepParabolic
                 << a.final_nonc_lin << ' ' << a.error_squared << ' '
                 << a.final_error << ' ' << a.newton << ' ' << a.linear << ' '
                 << a.rejected << '\n';
+            out << "l2_totals " << a.l2_squared << ' ' << a.l2_disc_squared
+                << ' ' << a.l2_lin_squared << ' ' << a.change << ' '
+                << a.change_disc << ' ' << a.change_lin << '\n';
             out << "records " << records.size() << '\n';
             for (const StepRecord &r : records)
               out << r.step << ' ' << r.time << ' ' << r.dt << ' ' << r.newton
@@ -180,6 +183,9 @@ namespace StepParabolic
           a.nonc_squared_lin >> a.final_nonc >> a.final_nonc_disc >>
           a.final_nonc_lin >> a.error_squared >> a.final_error >> a.newton >>
           a.linear >> a.rejected;
+        read_entry(in, "l2_totals", a.l2_squared);
+        in >> a.l2_disc_squared >> a.l2_lin_squared >> a.change >>
+          a.change_disc >> a.change_lin;
         std::size_t n = 0;
         read_entry(in, "records", n);
         records.resize(n);

@@ -113,6 +113,8 @@ namespace StepParabolic
   // - eta_dt = C_F (sum_alpha mu_alpha^-1 |d_t d_alpha|^2)^(1/2), which
   //   bounds (d_t d, v) by |||v|||, split into disc and lin parts, and the
   //   part of this step alone, C_F |d_lin^n| / dt (stopping criterion);
+  // - |d^n - d^(n-1)| (L2) and its parts, for the second bound, which
+  //   takes (d_t d, e~) in L2 and sums this change over the steps;
   // - |d^n| (L2) and its parts, for the final-time term;
   // - |||u_h^n - u_h^(n-1)|||, for the temporal estimator.
   template <int dim>
@@ -147,12 +149,16 @@ namespace StepParabolic
                  *old_s[2] = {&previous_s1, &previous_s2};
 
     // Squared norms: dt-change of d (disc, lin) weighted by 1/mu, d^n
-    // (lin, weighted by 1/mu), |d^n|^2 (total, disc, lin), |||du|||^2.
+    // (lin, weighted by 1/mu), the change of d (total, disc, lin),
+    // |d^n|^2 (total, disc, lin), |||du|||^2.
     enum
     {
       change_disc,
       change_lin,
       now_lin_weighted,
+      l2_change_total,
+      l2_change_disc,
+      l2_change_lin,
       final_total,
       final_disc,
       final_lin,
@@ -198,6 +204,11 @@ namespace StepParabolic
                     std::pow(disc[a] - disc_old[a], 2) / mu[a] * dx;
                   sums[change_lin] += std::pow(lin - lin_old, 2) / mu[a] * dx;
                   sums[now_lin_weighted] += lin * lin / mu[a] * dx;
+                  sums[l2_change_total] +=
+                    std::pow(lin + disc[a] - lin_old - disc_old[a], 2) * dx;
+                  sums[l2_change_disc] +=
+                    std::pow(disc[a] - disc_old[a], 2) * dx;
+                  sums[l2_change_lin] += std::pow(lin - lin_old, 2) * dx;
                   sums[final_total] += std::pow(lin + disc[a], 2) * dx;
                   sums[final_disc] += disc[a] * disc[a] * dx;
                   sums[final_lin] += lin * lin * dx;
@@ -220,6 +231,9 @@ namespace StepParabolic
     // |d_t d| <= |d_t d_disc| + |d_t d_lin|: the bound and its split.
     terms.eta_dt                = terms.eta_dt_disc + terms.eta_dt_lin;
     terms.eta_dt_lin_controlled = factor * std::sqrt(sums[now_lin_weighted]);
+    terms.change                = std::sqrt(sums[l2_change_total]);
+    terms.change_disc           = std::sqrt(sums[l2_change_disc]);
+    terms.change_lin            = std::sqrt(sums[l2_change_lin]);
     terms.final_nonc            = std::sqrt(sums[final_total]);
     terms.final_nonc_disc       = std::sqrt(sums[final_disc]);
     terms.final_nonc_lin        = std::sqrt(sums[final_lin]);
@@ -261,9 +275,11 @@ namespace StepParabolic
     in.dt_u2_ahead         = &ahead.dt_u2;
 
     StepEstimate e;
-    double       integral[4] = {}; // of A^2 + eta_C, D^2, L^2, G^2
-    Vector       u1, u2, s1, s2;
-    double       D_end = 0;
+    // of A^2 + eta_C, D^2, L^2, G^2, and of the same without eta_dt (the
+    // second bound, in which d_t d is not measured in H^-1)
+    double integral[7] = {};
+    Vector u1, u2, s1, s2;
+    double D_end = 0;
     for (const auto &[theta, weight] : time_points())
       {
         if (theta == 1.)
@@ -306,11 +322,13 @@ namespace StepParabolic
         // Over an obstacle the equation of e~ = u - s~ is tested with grad
         // s~ in the flux term (eta_1_cone): then a(d, v) does not appear,
         // and eta_nonc1 enters the bound once, in its second term.
-        const double A = (data.obstacle ? c.eta_1_cone : c.eta_1 + c.nonc_1) +
-                         c.nonc_2 + terms.eta_dt;
-        const double D = c.eta_1_disc + c.nonc_1_disc + c.nonc_2_disc +
-                         terms.eta_dt_disc +
-                         std::sqrt(std::max(c.contact_disc, 0.));
+        // (A_l2, D_l2: the same without eta_dt, for the second bound)
+        const double A_l2 =
+          (data.obstacle ? c.eta_1_cone : c.eta_1 + c.nonc_1) + c.nonc_2;
+        const double A    = A_l2 + terms.eta_dt;
+        const double D_l2 = c.eta_1_disc + c.nonc_1_disc + c.nonc_2_disc +
+                            std::sqrt(std::max(c.contact_disc, 0.));
+        const double D = D_l2 + terms.eta_dt_disc;
         const double L_other =
           c.nonc_1_lin + c.nonc_2_lin + std::sqrt(std::max(c.contact_lin, 0.));
         const double L = L_other + terms.eta_dt_lin;
@@ -319,6 +337,9 @@ namespace StepParabolic
         integral[1] += weight * D * D;
         integral[2] += weight * L * L;
         integral[3] += weight * G * G;
+        integral[4] += weight * (A_l2 * A_l2 + c.contact_cone);
+        integral[5] += weight * D_l2 * D_l2;
+        integral[6] += weight * L_other * L_other;
         e.nonc_squared += weight * c.nonc_1 * c.nonc_1;
         e.nonc_squared_disc += weight * c.nonc_1_disc * c.nonc_1_disc;
         e.nonc_squared_lin += weight * c.nonc_1_lin * c.nonc_1_lin;
@@ -340,6 +361,12 @@ namespace StepParabolic
     e.eta_lin       = std::sqrt(dt * integral[2]);
     e.eta_alg       = std::sqrt(dt * integral[3]);
     e.eta_dt        = terms.eta_dt;
+    e.eta_l2        = std::sqrt(dt * integral[4]) + e.oscillation;
+    e.eta_l2_disc   = std::sqrt(dt * integral[5]) + e.oscillation;
+    e.eta_l2_lin    = std::sqrt(dt * integral[6]);
+    e.change        = terms.change;
+    e.change_disc   = terms.change_disc;
+    e.change_lin    = terms.change_lin;
     e.nonc_squared *= dt;
     e.nonc_squared_disc *= dt;
     e.nonc_squared_lin *= dt;

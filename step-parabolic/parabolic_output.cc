@@ -101,6 +101,8 @@ namespace StepParabolic
       {"eta_dt", &StepEstimate::eta_dt},
       {"nonc_squared", &StepEstimate::nonc_squared},
       {"final_nonc", &StepEstimate::final_nonc},
+      {"eta_l2", &StepEstimate::eta_l2},
+      {"change_of_d", &StepEstimate::change},
     };
 
     VI::Json
@@ -166,6 +168,8 @@ namespace StepParabolic
         json["eta_disc_total"] = totals.eta_disc();
         json["eta_lin_total"]  = totals.eta_lin();
         json["eta_alg_total"]  = totals.eta_alg();
+        json["time_derivative_of_d_in"] =
+          totals.l2_bound_is_smaller() ? "L2" : "H^-1";
       }
     if (data.has_exact_solution())
       {
@@ -293,6 +297,8 @@ namespace StepParabolic
         total["eta_disc"] = totals.eta_disc();
         total["eta_lin"]  = totals.eta_lin();
         total["eta_alg"]  = totals.eta_alg();
+        total["time_derivative_of_d_in"] =
+          totals.l2_bound_is_smaller() ? "L2" : "H^-1";
       }
     if (data.has_exact_solution() && !records.empty())
       {

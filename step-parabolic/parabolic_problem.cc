@@ -20,18 +20,33 @@
 
 namespace StepParabolic
 {
-  // The bound and its components up to the current time (see StepEstimate
-  // and doc/step-parabolic.md): with the cone correction d = s~ - u_h,
-  //   |||u - u_ht|||_(0,t) + |(u - u_h)(t)| <= eta
-  //     = (eta_init^2 + sum_n eta_n^2)^(1/2)
-  //       + (sum_n int_In |||d|||^2 + |d(t)|^2)^(1/2),
-  // and each part is split by the triangle inequality.
+  // The bound and its components up to the current time t (see
+  // StepEstimate and doc/step-parabolic.md): with the cone correction
+  // d = s~ - u_h and N = (sum_n int_In |||d|||^2 + |d(t)|^2)^(1/2),
+  //   |||u - u_ht|||_(0,t) + |(u - u_h)(t)| <= eta = the smaller of
+  //     (eta_init^2 + sum_n eta_n^2)^(1/2) + N,                 (d_t d in H^-1)
+  //     G + (G^2 + eta_init^2 + sum_n eta_l2,n^2)^(1/2) + N,    (d_t d in L2)
+  // with G = sum_n |d^n - d^(n-1)|. Each part is split by the triangle
+  // inequality, the second through G + (G^2 + Q^2)^(1/2) <= 2 G + Q.
+  template <int dim>
+  bool
+  ParabolicProblem<dim>::Accumulated::l2_bound_is_smaller() const
+  {
+    const double Q2 = eta_init * eta_init + l2_squared;
+    return change + std::sqrt(change * change + Q2) <
+           std::sqrt(eta_init * eta_init + eta_squared);
+  }
+
+
   template <int dim>
   double
   ParabolicProblem<dim>::Accumulated::eta() const
   {
-    return std::sqrt(eta_init * eta_init + eta_squared) +
-           std::sqrt(nonc_squared + final_nonc * final_nonc);
+    const double N = std::sqrt(nonc_squared + final_nonc * final_nonc);
+    if (l2_bound_is_smaller())
+      return change +
+             std::sqrt(change * change + eta_init * eta_init + l2_squared) + N;
+    return std::sqrt(eta_init * eta_init + eta_squared) + N;
   }
 
 
@@ -39,8 +54,11 @@ namespace StepParabolic
   double
   ParabolicProblem<dim>::Accumulated::eta_disc() const
   {
-    return std::sqrt(disc_squared) +
-           std::sqrt(nonc_squared_disc + final_nonc_disc * final_nonc_disc);
+    const double N =
+      std::sqrt(nonc_squared_disc + final_nonc_disc * final_nonc_disc);
+    if (l2_bound_is_smaller())
+      return 2. * change_disc + std::sqrt(l2_disc_squared) + N;
+    return std::sqrt(disc_squared) + N;
   }
 
 
@@ -48,8 +66,11 @@ namespace StepParabolic
   double
   ParabolicProblem<dim>::Accumulated::eta_lin() const
   {
-    return std::sqrt(lin_squared) +
-           std::sqrt(nonc_squared_lin + final_nonc_lin * final_nonc_lin);
+    const double N =
+      std::sqrt(nonc_squared_lin + final_nonc_lin * final_nonc_lin);
+    if (l2_bound_is_smaller())
+      return 2. * change_lin + std::sqrt(l2_lin_squared) + N;
+    return std::sqrt(lin_squared) + N;
   }
 
 
@@ -413,6 +434,12 @@ namespace StepParabolic
         totals.disc_squared += e.eta_disc * e.eta_disc;
         totals.lin_squared += e.eta_lin * e.eta_lin;
         totals.alg_squared += e.eta_alg * e.eta_alg;
+        totals.l2_squared += e.eta_l2 * e.eta_l2;
+        totals.l2_disc_squared += e.eta_l2_disc * e.eta_l2_disc;
+        totals.l2_lin_squared += e.eta_l2_lin * e.eta_l2_lin;
+        totals.change += e.change;
+        totals.change_disc += e.change_disc;
+        totals.change_lin += e.change_lin;
         totals.nonc_squared += e.nonc_squared;
         totals.nonc_squared_disc += e.nonc_squared_disc;
         totals.nonc_squared_lin += e.nonc_squared_lin;

@@ -79,6 +79,11 @@ namespace StepParabolic
     /// and |s~_h^n - u_h^n| (L2): the cone correction at the end.
     double nonc_squared = 0, nonc_squared_disc = 0, nonc_squared_lin = 0;
     double final_nonc = 0, final_nonc_disc = 0, final_nonc_lin = 0;
+    /// The second bound, with (d_t d, e~) taken in L2 instead of H^-1:
+    /// eta_n without eta_dt (and its disc / lin parts), and |d^n - d^(n-1)|
+    /// (L2, with its parts), which it sums over the steps.
+    double eta_l2 = 0, eta_l2_disc = 0, eta_l2_lin = 0;
+    double change = 0, change_disc = 0, change_lin = 0;
     /// The steady estimate at t_n (cellwise indicators for the output).
     VI::ContactEstimate at_end;
   };
@@ -136,6 +141,7 @@ namespace StepParabolic
     {
       double eta_dt = 0, eta_dt_disc = 0, eta_dt_lin = 0;
       double eta_dt_lin_controlled = 0;
+      double change = 0, change_disc = 0, change_lin = 0; ///< |d^n - d^(n-1)|
       double final_nonc = 0, final_nonc_disc = 0, final_nonc_lin = 0;
       double time_energy = 0; ///< |||u_h^n - u_h^(n-1)|||
     };
@@ -148,15 +154,22 @@ namespace StepParabolic
              alg_squared  = 0;
       double nonc_squared = 0, nonc_squared_disc = 0, nonc_squared_lin = 0;
       double final_nonc = 0, final_nonc_disc = 0, final_nonc_lin = 0;
+      /// The second bound's sums: of eta_l2^2 (and parts), of |d^n - d^(n-1)|.
+      double l2_squared = 0, l2_disc_squared = 0, l2_lin_squared = 0;
+      double change = 0, change_disc = 0, change_lin = 0;
       double error_squared      = 0; ///< sum_n int_In |||u - u_ht|||^2
       double final_error        = 0; ///< |u(t_n) - u_h^n|
       unsigned long long newton = 0, linear = 0;
       unsigned int       rejected = 0;
 
-      /// The guaranteed bound of the error up to the current time, and its
-      /// components (eta <= eta_init + eta_disc + eta_lin + eta_alg).
+      /// The guaranteed bound of the error up to the current time, the
+      /// smaller of two (doc/step-parabolic.md), and its components
+      /// (eta <= eta_init + eta_disc + eta_lin + eta_alg).
       double
       eta() const;
+      /// Whether eta() is the second bound, with d_t d in L2.
+      bool
+      l2_bound_is_smaller() const;
       double
       eta_disc() const;
       double
