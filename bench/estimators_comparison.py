@@ -278,11 +278,15 @@ def dual_norms():
 def bound(eta_1, nonc_1, nonc_2, contact_cone, dirichlet):
     """The guaranteed bound from its parts (doc/estimators.md, "The
     guaranteed bound"; VI::estimate_contact_error in common/source/estimators.cc):
-    a/2 + (a^2/4 + b)^(1/2) + |||G|||, a = eta_1 + eta_nonc1 + eta_nonc2,
-    b = (eta_1 + eta_nonc2) eta_nonc1 + eta_cone / 2."""
-    a = eta_1 + nonc_1 + nonc_2
-    b = (eta_1 + nonc_2) * nonc_1 + 0.5 * contact_cone
-    return 0.5 * a + math.sqrt(max(0.25 * a * a + b, 0.)) + dirichlet
+    the smaller of a/2 + (a^2/4 + b)^(1/2) and (R^2 + N^2 + eta_cone)^(1/2),
+    plus |||G|||, with R = eta_1 + eta_nonc2, N = eta_nonc1, a = R + N and
+    b = R N + eta_cone / 2."""
+    R = eta_1 + nonc_2
+    a = R + nonc_1
+    b = R * nonc_1 + 0.5 * contact_cone
+    additive = 0.5 * a + math.sqrt(max(0.25 * a * a + b, 0.))
+    quadratic = math.sqrt(max(R * R + nonc_1 * nonc_1 + contact_cone, 0.))
+    return min(additive, quadratic) + dirichlet
 
 
 def floor():

@@ -765,17 +765,13 @@ namespace VI
       e.remainder = remainder_bound;
       e.eta_1 =
         std::sqrt(total[ContactSum::flux_residual_total]) + remainder_bound;
-      // Two bounds from (e, d) <= R D + c, d = u - s~, D = |||d|||,
-      // R = eta_1 + nonc_2, c = eta_cone / 2, N = nonc_1 = |||s~ - u_h|||
-      // (doc/reference.md, "Flux and non-conformity in quadrature"):
-      // - Cauchy-Schwarz on (e, s~ - u_h): |||e|||^2 <= a |||e||| + b,
-      //   |||e||| <= a/2 + (a^2/4 + b)^(1/2);
-      // - |||e|||^2 = D^2 + 2 (s~ - u_h, d) + N^2 <= R^2 + N^2 + 2 c.
-      // eta is the smaller. The split below is that of the first, which
-      // bounds both: with it the solvers stop where they did with the first
-      // bound alone (the second's split, whose linearisation part lacks the
-      // cross term (R N)^(1/2), stopped Newton at iterates whose estimate
-      // was further from the error, doc/estimators.md).
+      // Two bounds from (e, d) <= R D + c, d = u - s~, R = eta_1 + nonc_2,
+      // c = eta_cone / 2, N = nonc_1 (doc/reference.md, "Flux and
+      // non-conformity in quadrature"): |||e||| <= a/2 + (a^2/4 + b)^(1/2)
+      // and |||e|||^2 <= R^2 + N^2 + 2 c. eta is the smaller; the split
+      // below is the first's, which bounds both, so that the solvers stop
+      // where they did (the second's lacks the cross term (R N)^(1/2) in
+      // eta_lin and stopped Newton at rougher iterates).
       const double R = e.eta_1 + e.nonc_2;
       const double a = R + e.nonc_1;
       const double b = R * e.nonc_1 + 0.5 * e.contact_cone;
