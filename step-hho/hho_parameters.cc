@@ -10,7 +10,7 @@ namespace StepHHO
     VI::ProblemParameters::declare(prm,
                                    VI::membrane_test_case_names(),
                                    "seed-smooth");
-    VI::MeshParameters::declare(prm, "global|adaptive");
+    VI::MeshParameters::declare(prm);
     // The shared declaration's default method is "fem", which must be among
     // the accepted values; step-hho then narrows "Method" to "hho" (a later
     // declaration of an entry replaces the earlier one).
@@ -132,13 +132,9 @@ namespace StepHHO
       throw VI::InputError(
         "Nonlinear solver/Initial guess = data is implemented for "
         "step-membranes; step-hho starts from zero (set it to zero)");
-    if (mesh.refinement == "adaptive" && !estimators)
-      throw VI::InputError("Mesh/Refinement = adaptive marks the cells with "
-                           "the estimate: set Estimators/Enabled = true");
-    if (nonlinear_solver.strategy == VI::Strategy::adaptive && !estimators)
-      throw VI::InputError(
-        "Nonlinear solver/Strategy = adaptive stops CG and Newton with "
-        "the estimators: set Estimators/Enabled = true");
+    VI::require_estimators_where_read(&mesh,
+                                      nonlinear_solver.strategy,
+                                      estimators);
     if (linear_solver.solver == VI::LinearSolverType::cg &&
         !static_condensation)
       throw VI::InputError(

@@ -15,7 +15,7 @@ namespace StepMembranes
     VI::ProblemParameters::declare(prm,
                                    VI::membrane_test_case_names(),
                                    "seed-smooth");
-    VI::MeshParameters::declare(prm, "global|adaptive");
+    VI::MeshParameters::declare(prm);
     VI::DiscretizationParameters::declare(prm, "fem|sipg|nipg|iipg");
     VI::NonlinearSolverParameters::declare(prm, "exact|inexact|adaptive");
     VI::LinearSolverParameters::declare(prm, "direct|gmres", "direct");
@@ -95,13 +95,7 @@ namespace StepMembranes
         "Nonlinear solver/Strategy = " + VI::to_string(strategy) +
         " needs an iterative linear solver: set Linear "
         "solver/Solver = gmres");
-    if (mesh.refinement == "adaptive" && !estimators.enabled)
-      throw VI::InputError("Mesh/Refinement = adaptive marks the cells with "
-                           "the estimators: set Estimators/Enabled = true");
-    if (strategy == VI::Strategy::adaptive && !estimators.enabled)
-      throw VI::InputError("Nonlinear solver/Strategy = adaptive stops the "
-                           "solvers with the estimators: set "
-                           "Estimators/Enabled = true");
+    VI::require_estimators_where_read(&mesh, strategy, estimators.enabled);
     if (estimators.equilibrated_dual_norms() &&
         discretization.method != VI::Method::fem)
       throw VI::InputError("Estimators/Equilibrated dual norms is "

@@ -235,9 +235,7 @@ namespace StepParabolic
             "Nonlinear solver/Strategy = " + VI::to_string(strategy) +
               " needs an iterative linear solver: set Linear solver/Solver "
               "= gmres");
-    require(strategy != VI::Strategy::adaptive || estimators.enabled,
-            "Nonlinear solver/Strategy = adaptive stops the solvers with the "
-            "estimators: set Estimators/Enabled = true");
+    VI::require_estimators_where_read(nullptr, strategy, estimators.enabled);
     require(!estimators.equilibrated_dual_norms(),
             "Estimators/Equilibrated dual norms is implemented for "
             "step-membranes (fem): leave it empty for step-parabolic");

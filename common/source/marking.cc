@@ -18,21 +18,18 @@ namespace VI
   mark_cells_for_refinement(
     parallel::distributed::Triangulation<dim> &triangulation,
     const Vector<double>                      &squared_indicators,
-    const std::string                         &strategy,
+    const Marking                              marking,
     const double                               fraction)
   {
     AssertDimension(squared_indicators.size(), triangulation.n_active_cells());
-    if (strategy == "dorfler")
+    if (marking == Marking::dorfler)
       // With the L1 norm of eta_K^2 the "fraction of the error" is the
       // fraction of the squared estimate: Dorfler's criterion.
       parallel::distributed::GridRefinement::refine_and_coarsen_fixed_fraction(
         triangulation, squared_indicators, fraction, 0., VectorTools::L1_norm);
-    else if (strategy == "fixed-fraction")
+    else
       parallel::distributed::GridRefinement::refine_and_coarsen_fixed_number(
         triangulation, squared_indicators, fraction, 0.);
-    else
-      AssertThrow(false,
-                  ExcMessage("Unknown marking strategy \"" + strategy + "\""));
 
     // A threshold inside a group of indicators equal to round-off (cells
     // of a symmetry orbit) splits the group by the last digits of the
@@ -71,7 +68,7 @@ namespace VI
                  const MeshParameters                      &mesh,
                  const Vector<double>                      *squared_indicators)
   {
-    if (mesh.refinement == "adaptive")
+    if (mesh.refinement == Refinement::adaptive)
       {
         AssertThrow(squared_indicators,
                     ExcMessage("Adaptive refinement without an estimate"));
@@ -92,6 +89,6 @@ namespace VI
   template void
   mark_cells_for_refinement(parallel::distributed::Triangulation<2> &,
                             const Vector<double> &,
-                            const std::string &,
+                            const Marking,
                             const double);
 } // namespace VI

@@ -126,7 +126,9 @@ namespace VI
                              const MPI_Comm                  comm)
       : MemoryBudget(static_cast<const DomainParameters &>(mesh),
                      mesh.initial_refinements +
-                       (mesh.refinement == "global" ? mesh.cycles - 1 : 0),
+                       (mesh.refinement == Refinement::global ?
+                          mesh.cycles - 1 :
+                          0),
                      discretization,
                      comm)
   {

@@ -76,6 +76,11 @@ namespace VI
       {LinearSolverType::cg, "cg"}};
     const Spellings<PreconditionerType> preconditioner_spellings =
       {{PreconditionerType::ilu, "ilu"}, {PreconditionerType::amg, "amg"}};
+    const Spellings<Refinement> refinement_spellings =
+      {{Refinement::global, "global"}, {Refinement::adaptive, "adaptive"}};
+    const Spellings<Marking> marking_spellings = {{Marking::dorfler, "dorfler"},
+                                                  {Marking::fixed_fraction,
+                                                   "fixed-fraction"}};
     using TransmittedLoad = EstimatorParameters::TransmittedLoad;
     using Multiplier      = EstimatorParameters::Multiplier;
     const Spellings<Multiplier> multiplier_spellings = {
@@ -375,7 +380,7 @@ namespace VI
 
 
   void
-  MeshParameters::declare(ParameterHandler &prm, const std::string &refinements)
+  MeshParameters::declare(ParameterHandler &prm)
   {
     DomainParameters::declare(prm,
                               "square",
@@ -385,13 +390,13 @@ namespace VI
     const ParameterSubsection section(prm, "Mesh");
     prm.declare_entry("Refinement",
                       "global",
-                      Selection(refinements),
+                      Selection(all_spellings(refinement_spellings)),
                       "How the mesh is refined between cycles: every "
                       "cell (global), or the cells marked by the "
                       "estimators (adaptive).");
     prm.declare_entry("Marking",
                       "dorfler",
-                      Selection("dorfler|fixed-fraction"),
+                      Selection(all_spellings(marking_spellings)),
                       "Adaptive refinement: dorfler refines the fewest "
                       "cells that carry the Refinement fraction of the "
                       "squared estimate; fixed-fraction refines the "
@@ -415,13 +420,30 @@ namespace VI
   {
     DomainParameters::parse(prm);
     const ParameterSubsection section(prm, "Mesh");
-    refinement          = prm.get("Refinement");
-    marking             = prm.get("Marking");
+    refinement = parse_choice(refinement_spellings, prm.get("Refinement"));
+    marking    = parse_choice(marking_spellings, prm.get("Marking"));
     refinement_fraction = prm.get_double("Refinement fraction");
     if (refinement_fraction <= 0.)
       throw InputError("Mesh/Refinement fraction must be in (0, 1]; got " +
                        prm.get("Refinement fraction"));
     cycles = prm.get_integer("Cycles");
+  }
+
+
+  void
+  require_estimators_where_read(const MeshParameters *mesh,
+                                const Strategy        strategy,
+                                const bool            estimators_enabled)
+  {
+    if (estimators_enabled)
+      return;
+    if (mesh != nullptr && mesh->refinement == Refinement::adaptive)
+      throw InputError("Mesh/Refinement = adaptive marks the cells with the "
+                       "estimators: set Estimators/Enabled = true");
+    if (strategy == Strategy::adaptive)
+      throw InputError("Nonlinear solver/Strategy = adaptive stops the "
+                       "solvers with the estimators: set "
+                       "Estimators/Enabled = true");
   }
 
 

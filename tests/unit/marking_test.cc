@@ -14,7 +14,7 @@ namespace
   // indicators are equal on the orbits of the square's symmetry group:
   // the 8 cells along the edges (not the corners) carry the largest.
   unsigned int
-  n_marked(const std::string &strategy, const double fraction)
+  n_marked(const VI::Marking strategy, const double fraction)
   {
     dealii::parallel::distributed::Triangulation<2> tria(MPI_COMM_WORLD);
     dealii::GridGenerator::hyper_cube(tria);
@@ -64,11 +64,11 @@ namespace
 // round-off).
 TEST(Marking, TiesAtTheThresholdRefineTheWholeGroup)
 {
-  EXPECT_EQ(n_marked("fixed-fraction", 0.3), 8u);
-  EXPECT_EQ(n_marked("fixed-fraction", 0.2), 8u);
+  EXPECT_EQ(n_marked(VI::Marking::fixed_fraction, 0.3), 8u);
+  EXPECT_EQ(n_marked(VI::Marking::fixed_fraction, 0.2), 8u);
   // (Dorfler's set of least cardinality has 4 of the 8: 0.3 of the sum)
-  EXPECT_EQ(n_marked("dorfler", 0.3), 8u);
-  EXPECT_EQ(n_marked("dorfler", 0.1), 8u);
+  EXPECT_EQ(n_marked(VI::Marking::dorfler, 0.3), 8u);
+  EXPECT_EQ(n_marked(VI::Marking::dorfler, 0.1), 8u);
 }
 
 
@@ -90,12 +90,12 @@ TEST(Marking, NextMeshIsUniformOrMarked)
     return n;
   };
   VI::MeshParameters mesh;
-  mesh.refinement = "global";
+  mesh.refinement = VI::Refinement::global;
   VI::flag_next_mesh(tria, mesh, nullptr);
   EXPECT_EQ(n_flagged(), 16u);
 
-  mesh.refinement          = "adaptive";
-  mesh.marking             = "fixed-fraction";
+  mesh.refinement          = VI::Refinement::adaptive;
+  mesh.marking             = VI::Marking::fixed_fraction;
   mesh.refinement_fraction = 0.25;
   dealii::Vector<double> indicators(tria.n_active_cells());
   for (unsigned int k = 0; k < indicators.size(); ++k)

@@ -3,21 +3,20 @@
 #include <deal.II/distributed/tria.h>
 #include <deal.II/lac/vector.h>
 
-#include <string>
-
 namespace VI
 {
   struct MeshParameters;
+  enum class Marking; // (vi/parameters.h)
 
   /**
    * Marking of cells for refinement from the squared cell indicators
    * eta_K^2 (the cell values of a ContactEstimate), on a distributed mesh
    * (only the entries of locally owned cells are read):
    *
-   * - "dorfler" (bulk chasing): refine a set M of cells of least
+   * - Marking::dorfler (bulk chasing): refine a set M of cells of least
    *   cardinality with sum_{K in M} eta_K^2 >= theta sum_K eta_K^2,
    *   theta = `fraction`;
-   * - "fixed-fraction": refine the `fraction` of cells with the largest
+   * - Marking::fixed_fraction: refine the `fraction` of cells with the largest
    *   indicators.
    *
    * Both set the refinement flags through
@@ -37,7 +36,7 @@ namespace VI
   mark_cells_for_refinement(
     dealii::parallel::distributed::Triangulation<dim> &triangulation,
     const dealii::Vector<double>                      &squared_indicators,
-    const std::string                                 &strategy,
+    const Marking                                      marking,
     const double                                       fraction);
 
 

@@ -61,6 +61,20 @@ namespace VI
     amg
   };
 
+  /// Mesh/Refinement: how the mesh changes between cycles.
+  enum class Refinement
+  {
+    global,   ///< every cell
+    adaptive, ///< the cells the estimate marks (Mesh/Marking)
+  };
+
+  /// Mesh/Marking: which cells adaptive refinement marks.
+  enum class Marking
+  {
+    dorfler,        ///< the fewest cells that carry the fraction of eta^2
+    fixed_fraction, ///< the fraction of the cells with the largest indicators
+  };
+
   std::string
   to_string(const Method method);
   std::string
@@ -181,13 +195,13 @@ namespace VI
   /// The Mesh section of the programs that solve on a sequence of meshes.
   struct MeshParameters : DomainParameters
   {
-    std::string  refinement          = "global";
-    std::string  marking             = "dorfler";
+    Refinement   refinement          = Refinement::global;
+    Marking      marking             = Marking::dorfler;
     double       refinement_fraction = 0.5;
     unsigned int cycles              = 5;
 
     static void
-    declare(dealii::ParameterHandler &prm, const std::string &refinements);
+    declare(dealii::ParameterHandler &prm);
     void
     parse(dealii::ParameterHandler &prm);
   };
@@ -339,6 +353,19 @@ namespace VI
     void
     parse(dealii::ParameterHandler &prm);
   };
+
+
+  /**
+   * What reads the estimate needs the estimators: Mesh/Refinement =
+   * adaptive marks the cells with it (checked when `mesh` is given), and
+   * Nonlinear solver/Strategy = adaptive stops the solvers with it. Throws
+   * the InputError that asks for Estimators/Enabled = true when
+   * `estimators_enabled` is false and one of them is chosen.
+   */
+  void
+  require_estimators_where_read(const MeshParameters *mesh,
+                                const Strategy        strategy,
+                                const bool            estimators_enabled);
 
 
   struct OutputParameters
