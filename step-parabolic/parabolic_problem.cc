@@ -13,6 +13,7 @@
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -29,12 +30,27 @@ namespace StepParabolic
   // with G = sum_n |d^n - d^(n-1)|. Each part is split by the triangle
   // inequality, the second through G + (G^2 + Q^2)^(1/2) <= 2 G + Q.
   template <int dim>
+  double
+  ParabolicProblem<dim>::Accumulated::h_minus_1_bound() const
+  {
+    return std::sqrt(eta_init * eta_init + eta_squared);
+  }
+
+
+  template <int dim>
+  double
+  ParabolicProblem<dim>::Accumulated::l2_bound() const
+  {
+    return change +
+           std::sqrt(change * change + eta_init * eta_init + l2_squared);
+  }
+
+
+  template <int dim>
   bool
   ParabolicProblem<dim>::Accumulated::l2_bound_is_smaller() const
   {
-    const double Q2 = eta_init * eta_init + l2_squared;
-    return change + std::sqrt(change * change + Q2) <
-           std::sqrt(eta_init * eta_init + eta_squared);
+    return l2_bound() < h_minus_1_bound();
   }
 
 
@@ -43,10 +59,7 @@ namespace StepParabolic
   ParabolicProblem<dim>::Accumulated::eta() const
   {
     const double N = std::sqrt(nonc_squared + final_nonc * final_nonc);
-    if (l2_bound_is_smaller())
-      return change +
-             std::sqrt(change * change + eta_init * eta_init + l2_squared) + N;
-    return std::sqrt(eta_init * eta_init + eta_squared) + N;
+    return std::min(l2_bound(), h_minus_1_bound()) + N;
   }
 
 

@@ -170,6 +170,13 @@ namespace StepParabolic
       /// Whether eta() is the second bound, with d_t d in L2.
       bool
       l2_bound_is_smaller() const;
+      /// The two bounds without the non-conformity N: (eta_init^2 + sum_n
+      /// eta_n^2)^(1/2) and G + (G^2 + eta_init^2 + sum_n
+      /// eta_l2,n^2)^(1/2).
+      double
+      h_minus_1_bound() const;
+      double
+      l2_bound() const;
       double
       eta_disc() const;
       double
