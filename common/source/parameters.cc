@@ -83,9 +83,13 @@ namespace VI
                                                    "fixed-fraction"}};
     using TransmittedLoad = EstimatorParameters::TransmittedLoad;
     using Multiplier      = EstimatorParameters::Multiplier;
-    const Spellings<Multiplier> multiplier_spellings = {
-      {Multiplier::contact_cells, "contact cells"},
-      {Multiplier::conforming, "conforming"}};
+    using FluxDegree      = EstimatorParameters::FluxDegree;
+    const Spellings<FluxDegree> flux_degree_spellings = {{FluxDegree::p, "p"},
+                                                         {FluxDegree::p_minus_1,
+                                                          "p-1"}};
+    const Spellings<Multiplier> multiplier_spellings  = {
+       {Multiplier::contact_cells, "contact cells"},
+       {Multiplier::conforming, "conforming"}};
     const Spellings<TransmittedLoad> transmitted_load_spellings = {
       {TransmittedLoad::automatic, "auto"},
       {TransmittedLoad::always, "always"},
@@ -709,7 +713,7 @@ namespace VI
     prm.declare_entry(
       "Flux degree",
       "p",
-      Selection("p|p-1"),
+      Selection(all_spellings(flux_degree_spellings)),
       "The Raviart-Thomas space of the equilibrated fluxes for elements "
       "of degree p: 'p', RT_p x Q_p as in "
       "[DMV20]; 'p-1', RT_(p-1) x Q_(p-1), whose patch problems are "
@@ -784,7 +788,7 @@ namespace VI
     enabled     = prm.get_bool("Enabled");
     every_check = prm.get_bool("At every check");
     multiplier  = parse_choice(multiplier_spellings, prm.get("Multiplier"));
-    flux_degree = prm.get("Flux degree");
+    flux_degree = parse_choice(flux_degree_spellings, prm.get("Flux degree"));
     const auto dual_norms =
       dealii::Utilities::split_string_list(prm.get("Equilibrated dual norms"));
     const auto has = [&](const std::string &term) {

@@ -300,14 +300,18 @@ namespace VI
       contact_cells,
       conforming
     } multiplier = Multiplier::contact_cells;
-    /// "p": fluxes in RT_p x Q_p for elements of degree p ([DMV20]);
-    /// "p-1": in RT_(p-1) x Q_(p-1).
-    std::string flux_degree = "p";
+    /// Estimators/Flux degree: the fluxes of elements of degree p in
+    /// RT_p x Q_p ([DMV20]) or in RT_(p-1) x Q_(p-1).
+    enum class FluxDegree
+    {
+      p,
+      p_minus_1
+    } flux_degree = FluxDegree::p;
     /// The degree k of the fluxes RT_k for elements of degree p.
     unsigned int
     flux_degree_for(const unsigned int p) const
     {
-      return flux_degree == "p" ? p : p - 1;
+      return flux_degree == FluxDegree::p ? p : p - 1;
     }
     /// Dual norms bounded by equilibration (DualNormBound): of the cell
     /// means of the multiplier's undershoots, of the algebraic remainder.
