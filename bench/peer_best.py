@@ -24,8 +24,10 @@ per process, for one and two MPI processes.
 Writes doc/data/peer-best.{csv,md} and doc/data/peer-best.png; prints
 progress per run. About 15 minutes on two cores. Usage, from the
 repository root after ./demo.sh or ./test.sh:
-  bench/peer_best.py [--quick] [--reuse]
---quick stops at 12288 cells; --reuse takes the summaries of the last run.
+  bench/peer_best.py [--quick] [--reuse] [--gamma-lin=G]
+--quick stops at 12288 cells; --reuse takes the summaries of the last run;
+--gamma-lin=G runs ours with Nonlinear solver/gamma_lin = G instead of the
+default and writes doc/data/peer-best-gamma-lin-G.{csv,md,png}.
 STEP_MEMBRANES names another binary.
 """
 import json
@@ -36,9 +38,12 @@ from vi_bench import (DATA, ROOT, estimator_seconds, plot_png, poisson_seconds,
                       program, run as run_program, write_dat, write_table)
 
 PROGRAM = program("membranes")
-OUT = os.path.join(ROOT, "output", "bench-peer-best")
 QUICK = "--quick" in sys.argv
 REUSE = "--reuse" in sys.argv
+GAMMA_LIN = next((a.split("=", 1)[1] for a in sys.argv
+                  if a.startswith("--gamma-lin=")), None)
+NAME = "peer-best" + (f"-gamma-lin-{GAMMA_LIN}" if GAMMA_LIN else "")
+OUT = os.path.join(ROOT, "output", "bench-" + NAME)
 CYCLES = 2 if QUICK else 4
 KSP_TOLERANCES = ["1e-1", "1e-2", "1e-4", "1e-8"]
 SNES_TOLERANCES = ["none", "1e-1", "1e-2", "1e-4"]
@@ -58,6 +63,8 @@ SETTINGS = {"Mesh/Initial refinements": 4,
             "Benchmark/Compare with PETSc VI": "true",
             "Benchmark/Reference Poisson solve": "true",
             "Output/Write VTU": "false"}
+if GAMMA_LIN:
+    SETTINGS["Nonlinear solver/gamma_lin"] = GAMMA_LIN
 
 
 def cycles(np, tolerance):
@@ -121,7 +128,7 @@ def main():
                 "poisson": poisson,
                 "ours_over_poisson": best["ours"] / poisson})
 
-    write_table("peer-best", rows,
+    write_table(NAME, rows,
                 ["processes", "cells", "unknowns", "our Newton", "GMRES", "error",
                  "effectivity", "ours (s)", "estimators / ours", "peer's KSP rtol",
                  "peer's SNES rtol",
@@ -134,7 +141,7 @@ def main():
                  ("peer_linear", "{}"), ("peer", "{:.2f}"), ("speedup", "{:.2f}"),
                  ("poisson", "{:.2f}"), ("ours_over_poisson", "{:.2f}")])
 
-    dat = os.path.join(OUT, "peer-best.dat")
+    dat = os.path.join(OUT, NAME + ".dat")
     write_dat(dat, [(f"{np} process(es): unknowns ours peer poisson",
                      [(r["unknowns"], r["ours"], r["peer"], r["poisson"])
                       for r in rows if r["np"] == np]) for np in PROCESSES])
@@ -144,11 +151,11 @@ def main():
                              (4, "Poisson pair")):
             plots.append(f"'{dat}' index {i} using 1:{column} with linespoints "
                          f"lt {column - 1} dt {i + 1} title '{name}, {np} proc.'")
-    plot_png(os.path.join(DATA, "peer-best.png"),
+    plot_png(os.path.join(DATA, NAME + ".png"),
              ["set logscale xy", "set xlabel 'unknowns'",
               "set ylabel 'wall time (s)'", "set key top left", "set grid"],
              plots)
-    print("wrote doc/data/peer-best.{csv,md,png}")
+    print(f"wrote doc/data/{NAME}.{{csv,md,png}}")
 
 
 if __name__ == "__main__":
