@@ -14,7 +14,7 @@ namespace
   // indicators are equal on the orbits of the square's symmetry group:
   // the 8 cells along the edges (not the corners) carry the largest.
   unsigned int
-  n_marked(const VI::Marking strategy, const double fraction)
+  n_marked(const VI::Marking marking, const double fraction)
   {
     dealii::parallel::distributed::Triangulation<2> tria(MPI_COMM_WORLD);
     dealii::GridGenerator::hyper_cube(tria);
@@ -41,7 +41,7 @@ namespace
                         (edge_x || edge_y) ? largest[n_largest++ % 8] :
                                              7.4148937382112736e-05;
       }
-    VI::mark_cells_for_refinement(tria, indicators, strategy, fraction);
+    VI::mark_cells_for_refinement(tria, indicators, marking, fraction);
     unsigned int n = 0;
     for (const auto &cell : tria.active_cell_iterators())
       if (cell->refine_flag_set())
