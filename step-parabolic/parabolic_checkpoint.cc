@@ -127,6 +127,10 @@ namespace StepParabolic
             out << "l2_totals " << a.l2_squared << ' ' << a.l2_disc_squared
                 << ' ' << a.l2_lin_squared << ' ' << a.change << ' '
                 << a.change_disc << ' ' << a.change_lin << '\n';
+            out << "variant_totals";
+            for (unsigned int v = 0; v < a.variant_squared.size(); ++v)
+              out << ' ' << a.variant_squared[v] << ' ' << a.variant_l2[v];
+            out << '\n';
             out << "records " << records.size() << '\n';
             for (const StepRecord &r : records)
               out << r.step << ' ' << r.time << ' ' << r.dt << ' ' << r.newton
@@ -186,6 +190,10 @@ namespace StepParabolic
         read_entry(in, "l2_totals", a.l2_squared);
         in >> a.l2_disc_squared >> a.l2_lin_squared >> a.change >>
           a.change_disc >> a.change_lin;
+        read_entry(in, "variant_totals", a.variant_squared[0]);
+        in >> a.variant_l2[0];
+        for (unsigned int v = 1; v < a.variant_squared.size(); ++v)
+          in >> a.variant_squared[v] >> a.variant_l2[v];
         std::size_t n = 0;
         read_entry(in, "records", n);
         records.resize(n);

@@ -242,6 +242,52 @@ namespace StepParabolic
   }
 
 
+  namespace
+  {
+    // The second bound's variants v = 2 (alpha - 1) + k (StepEstimate::
+    // eta_variant). With membrane alpha's flux zero, its part of the
+    // residual is (f - d_t u_h -/+ lambda~, v_alpha) - (mu grad u_h, grad
+    // v_alpha): the first term goes to the L2 sum, the second is its flux
+    // term; the other membrane, beta, keeps its flux, residual and
+    // remainder (the latter by Friedrichs). With k = 1 the part lambda~ -
+    // c_K lambda~^pos of the multiplier, which eta_nonc2 bounds in H^-1, goes
+    // to the L2 sum as well: (delta, e1 - e2) <= 2^(1/2) |delta| |e|.
+    std::array<double, 4>
+    variant_terms(const VI::ContactEstimate &c,
+                  const double               mu[2],
+                  const double               friedrichs_constant)
+    {
+      std::array<double, 4> A{};
+      for (const unsigned int a : {0u, 1u})
+        {
+          const unsigned int b = 1 - a;
+          const double       eta_1 =
+            std::sqrt(c.flux_residual_squared[b] + c.energy_squared[a]) +
+            friedrichs_constant * std::sqrt(c.remainder_squared[b] / mu[b]);
+          A[2 * a]     = eta_1 + c.nonc_1 + c.nonc_2;
+          A[2 * a + 1] = eta_1 + c.nonc_1;
+        }
+      return A;
+    }
+
+
+    // What the variants add to the L2 sum on a step of length dt (their
+    // terms are constant on it).
+    std::array<double, 4>
+    variant_l2_terms(const VI::ContactEstimate &c, const double dt)
+    {
+      std::array<double, 4> G{};
+      for (const unsigned int a : {0u, 1u})
+        {
+          G[2 * a] = dt * std::sqrt(c.load_squared[a]);
+          G[2 * a + 1] =
+            G[2 * a] + dt * std::sqrt(2. * c.multiplier_l2_squared);
+        }
+      return G;
+    }
+  } // namespace
+
+
   // The estimate of the step for an iterate (with a look-ahead iterate for
   // the algebraic part, see step-membranes): the steady estimators of
   // VI::estimate_contact_error at the points of time_points() for u_ht(t),
@@ -278,8 +324,11 @@ namespace StepParabolic
     // of A^2 + eta_C, D^2, L^2, G^2, and of the same without eta_dt (the
     // second bound, in which d_t d is not measured in H^-1)
     double integral[7] = {};
-    Vector u1, u2, s1, s2;
-    double D_end = 0;
+    // of A_v^2 + eta_C for the second bound's variants (two membranes only)
+    double       integral_variant[4] = {};
+    const double mu[2]               = {data.mu1, data.mu2};
+    Vector       u1, u2, s1, s2;
+    double       D_end = 0;
     for (const auto &[theta, weight] : time_points())
       {
         if (theta == 1.)
@@ -340,6 +389,15 @@ namespace StepParabolic
         integral[4] += weight * (A_l2 * A_l2 + c.contact_cone);
         integral[5] += weight * D_l2 * D_l2;
         integral[6] += weight * L_other * L_other;
+        if (!data.obstacle)
+          {
+            const auto A_variant = variant_terms(c, mu, friedrichs_constant);
+            for (unsigned int v = 0; v < 4; ++v)
+              integral_variant[v] +=
+                weight * (A_variant[v] * A_variant[v] + c.contact_cone);
+            if (theta == 1.)
+              e.l2_variant = variant_l2_terms(c, time_step);
+          }
         e.nonc_squared += weight * c.nonc_1 * c.nonc_1;
         e.nonc_squared_disc += weight * c.nonc_1_disc * c.nonc_1_disc;
         e.nonc_squared_lin += weight * c.nonc_1_lin * c.nonc_1_lin;
@@ -364,9 +422,11 @@ namespace StepParabolic
     e.eta_l2        = std::sqrt(dt * integral[4]) + e.oscillation;
     e.eta_l2_disc   = std::sqrt(dt * integral[5]) + e.oscillation;
     e.eta_l2_lin    = std::sqrt(dt * integral[6]);
-    e.change        = terms.change;
-    e.change_disc   = terms.change_disc;
-    e.change_lin    = terms.change_lin;
+    for (unsigned int v = 0; v < 4; ++v)
+      e.eta_variant[v] = std::sqrt(dt * integral_variant[v]) + e.oscillation;
+    e.change      = terms.change;
+    e.change_disc = terms.change_disc;
+    e.change_lin  = terms.change_lin;
     e.nonc_squared *= dt;
     e.nonc_squared_disc *= dt;
     e.nonc_squared_lin *= dt;

@@ -105,6 +105,19 @@ namespace StepParabolic
       {"change_of_d", &StepEstimate::change},
     };
 
+    // Which of the second bound's variants the bound is (0: none, else
+    // v + 1, StepEstimate::eta_variant): the membrane whose load it takes
+    // in L2 (0: none) and where it takes the multiplier's non-conforming
+    // part.
+    void
+    describe_variant(const unsigned int which, VI::Json &json)
+    {
+      json["load_in_l2_of_membrane"] = which == 0 ? 0u : (which - 1) / 2 + 1;
+      json["nonconforming_multiplier_in"] =
+        which > 0 && (which - 1) % 2 == 1 ? "L2" : "H^-1";
+    }
+
+
     VI::Json
     to_json(const StepEstimate &e)
     {
@@ -115,6 +128,15 @@ namespace StepParabolic
       json["flux_disc_end"] = e.at_end.flux_disc;
       json["residual_end"]  = e.at_end.residual;
       json["contact_end"]   = e.at_end.contact_cone;
+      // The second bound's variants (StepEstimate::eta_variant).
+      VI::Json eta_variant = VI::Json::array(), l2_variant = VI::Json::array();
+      for (unsigned int v = 0; v < e.eta_variant.size(); ++v)
+        {
+          eta_variant.push_back(e.eta_variant[v]);
+          l2_variant.push_back(e.l2_variant[v]);
+        }
+      json["eta_variant"] = eta_variant;
+      json["l2_variant"]  = l2_variant;
       return json;
     }
   } // namespace
@@ -169,7 +191,10 @@ namespace StepParabolic
         json["eta_lin_total"]  = totals.eta_lin();
         json["eta_alg_total"]  = totals.eta_alg();
         json["time_derivative_of_d_in"] =
-          totals.l2_bound_is_smaller() ? "L2" : "H^-1";
+          totals.l2_bound_is_smaller() || totals.smallest_variant() > 0 ?
+            "L2" :
+            "H^-1";
+        describe_variant(totals.smallest_variant(), json);
       }
     if (data.has_exact_solution())
       {
@@ -298,7 +323,10 @@ namespace StepParabolic
         total["eta_lin"]  = totals.eta_lin();
         total["eta_alg"]  = totals.eta_alg();
         total["time_derivative_of_d_in"] =
-          totals.l2_bound_is_smaller() ? "L2" : "H^-1";
+          totals.l2_bound_is_smaller() || totals.smallest_variant() > 0 ?
+            "L2" :
+            "H^-1";
+        describe_variant(totals.smallest_variant(), total);
       }
     if (data.has_exact_solution() && !records.empty())
       {

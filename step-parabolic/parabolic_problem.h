@@ -32,6 +32,7 @@
 #include "parabolic_data.h"
 #include "parabolic_parameters.h"
 
+#include <array>
 #include <memory>
 #include <optional>
 #include <string>
@@ -84,6 +85,15 @@ namespace StepParabolic
     /// (L2, with its parts), which it sums over the steps.
     double eta_l2 = 0, eta_l2_disc = 0, eta_l2_lin = 0;
     double change = 0, change_disc = 0, change_lin = 0;
+    /// The variants v = 2 (alpha - 1) + k of the second bound that also take
+    /// the load of membrane alpha in L2, with its flux zero, and for k = 1
+    /// the part of lambda~ that eta_nonc2 bounds: eta_l2 with
+    /// |mu_alpha^(1/2) grad u_alpha,ht| as membrane alpha's flux term (no
+    /// residual, no remainder; for k = 1 no eta_nonc2), and dt_n |f_alpha(t_n)
+    /// - d_t u_alpha,h^n - (-1)^alpha lambda~^n| (plus dt_n 2^(1/2) |lambda~ -
+    /// c_K lambda~^pos| for k = 1), which they sum over the steps with the
+    /// change of d.
+    std::array<double, 4> eta_variant{}, l2_variant{};
     /// The steady estimate at t_n (cellwise indicators for the output).
     VI::ContactEstimate at_end;
   };
@@ -157,8 +167,11 @@ namespace StepParabolic
       /// The second bound's sums: of eta_l2^2 (and parts), of |d^n - d^(n-1)|.
       double l2_squared = 0, l2_disc_squared = 0, l2_lin_squared = 0;
       double change = 0, change_disc = 0, change_lin = 0;
-      double error_squared      = 0; ///< sum_n int_In |||u - u_ht|||^2
-      double final_error        = 0; ///< |u(t_n) - u_h^n|
+      /// The sums of its variants (StepEstimate::eta_variant): of
+      /// eta_variant^2 and of l2_variant.
+      std::array<double, 4> variant_squared{}, variant_l2{};
+      double             error_squared = 0; ///< sum_n int_In |||u - u_ht|||^2
+      double             final_error   = 0; ///< |u(t_n) - u_h^n|
       unsigned long long newton = 0, linear = 0;
       unsigned int       rejected = 0;
 
@@ -167,9 +180,14 @@ namespace StepParabolic
       /// (eta <= eta_init + eta_disc + eta_lin + eta_alg).
       double
       eta() const;
-      /// Whether eta() is the second bound, with d_t d in L2.
+      /// Whether the second bound, with d_t d in L2, is below the first
+      /// (its variants aside: the split of eta comes from these two).
       bool
       l2_bound_is_smaller() const;
+      /// Which bound eta() is: 0 if the first or the second, v + 1 if the
+      /// second's variant v (StepEstimate::eta_variant).
+      unsigned int
+      smallest_variant() const;
       /// The two bounds without the non-conformity N: (eta_init^2 + sum_n
       /// eta_n^2)^(1/2) and G + (G^2 + eta_init^2 + sum_n
       /// eta_l2,n^2)^(1/2).
@@ -177,6 +195,10 @@ namespace StepParabolic
       h_minus_1_bound() const;
       double
       l2_bound() const;
+      /// G_v + (G_v^2 + eta_init^2 + sum_n eta_variant,n^2)^(1/2) with G_v =
+      /// G + sum_n l2_variant,n: the second bound's variant v.
+      double
+      variant_bound(const unsigned int v) const;
       double
       eta_disc() const;
       double

@@ -43,6 +43,12 @@ namespace VI
       return values[static_cast<unsigned int>(first) + a];
     }
 
+    double
+    of_membrane(const Sum first, const unsigned int a) const
+    {
+      return values[static_cast<unsigned int>(first) + a];
+    }
+
     void
     clear()
     {

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace VI
 {
@@ -118,6 +119,38 @@ namespace VI
                                               &cell_contact,
                                               &cell_total})
       indicator->reinit(n_cells);
+  }
+
+
+  void
+  ContactEstimate::mark_unknown_terms()
+  {
+    constexpr double unknown = std::numeric_limits<double>::quiet_NaN();
+    complete                 = false;
+    // (and the terms the cells without |||s_h - u_h||| skipped)
+    for (double *term : {&eta,
+                         &eta_disc,
+                         &eta_1,
+                         &eta_1_disc,
+                         &flux_disc,
+                         &residual,
+                         &flux_alg,
+                         &nonc_1,
+                         &nonc_1_disc,
+                         &nonc_3,
+                         &contact_pos,
+                         &contact_cone,
+                         &contact_disc,
+                         &dirichlet})
+      *term = unknown;
+    flux_residual_squared.fill(unknown);
+    for (dealii::Vector<double> *indicator : {&cell_flux,
+                                              &cell_residual,
+                                              &cell_algebraic,
+                                              &cell_nonconformity,
+                                              &cell_contact,
+                                              &cell_total})
+      std::fill(indicator->begin(), indicator->end(), unknown);
   }
 
 

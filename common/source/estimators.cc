@@ -17,7 +17,6 @@
 
 #include <array>
 #include <cmath>
-#include <limits>
 #include <memory>
 
 namespace VI
@@ -54,6 +53,15 @@ namespace VI
       dirichlet_squared,  // |||G|||^2
       cone_cross,         // over an obstacle: a bound of a(u - s~, w), see
                           // add_obstacle_cross_term()
+      // per membrane, for the bounds that take one membrane's load in L2
+      // (ContactEstimate::flux_residual_squared, ...)
+      flux_residual_1, // (eta_F + eta_R)^2 with the look-ahead flux
+      flux_residual_2,
+      energy_1, // |mu^(1/2) grad u_h|^2
+      energy_2,
+      load_1, // |f - d_t u_h - (-1)^alpha lambda~|^2
+      load_2,
+      multiplier_l2, // |lambda~ - c_K lambda~^pos|^2, whose parts nonc_2 takes
       n_sums
     };
     using ContactSums = EstimateSums<ContactSum>;
@@ -256,6 +264,8 @@ namespace VI
       {
         const auto [split, split_disc] = add_multiplier_sums(
           scratch.lambda, scratch.lambda_nonnegative, JxW, h_K, cell);
+        cell[ContactSum::multiplier_l2] =
+          split.oscillation_squared + split.mean_squared;
         if (undershoots)
           {
             means[index]      = split.mean;
@@ -622,6 +632,10 @@ namespace VI
                                    sign * (lambda_ahead[q] - lambda[q]) +
                                    dt_u_ahead[a][q] - dt_u[a][q];
                 cell.of_membrane(ContactSum::remainder_1, a) += rho * rho * dx;
+                cell.of_membrane(ContactSum::energy_1, a) +=
+                  mu[a] * grad_u[a][q].norm_square() * dx;
+                cell.of_membrane(ContactSum::load_1, a) +=
+                  std::pow(f[q] - dt_u[a][q] - sign * lambda[q], 2) * dx;
                 if (remainder)
                   remainders[a][index * n_q + q] = rho;
               }
@@ -630,6 +644,8 @@ namespace VI
             residual[a] =
               h_K / numbers::PI / std::sqrt(mu[a]) * std::sqrt(residual[a]);
             cell[ContactSum::flux_residual_total] +=
+              std::pow(flux_total[a] + residual[a], 2);
+            cell.of_membrane(ContactSum::flux_residual_1, a) +=
               std::pow(flux_total[a] + residual[a], 2);
             cell[ContactSum::flux_residual_disc] +=
               std::pow(flux_disc[a] + residual[a], 2);
@@ -829,39 +845,6 @@ namespace VI
     }
 
 
-    // What an estimate without fluxes does not know.
-    inline void
-    mark_unknown_terms(ContactEstimate &e)
-    {
-      e.complete = false;
-      // (and the terms the cells without |||s_h - u_h||| skipped)
-      for (double *unknown : {&e.eta,
-                              &e.eta_disc,
-                              &e.eta_1,
-                              &e.eta_1_disc,
-                              &e.flux_disc,
-                              &e.residual,
-                              &e.flux_alg,
-                              &e.nonc_1,
-                              &e.nonc_1_disc,
-                              &e.nonc_3,
-                              &e.contact_pos,
-                              &e.contact_cone,
-                              &e.contact_disc,
-                              &e.dirichlet})
-        *unknown = std::numeric_limits<double>::quiet_NaN();
-      for (auto *cell_values : {&e.cell_flux,
-                                &e.cell_residual,
-                                &e.cell_algebraic,
-                                &e.cell_nonconformity,
-                                &e.cell_contact,
-                                &e.cell_total})
-        std::fill(cell_values->begin(),
-                  cell_values->end(),
-                  std::numeric_limits<double>::quiet_NaN());
-    }
-
-
     // The combination of the cell terms: the estimators from the global sums
     // and the final formula.
     template <int dim>
@@ -926,6 +909,16 @@ namespace VI
         }
       e.dirichlet  = std::sqrt(total[ContactSum::dirichlet_squared]);
       e.eta_1_disc = std::sqrt(total[ContactSum::flux_residual_disc]);
+      for (unsigned int a = 0; a < 2; ++a)
+        {
+          e.flux_residual_squared[a] =
+            total.of_membrane(ContactSum::flux_residual_1, a);
+          e.energy_squared[a] = total.of_membrane(ContactSum::energy_1, a);
+          e.load_squared[a]   = total.of_membrane(ContactSum::load_1, a);
+          e.remainder_squared[a] =
+            total.of_membrane(ContactSum::remainder_1, a);
+        }
+      e.multiplier_l2_squared = total[ContactSum::multiplier_l2];
 
       const bool                  obstacle = in.obstacle != nullptr;
       const std::optional<double> cone_cross =
@@ -955,7 +948,7 @@ namespace VI
                                cone_cross);
         }
       if (!with_fluxes)
-        mark_unknown_terms(e);
+        e.mark_unknown_terms();
     }
   } // namespace
 

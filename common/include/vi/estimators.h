@@ -8,6 +8,7 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/lac/vector.h>
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -67,6 +68,16 @@ namespace VI
     /// |||G|||: the lifting G of the boundary interpolation error g - I_h g
     /// (zero for data that are traces of the finite element space).
     double dirichlet = 0;
+    /// Per membrane alpha (index alpha - 1), for the bounds of step-parabolic
+    /// that take the load of one membrane in L2 instead of through its flux
+    /// (doc/step-parabolic.md, "A second bound"): sum_K (eta_F,K + eta_R,K)^2
+    /// with the look-ahead flux, |mu^(1/2) grad u_h|^2, the squared L2 norm
+    /// of f - d_t u_h - (-1)^alpha lambda~ and that of the remainder.
+    std::array<double, 2> flux_residual_squared{}, energy_squared{},
+      load_squared{}, remainder_squared{};
+    /// |lambda~ - c_K lambda~^pos|^2 (L2): the part of the multiplier that
+    /// nonc_2 bounds in H^-1, for the bounds that take it in L2.
+    double multiplier_l2_squared = 0;
 
     // Cellwise indicators (squared norms, for output and marking).
     dealii::Vector<double> cell_flux;          ///< sum_alpha eta_F,K^2
@@ -82,6 +93,11 @@ namespace VI
     /// Zero cellwise indicators for a mesh of n_cells active cells.
     void
     reinit_cell_indicators(const unsigned int n_cells);
+
+    /// An estimate without fluxes: not complete, and NaN in every term
+    /// (and indicator) that needs them.
+    void
+    mark_unknown_terms();
   };
 
 
