@@ -10,6 +10,7 @@
 #include <vi/estimators.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -109,15 +110,26 @@ namespace VI
   }
 
 
+  namespace
+  {
+    // Every cellwise indicator of an estimate.
+    std::array<dealii::Vector<double> *, 6>
+    indicators(ContactEstimate &e)
+    {
+      return {{&e.cell_flux,
+               &e.cell_residual,
+               &e.cell_algebraic,
+               &e.cell_nonconformity,
+               &e.cell_contact,
+               &e.cell_total}};
+    }
+  } // namespace
+
+
   void
   ContactEstimate::reinit_cell_indicators(const unsigned int n_cells)
   {
-    for (dealii::Vector<double> *indicator : {&cell_flux,
-                                              &cell_residual,
-                                              &cell_algebraic,
-                                              &cell_nonconformity,
-                                              &cell_contact,
-                                              &cell_total})
+    for (dealii::Vector<double> *indicator : indicators(*this))
       indicator->reinit(n_cells);
   }
 
@@ -144,12 +156,7 @@ namespace VI
                          &dirichlet})
       *term = unknown;
     flux_residual_squared.fill(unknown);
-    for (dealii::Vector<double> *indicator : {&cell_flux,
-                                              &cell_residual,
-                                              &cell_algebraic,
-                                              &cell_nonconformity,
-                                              &cell_contact,
-                                              &cell_total})
+    for (dealii::Vector<double> *indicator : indicators(*this))
       std::fill(indicator->begin(), indicator->end(), unknown);
   }
 
