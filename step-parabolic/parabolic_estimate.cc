@@ -422,8 +422,11 @@ namespace StepParabolic
     e.eta_l2        = std::sqrt(dt * integral[4]) + e.oscillation;
     e.eta_l2_disc   = std::sqrt(dt * integral[5]) + e.oscillation;
     e.eta_l2_lin    = std::sqrt(dt * integral[6]);
-    for (unsigned int v = 0; v < 4; ++v)
-      e.eta_variant[v] = std::sqrt(dt * integral_variant[v]) + e.oscillation;
+    // (over an obstacle there are none: they stay zero, and Accumulated
+    // skips them)
+    if (!data.obstacle)
+      for (unsigned int v = 0; v < 4; ++v)
+        e.eta_variant[v] = std::sqrt(dt * integral_variant[v]) + e.oscillation;
     e.change      = terms.change;
     e.change_disc = terms.change_disc;
     e.change_lin  = terms.change_lin;
