@@ -92,7 +92,7 @@ namespace StepParabolic
     /// residual, no remainder; for k = 1 no eta_nonc2), and dt_n |f_alpha(t_n)
     /// - d_t u_alpha,h^n - (-1)^alpha lambda~^n| (plus dt_n 2^(1/2) |lambda~ -
     /// c_K lambda~^pos| for k = 1), which they sum over the steps with the
-    /// change of d.
+    /// change of d. Zero over an obstacle, where there are none.
     std::array<double, 4> eta_variant{}, l2_variant{};
     /// The steady estimate at t_n (cellwise indicators for the output).
     VI::ContactEstimate at_end;

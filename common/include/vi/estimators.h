@@ -70,7 +70,7 @@ namespace VI
     double dirichlet = 0;
     /// Per membrane alpha (index alpha - 1), for the bounds of step-parabolic
     /// that take the load of one membrane in L2 instead of through its flux
-    /// (doc/step-parabolic.md, "A second bound"): sum_K (eta_F,K + eta_R,K)^2
+    /// (doc/step-parabolic.md, "Loads in L2"): sum_K (eta_F,K + eta_R,K)^2
     /// with the look-ahead flux, |mu^(1/2) grad u_h|^2, the squared L2 norm
     /// of f - d_t u_h - (-1)^alpha lambda~ and that of the remainder.
     std::array<double, 2> flux_residual_squared{}, energy_squared{},
