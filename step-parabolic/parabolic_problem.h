@@ -176,7 +176,8 @@ namespace StepParabolic
       unsigned int       rejected = 0;
 
       /// The guaranteed bound of the error up to the current time, the
-      /// smaller of two (doc/step-parabolic.md), and its components
+      /// smallest of the first two and the second's variants
+      /// (doc/step-parabolic.md), and its components
       /// (eta <= eta_init + eta_disc + eta_lin + eta_alg).
       double
       eta() const;
