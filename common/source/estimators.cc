@@ -53,8 +53,8 @@ namespace VI
       dirichlet_squared,  // |||G|||^2
       cone_cross,         // over an obstacle: a bound of a(u - s~, w), see
                           // add_obstacle_cross_term()
-      // per membrane, for the bounds that take one membrane's load in L2
-      // (ContactEstimate::flux_residual_squared, ...)
+      // per membrane, for the bounds of parabolic problems that take one
+      // membrane's load in L2 (ContactEstimate::flux_residual_squared, ...)
       flux_residual_1, // (eta_F + eta_R)^2 with the look-ahead flux
       flux_residual_2,
       energy_1, // |mu^(1/2) grad u_h|^2
@@ -264,8 +264,9 @@ namespace VI
       {
         const auto [split, split_disc] = add_multiplier_sums(
           scratch.lambda, scratch.lambda_nonnegative, JxW, h_K, cell);
-        cell[ContactSum::multiplier_l2] =
-          split.oscillation_squared + split.mean_squared;
+        if (dt_vectors[0])
+          cell[ContactSum::multiplier_l2] =
+            split.oscillation_squared + split.mean_squared;
         if (undershoots)
           {
             means[index]      = split.mean;
@@ -632,10 +633,13 @@ namespace VI
                                    sign * (lambda_ahead[q] - lambda[q]) +
                                    dt_u_ahead[a][q] - dt_u[a][q];
                 cell.of_membrane(ContactSum::remainder_1, a) += rho * rho * dx;
-                cell.of_membrane(ContactSum::energy_1, a) +=
-                  mu[a] * grad_u[a][q].norm_square() * dx;
-                cell.of_membrane(ContactSum::load_1, a) +=
-                  std::pow(f[q] - dt_u[a][q] - sign * lambda[q], 2) * dx;
+                if (dt_vectors[a])
+                  {
+                    cell.of_membrane(ContactSum::energy_1, a) +=
+                      mu[a] * grad_u[a][q].norm_square() * dx;
+                    cell.of_membrane(ContactSum::load_1, a) +=
+                      std::pow(f[q] - dt_u[a][q] - sign * lambda[q], 2) * dx;
+                  }
                 if (remainder)
                   remainders[a][index * n_q + q] = rho;
               }
@@ -645,8 +649,9 @@ namespace VI
               h_K / numbers::PI / std::sqrt(mu[a]) * std::sqrt(residual[a]);
             cell[ContactSum::flux_residual_total] +=
               std::pow(flux_total[a] + residual[a], 2);
-            cell.of_membrane(ContactSum::flux_residual_1, a) +=
-              std::pow(flux_total[a] + residual[a], 2);
+            if (dt_vectors[a])
+              cell.of_membrane(ContactSum::flux_residual_1, a) +=
+                std::pow(flux_total[a] + residual[a], 2);
             cell[ContactSum::flux_residual_disc] +=
               std::pow(flux_disc[a] + residual[a], 2);
             cell[ContactSum::flux_residual_cone] +=

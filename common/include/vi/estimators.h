@@ -72,7 +72,9 @@ namespace VI
     /// that take the load of one membrane in L2 instead of through its flux
     /// (doc/step-parabolic.md, "Loads in L2"): sum_K (eta_F,K + eta_R,K)^2
     /// with the look-ahead flux, |mu^(1/2) grad u_h|^2, the squared L2 norm
-    /// of f - d_t u_h - (-1)^alpha lambda~ and that of the remainder.
+    /// of f - d_t u_h - (-1)^alpha lambda~ and that of the remainder. These
+    /// and multiplier_l2_squared are computed for parabolic problems only
+    /// (ContactEstimatorInput::dt_u1 set); zero for steady ones.
     std::array<double, 2> flux_residual_squared{}, energy_squared{},
       load_squared{}, remainder_squared{};
     /// |lambda~ - c_K lambda~^pos|^2 (L2): the part of the multiplier that
