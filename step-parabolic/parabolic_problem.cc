@@ -26,12 +26,12 @@ namespace StepParabolic
   // d = s~ - u_h and N = (sum_n int_In |||d|||^2 + |d(t)|^2)^(1/2),
   //   |||u - u_ht|||_(0,t) + |(u - u_h)(t)| <= eta = the smaller of
   //     (eta_init^2 + sum_n eta_n^2)^(1/2) + N,                 (d_t d in H^-1)
-  //     G + (G^2 + eta_init^2 + sum_n eta_l2,n^2)^(1/2) + N,    (d_t d in L2)
+  //     G + (eta_init^2 + sum_n eta_l2,n^2)^(1/2) + N,          (d_t d in L2)
   //     the same with membrane alpha's load, and perhaps the multiplier's
   //     non-conforming part, in L2 too (four variants),
   // with G = sum_n |d^n - d^(n-1)| (plus what the variants add).
-  // Each of the first two is split by the triangle inequality, the second
-  // through G + (G^2 + Q^2)^(1/2) <= 2 G + Q; the smaller split bounds eta.
+  // Each of the first two is split by the triangle inequality; the smaller
+  // split bounds eta.
   template <int dim>
   double
   ParabolicProblem<dim>::Accumulated::h_minus_1_bound() const
@@ -44,8 +44,7 @@ namespace StepParabolic
   double
   ParabolicProblem<dim>::Accumulated::l2_bound() const
   {
-    return change +
-           std::sqrt(change * change + eta_init * eta_init + l2_squared);
+    return change + std::sqrt(eta_init * eta_init + l2_squared);
   }
 
 
@@ -53,8 +52,8 @@ namespace StepParabolic
   double
   ParabolicProblem<dim>::Accumulated::variant_bound(const unsigned int v) const
   {
-    const double G = change + variant_l2[v];
-    return G + std::sqrt(G * G + eta_init * eta_init + variant_squared[v]);
+    return change + variant_l2[v] +
+           std::sqrt(eta_init * eta_init + variant_squared[v]);
   }
 
 
@@ -102,7 +101,7 @@ namespace StepParabolic
     const double N =
       std::sqrt(nonc_squared_disc + final_nonc_disc * final_nonc_disc);
     if (l2_bound_is_smaller())
-      return 2. * change_disc + std::sqrt(l2_disc_squared) + N;
+      return change_disc + std::sqrt(l2_disc_squared) + N;
     return std::sqrt(disc_squared) + N;
   }
 
@@ -114,7 +113,7 @@ namespace StepParabolic
     const double N =
       std::sqrt(nonc_squared_lin + final_nonc_lin * final_nonc_lin);
     if (l2_bound_is_smaller())
-      return 2. * change_lin + std::sqrt(l2_lin_squared) + N;
+      return change_lin + std::sqrt(l2_lin_squared) + N;
     return std::sqrt(lin_squared) + N;
   }
 

@@ -190,14 +190,13 @@ namespace StepParabolic
       unsigned int
       smallest_variant() const;
       /// The two bounds without the non-conformity N: (eta_init^2 + sum_n
-      /// eta_n^2)^(1/2) and G + (G^2 + eta_init^2 + sum_n
-      /// eta_l2,n^2)^(1/2).
+      /// eta_n^2)^(1/2) and G + (eta_init^2 + sum_n eta_l2,n^2)^(1/2).
       double
       h_minus_1_bound() const;
       double
       l2_bound() const;
-      /// G_v + (G_v^2 + eta_init^2 + sum_n eta_variant,n^2)^(1/2) with G_v =
-      /// G + sum_n l2_variant,n: the second bound's variant v.
+      /// G_v + (eta_init^2 + sum_n eta_variant,n^2)^(1/2) with G_v = G +
+      /// sum_n l2_variant,n: the second bound's variant v.
       double
       variant_bound(const unsigned int v) const;
       double
