@@ -44,10 +44,13 @@ namespace StepParabolic
           fe.degree);
         flux_reconstruction->reinit(dof_handler, domain.free_boundary_ids());
         make_vertex_dofs();
+        // (the bounds that take a membrane's load in L2 want g on every
+        // cell at the contact set: VI::TransmittedLoad)
         setup_estimate_multiplier(parameters.estimators,
                                   data.mu1,
                                   data.mu2,
-                                  flux_reconstruction->get_quadrature());
+                                  flux_reconstruction->get_quadrature(),
+                                  VI::TransmittedLoad<dim>::BoundaryCells::all);
       }
 
     // The ring of every owned node (ring test: where contact begins).

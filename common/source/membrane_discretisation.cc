@@ -472,10 +472,11 @@ namespace VI
   template <int dim>
   void
   MembraneDiscretisation<dim>::setup_estimate_multiplier(
-    const EstimatorParameters &parameters,
-    const double               mu1,
-    const double               mu2,
-    const Quadrature<dim>     &points)
+    const EstimatorParameters                         &parameters,
+    const double                                       mu1,
+    const double                                       mu2,
+    const Quadrature<dim>                             &points,
+    const typename TransmittedLoad<dim>::BoundaryCells boundary_cells)
   {
     // (the transmitted load distributes the moments the cellwise way, on
     // the cells of J, also for p = 1)
@@ -498,7 +499,8 @@ namespace VI
                                  dof_handler,
                                  u1_constraints,
                                  points,
-                                 domain.friedrichs_constant());
+                                 domain.friedrichs_constant(),
+                                 boundary_cells);
       }
   }
 

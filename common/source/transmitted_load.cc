@@ -16,13 +16,15 @@ namespace VI
                                const DoFHandler<dim>           &dof_handler,
                                const AffineConstraints<double> &no_moment,
                                const Quadrature<dim>           &quadrature,
-                               const double friedrichs_constant)
+                               const double        friedrichs_constant,
+                               const BoundaryCells boundary_cells)
   {
     this->mapping             = &mapping;
     this->dof_handler         = &dof_handler;
     this->no_moment           = &no_moment;
     this->quadrature          = quadrature;
     this->friedrichs_constant = friedrichs_constant;
+    this->boundary_cells      = boundary_cells;
   }
 
 
@@ -158,15 +160,17 @@ namespace VI
         for (unsigned int q = 0; q < n_q; ++q)
           g[q] = value(mu1, mu2, l1[index * n_q + q], l2[index * n_q + q]);
         values.reinit(cell);
-        if (n_in_contact < n_nodes && !takes_load(values,
-                                                  g,
-                                                  m,
-                                                  cell->diameter(),
-                                                  friedrichs_constant,
-                                                  s1,
-                                                  s2,
-                                                  s1_values,
-                                                  s2_values))
+        if (n_in_contact < n_nodes &&
+            boundary_cells == BoundaryCells::by_cost &&
+            !takes_load(values,
+                        g,
+                        m,
+                        cell->diameter(),
+                        friedrichs_constant,
+                        s1,
+                        s2,
+                        s1_values,
+                        s2_values))
           continue;
         std::copy(g.begin(), g.end(), split.values.begin() + index * n_q);
         add_free_nodes(*no_moment, dofs, load_nodes);

@@ -223,12 +223,15 @@ namespace VI
     /// cellwise (CellMultiplier: p >= 2 and Estimators/Multiplier =
     /// contact cells), with the transmitted load of
     /// Estimators/Transmitted load (TransmittedLoad, cellwise also for
-    /// p = 1).
+    /// p = 1, on the cells `boundary_cells` says).
     void
-    setup_estimate_multiplier(const EstimatorParameters     &parameters,
-                              const double                   mu1,
-                              const double                   mu2,
-                              const dealii::Quadrature<dim> &points);
+    setup_estimate_multiplier(
+      const EstimatorParameters                         &parameters,
+      const double                                       mu1,
+      const double                                       mu2,
+      const dealii::Quadrature<dim>                     &points,
+      const typename TransmittedLoad<dim>::BoundaryCells boundary_cells =
+        TransmittedLoad<dim>::BoundaryCells::by_cost);
 
     /// Whether the estimate's multiplier depends on the contact set (the
     /// cellwise multiplier, the transmitted load).
