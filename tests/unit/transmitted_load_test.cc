@@ -3,7 +3,7 @@
 // hat, also on meshes with hanging nodes and for Q2 (so that lambda~ = g 1_J
 // + the multiplier of m - G keeps the moments the patch problems need), and
 // J holds the contact cells, the cut cells where the data jump, and no cell
-// without a node in contact.
+// without a node in contact (with BoundaryCells::all, every cell with one).
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/dofs/dof_tools.h>
@@ -224,4 +224,47 @@ TEST(TransmittedLoad, TakesTheContactCellsAndTheCutCellsWhereTheDataJump)
     }
   EXPECT_GT(n_contact_cells, 10u);
   EXPECT_GT(n_cut_cells_taken, 0u);
+}
+
+
+// With BoundaryCells::all (step-parabolic) g 1_J is g on every cell with a
+// node in contact and zero elsewhere; the cost rule of the steady problems
+// leaves some of those cells out on the same data.
+TEST(TransmittedLoad, TakesEveryCellAtTheContactSetWhenAskedTo)
+{
+  Setting                       s(1);
+  const double                  mu1 = 1e-6, mu2 = 1.;
+  VI::TransmittedLoad<2>::Split by_cost, all;
+  s.load.split(mu1, mu2, s.f1, s.f2, s.contact, s.s1, s.s2, by_cost);
+  s.load.reinit(s.mapping,
+                s.dofs,
+                s.no_moment,
+                s.quadrature,
+                1. / numbers::PI,
+                VI::TransmittedLoad<2>::BoundaryCells::all);
+  s.load.split(mu1, mu2, s.f1, s.f2, s.contact, s.s1, s.s2, all);
+
+  const unsigned int                   n_q = s.quadrature.size();
+  std::vector<types::global_dof_index> dofs(s.fe.n_dofs_per_cell());
+  unsigned int                         n_left_out_by_cost = 0;
+  for (const auto &cell : s.dofs.active_cell_iterators())
+    {
+      cell->get_dof_indices(dofs);
+      unsigned int n_in_contact = 0;
+      for (const auto i : dofs)
+        n_in_contact += !s.no_moment.is_constrained(i) && s.contact(i) > 0;
+      const auto index = cell->active_cell_index();
+      for (unsigned int q = 0; q < n_q; ++q)
+        {
+          const double g = VI::TransmittedLoad<2>::value(mu1,
+                                                         mu2,
+                                                         s.f1[index * n_q + q],
+                                                         s.f2[index * n_q + q]);
+          EXPECT_EQ(all.values[index * n_q + q], n_in_contact > 0 ? g : 0.);
+        }
+      n_left_out_by_cost += n_in_contact > 0 &&
+                            by_cost.values[index * n_q] == 0. &&
+                            all.values[index * n_q] != 0.;
+    }
+  EXPECT_GT(n_left_out_by_cost, 0u);
 }
