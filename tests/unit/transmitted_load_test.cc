@@ -81,6 +81,37 @@ namespace
       no_moment.distribute(s1);
     }
 
+    // The nodes of a cell that carry a moment, and those of them in contact.
+    std::pair<unsigned int, unsigned int>
+    free_and_contact_nodes(
+      const DoFHandler<2>::active_cell_iterator &cell) const
+    {
+      std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
+      cell->get_dof_indices(dofs);
+      unsigned int n_free = 0, n_in_contact = 0;
+      for (const auto i : dofs)
+        if (!no_moment.is_constrained(i))
+          {
+            ++n_free;
+            n_in_contact += contact(i) > 0;
+          }
+      return {n_free, n_in_contact};
+    }
+
+    // g at point q of the cell with active index `index`.
+    double
+    g(const double       mu1,
+      const double       mu2,
+      const unsigned int index,
+      const unsigned int q) const
+    {
+      const unsigned int n_q = quadrature.size();
+      return VI::TransmittedLoad<2>::value(mu1,
+                                           mu2,
+                                           f1[index * n_q + q],
+                                           f2[index * n_q + q]);
+    }
+
     Triangulation<2>          tria;
     FE_Q<2>                   fe;
     DoFHandler<2>             dofs;
@@ -148,8 +179,7 @@ TEST(TransmittedLoad, TakesTheMomentsOfTheLoadOnJAgainstTheVertexHats)
                 at_points.get_function_values(psi, psi_q);
                 for (unsigned int q = 0; q < n_q; ++q)
                   {
-                    const double g = VI::TransmittedLoad<2>::value(
-                      mu1, mu2, s.f1[index * n_q + q], s.f2[index * n_q + q]);
+                    const double g = s.g(mu1, mu2, index, q);
                     size += std::abs(g) * psi_q[q] * at_points.JxW(q);
                     integral += split.values[index * n_q + q] * psi_q[q] *
                                 at_points.JxW(q);
@@ -190,26 +220,15 @@ TEST(TransmittedLoad, TakesTheContactCellsAndTheCutCellsWhereTheDataJump)
   const double                  mu1 = 1e-6, mu2 = 1.;
   VI::TransmittedLoad<2>::Split split;
   s.load.split(mu1, mu2, s.f1, s.f2, s.contact, s.s1, s.s2, split);
-  const unsigned int                   n_q = s.quadrature.size();
-  std::vector<types::global_dof_index> dofs(s.fe.n_dofs_per_cell());
-  unsigned int n_contact_cells = 0, n_cut_cells_taken = 0;
+  const unsigned int n_q             = s.quadrature.size();
+  unsigned int       n_contact_cells = 0, n_cut_cells_taken = 0;
   for (const auto &cell : s.dofs.active_cell_iterators())
     {
-      cell->get_dof_indices(dofs);
-      unsigned int n_free = 0, n_in_contact = 0;
-      for (const auto i : dofs)
-        if (!s.no_moment.is_constrained(i))
-          {
-            ++n_free;
-            n_in_contact += s.contact(i) > 0;
-          }
-      const auto index = cell->active_cell_index();
+      const auto [n_free, n_in_contact] = s.free_and_contact_nodes(cell);
+      const auto index                  = cell->active_cell_index();
       for (unsigned int q = 0; q < n_q; ++q)
         {
-          const double g    = VI::TransmittedLoad<2>::value(mu1,
-                                                         mu2,
-                                                         s.f1[index * n_q + q],
-                                                         s.f2[index * n_q + q]);
+          const double g    = s.g(mu1, mu2, index, q);
           const double in_j = split.values[index * n_q + q];
           if (n_in_contact == 0)
             EXPECT_EQ(in_j, 0.);
@@ -244,24 +263,15 @@ TEST(TransmittedLoad, TakesEveryCellAtTheContactSetWhenAskedTo)
                 VI::TransmittedLoad<2>::BoundaryCells::all);
   s.load.split(mu1, mu2, s.f1, s.f2, s.contact, s.s1, s.s2, all);
 
-  const unsigned int                   n_q = s.quadrature.size();
-  std::vector<types::global_dof_index> dofs(s.fe.n_dofs_per_cell());
-  unsigned int                         n_left_out_by_cost = 0;
+  const unsigned int n_q                = s.quadrature.size();
+  unsigned int       n_left_out_by_cost = 0;
   for (const auto &cell : s.dofs.active_cell_iterators())
     {
-      cell->get_dof_indices(dofs);
-      unsigned int n_in_contact = 0;
-      for (const auto i : dofs)
-        n_in_contact += !s.no_moment.is_constrained(i) && s.contact(i) > 0;
-      const auto index = cell->active_cell_index();
+      const unsigned int n_in_contact = s.free_and_contact_nodes(cell).second;
+      const auto         index        = cell->active_cell_index();
       for (unsigned int q = 0; q < n_q; ++q)
-        {
-          const double g = VI::TransmittedLoad<2>::value(mu1,
-                                                         mu2,
-                                                         s.f1[index * n_q + q],
-                                                         s.f2[index * n_q + q]);
-          EXPECT_EQ(all.values[index * n_q + q], n_in_contact > 0 ? g : 0.);
-        }
+        EXPECT_EQ(all.values[index * n_q + q],
+                  n_in_contact > 0 ? s.g(mu1, mu2, index, q) : 0.);
       n_left_out_by_cost += n_in_contact > 0 &&
                             by_cost.values[index * n_q] == 0. &&
                             all.values[index * n_q] != 0.;

@@ -53,9 +53,7 @@ namespace VI
    * that lambda~ carries the cell mean of g on a cell left out, and weighs
    * the rest by (h_K / pi)^2 / m. A bound that takes the soft membrane's
    * load in L2 (step-parabolic) sees the whole misfit g - lambda~' on such
-   * a cell instead, unweighted, and there it dominates (mu1 / mu2 = 1e-6,
-   * Q2, 12288 cells: 78 % of |f1 - d_t u1h + lambda~|^2 in the first step
-   * lies on the cells left out): with BoundaryCells::all every cell with a
+   * a cell instead, unweighted: with BoundaryCells::all every cell with a
    * node in the contact set goes into J.
    *
    * On meshes with hanging nodes phi_i is the conforming basis function of
