@@ -144,8 +144,12 @@ namespace StepMembranes
         record["eta_alg"]  = final_estimate->eta_alg;
         record["estimate"] = to_json(*final_estimate);
         if (parameters.estimators.sharpen_final)
-          // whether the equilibrated estimate was the smaller one
-          record["estimate"]["sharpened"] = final_estimate_sharpened;
+          {
+            // whether the sharpened estimate was the smaller one, and
+            // whether its multiplier carries the transmitted load
+            record["estimate"]["sharpened"]        = final_estimate_sharpened;
+            record["estimate"]["transmitted_load"] = final_estimate_transmits;
+          }
       }
     record["solve_seconds"] = solve_timer.wall_time();
     record["solve_usage"]   = VI::to_json(solve_usage);

@@ -202,7 +202,9 @@ namespace StepMembranes
     VI::ContactEstimate
     estimate(const Vector &X, const bool equilibrated = false) const;
     /// Estimators/Sharpen final estimate: replaces final_estimate by the
-    /// equilibrated estimate of the solution if that is smaller.
+    /// equilibrated estimate of the solution if that is smaller, with
+    /// `Transmitted load = auto` the smaller of those with and without the
+    /// transmitted load.
     void
     sharpen_final_estimate();
     void
@@ -264,8 +266,11 @@ namespace StepMembranes
     /// Estimators/Defer fluxes: the eta_disc predicted for the current
     /// linear solve (none: every check reconstructs its fluxes).
     std::optional<double> step_predicted_eta_disc;
-    /// Whether sharpen_final_estimate() replaced final_estimate.
+    /// Whether sharpen_final_estimate() replaced final_estimate, and
+    /// whether the multiplier of the final estimate carries the transmitted
+    /// load.
     bool final_estimate_sharpened = false;
+    bool final_estimate_transmits = false;
     /// From the eta_disc of the last complete estimate and the unknowns per
     /// field of its mesh (for predicted_eta_disc()).
     VI::EtaDiscPrediction eta_disc_prediction;

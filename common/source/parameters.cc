@@ -759,11 +759,13 @@ namespace VI
       "FEM in step-membranes: when the solve on a mesh has ended, "
       "estimate its iterate once more with both dual norms of 'Equilibrated "
       "dual norms' (undershoots, remainder) bounded by equilibration, and "
-      "report the smaller of the two guaranteed bounds (table, "
-      "summary.json, marking). The stopping tests keep their estimates; "
-      "the cost is one more reconstruction and up to three Poisson solves "
-      "per mesh, only where Friedrichs' bound of a term exceeds 1 % of the "
-      "discretisation estimator.");
+      "report the smallest of the guaranteed bounds (table, summary.json, "
+      "marking); with 'Transmitted load = auto' also with the other "
+      "multiplier (with the transmitted load or without). The stopping "
+      "tests keep their estimates; the cost is one more reconstruction (two "
+      "with auto) and up to three Poisson solves each per mesh, only where "
+      "Friedrichs' bound of a term exceeds 1 % of the discretisation "
+      "estimator.");
     prm.declare_entry(
       "Transmitted load",
       "auto",
@@ -777,7 +779,9 @@ namespace VI
       "makes the bound robust in the tension ratio (doc/reference.md, 'A "
       "bound robust in the tensions'); with equal tensions the bound is "
       "about the same on fine meshes, less sharp on the coarsest. 'auto': "
-      "when the tensions are more than 10 times apart.");
+      "when the tensions are more than 10 times apart, in step-parabolic "
+      "also for p >= 2; a sharpened final estimate (FEM) takes the smaller "
+      "of the two.");
   }
 
 
