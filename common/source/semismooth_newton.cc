@@ -221,8 +221,12 @@ namespace VI
         // (a full step by smoothing_reduction, a short one little), but not
         // below neighbourhood_factor times the smoothed residual, so that
         // the iterate stays near the central path (after the update of Qi,
-        // Sun and Zhou's smoothing Newton method). Below the tolerance the rows
-        // return to C for the last steps.
+        // Sun and Zhou's smoothing Newton method). mu stops at half the
+        // tolerance: on the path there every pair has |C| <= mu, so the path
+        // itself ends the iteration. Returning to C instead leaves a band of
+        // nodes where gap and multiplier are both below the tolerance, whose
+        // branches the active set then sorts out a ring per step (seed-smooth
+        // on 512 x 512 cells from zero: 41 steps against 33).
         double next_mu = mu;
         if (mu == 0 && report.continuation_start == 0 && stalled(report))
           {
@@ -238,8 +242,7 @@ namespace VI
                                 data.neighbourhood_factor *
                                   std::max(norms.equations,
                                            norms.smoothed_complementarity)));
-            if (next_mu < data.tolerance)
-              next_mu = 0;
+            next_mu = std::max(next_mu, 0.5 * data.tolerance);
           }
         if (next_mu != mu)
           {

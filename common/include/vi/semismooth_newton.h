@@ -116,10 +116,10 @@ namespace VI
    * and the multiplier at every node where both are below mu, so that a step
    * moves the contact zone by a distance of order one, not a mesh width. mu
    * falls with the length of each step (see solve()), a nonmonotone line search
-   * on 1/2 |R_mu|^2 keeps the steps safe, and once mu is below the tolerance
-   * the last steps use C itself, so that the iterate solves the unsmoothed
-   * system to the tolerance (doc/reference.md, "Continuation"). Where plain
-   * Newton converges, nothing of this runs.
+   * on 1/2 |R_mu|^2 keeps the steps safe, and mu stops at half the
+   * tolerance, where every point of the path solves the unsmoothed system to
+   * the tolerance (|C| <= mu there; doc/reference.md, "Continuation"). Where
+   * plain Newton converges, nothing of this runs.
    *
    * The class knows nothing of meshes or finite elements: a problem plugs in
    * through the three callbacks below, in the manner of deal.II's interfaces
