@@ -8,8 +8,9 @@ all times (tests/stress/parabolic/tension-ratio-1e-6.prm): mu2 = 1, mu1 =
 1e-6 ... 1e6, Q1 and Q2 on the disk with 768, 3072 and 12288 cells, two
 steps of dt = 0.1, exact strategy, each without the transmitted load
 (Estimators/Transmitted load = never) and with it (always; 'auto' takes it
-when the tensions are more than 10 times apart, and for p >= 2). The effectivity is that of
-the whole run (eta / error at t = 0.2). About 5 minutes on two cores.
+when the tensions are more than 10 times apart, and for p >= 2). The
+effectivity is that of the whole run (eta / error at t = 0.2). About 5
+minutes on two cores.
 Writes doc/data/parabolic_tension_scan.{csv,md}. Usage, from the
 repository root after ./demo.sh or ./test.sh:
   bench/parabolic_tension_scan.py [--reuse]

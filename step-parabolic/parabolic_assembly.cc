@@ -47,13 +47,7 @@ namespace StepParabolic
         // (the bounds that take a membrane's load in L2 want g on every
         // cell at the contact set: VI::TransmittedLoad; with it, Q2 is
         // sharper at equal tensions too, doc/step-parabolic.md)
-        VI::EstimatorParameters estimators = parameters.estimators;
-        if (estimators.transmitted_load ==
-              VI::EstimatorParameters::TransmittedLoad::automatic &&
-            fe.degree >= 2)
-          estimators.transmitted_load =
-            VI::EstimatorParameters::TransmittedLoad::always;
-        setup_estimate_multiplier(estimators,
+        setup_estimate_multiplier(parameters.estimators,
                                   data.mu1,
                                   data.mu2,
                                   flux_reconstruction->get_quadrature(),

@@ -482,7 +482,12 @@ namespace VI
     // the cells of J, also for p = 1)
     // (not over an obstacle: it transmits the load of no second membrane)
     const bool transmitted =
-      !obstacle && parameters.uses_transmitted_load(mu1, mu2, fe.degree);
+      !obstacle &&
+      parameters.uses_transmitted_load(
+        mu1,
+        mu2,
+        fe.degree,
+        boundary_cells == TransmittedLoad<dim>::BoundaryCells::all);
     cell_multiplier.reset();
     if ((fe.degree > 1 && parameters.multiplier ==
                             EstimatorParameters::Multiplier::contact_cells) ||

@@ -818,14 +818,18 @@ namespace VI
 
 
   bool
-  EstimatorParameters::uses_transmitted_load(const double       mu1,
-                                             const double       mu2,
-                                             const unsigned int p) const
+  EstimatorParameters::uses_transmitted_load(
+    const double       mu1,
+    const double       mu2,
+    const unsigned int p,
+    const bool         every_contact_cell) const
   {
     // (p >= 2: with the cellwise multiplier, on whose contact cells the
     // moments are shared)
     return (p == 1 || multiplier == Multiplier::contact_cells) &&
-           transmits_load(mu1, mu2);
+           (transmits_load(mu1, mu2) ||
+            (transmitted_load == TransmittedLoad::automatic &&
+             every_contact_cell && p >= 2));
   }
 
 

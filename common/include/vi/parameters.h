@@ -336,10 +336,14 @@ namespace VI
     transmits_load(const double mu1, const double mu2) const;
     /// Whether an estimate of FEM of degree p with tensions mu1, mu2 uses
     /// the transmitted load (for p >= 2 only with the cellwise multiplier).
+    /// With `every_contact_cell` (the load on every cell with a node in the
+    /// contact set, as step-parabolic puts it), `auto` takes it for p >= 2
+    /// at any ratio: there it is the sharper bound at equal tensions too.
     bool
     uses_transmitted_load(const double       mu1,
                           const double       mu2,
-                          const unsigned int p) const;
+                          const unsigned int p,
+                          const bool         every_contact_cell = false) const;
     bool
     equilibrated_dual_norms() const
     {
