@@ -232,6 +232,7 @@ namespace StepHHO
   void
   HHOProblem<dim>::setup_jacobian(const TrilinosWrappers::MPI::Vector &X)
   {
+    contact_rows.set_linearisation_point(X);
     if (parameters.static_condensation)
       assemble_difference_matrix(X);
     else

@@ -66,12 +66,21 @@ namespace VI
     if (r > 0)
       return {{a / r - 1., b / r - 1.}};
     // At the origin, the limit from the contact side (a = 0, b > 0): the row
-    // enforces a = 0, as min's does at its tie. A zero guess and the contact
-    // set of a data guess (lambda = 0) sit there; the limit along the
-    // diagonal, (xi - 1)(1, 1), would impose a + b = 0 instead, a coupling
-    // whose weight depends on the units of a and b (from the data guess on
-    // 128 x 128 cells: 17 steps instead of 6, doc/stress.md).
+    // enforces a = 0, as min's does at its tie. The contact set of a data
+    // guess (lambda = 0) sits there; the limit along the diagonal,
+    // (xi - 1)(1, 1), would impose a + b = 0 instead, a coupling whose
+    // weight depends on the units of a and b (from the data guess on
+    // 128 x 128 cells: 17 steps instead of 6). A cold start, every row at
+    // the origin, takes the free side instead (ContactRows).
     return {{-1., 0.}};
+  }
+
+
+  std::array<double, 2>
+  ComplementarityFunction::free_side_gradient_at_origin() const
+  {
+    // Both functions are smooth on the open half-line a > 0, b = 0.
+    return generalized_gradient(1., 0.);
   }
 
 

@@ -122,6 +122,24 @@ namespace VI
   }
 
 
+  void
+  ContactRows::set_linearisation_point(const TrilinosWrappers::MPI::Vector &X)
+  {
+    const double *x       = X.begin();
+    int           at_zero = 1;
+    for (const std::size_t k : positions)
+      if (x[n_fields * k] - x[n_fields * k + 1] != 0. ||
+          x[n_fields * k + 2] != 0.)
+        {
+          at_zero = 0;
+          break;
+        }
+    const MPI_Comm comm = X.get_mpi_communicator();
+    cold_start          = Utilities::MPI::min(at_zero, comm) == 1 &&
+                 Utilities::MPI::sum(positions.size(), comm) > 0;
+  }
+
+
   double
   ContactRows::row_value(const ComplementarityFunction &C,
                          const double                   a,
@@ -139,7 +157,9 @@ namespace VI
                             const double                   b) const
   {
     if (mu == 0)
-      return C.generalized_gradient(a, b);
+      return (cold_start && a == 0. && b == 0.) ?
+               C.free_side_gradient_at_origin() :
+               C.generalized_gradient(a, b);
     const auto g = C.smoothed_gradient(a / U, b / B, mu);
     return {{g[0], g[1] * U / B}};
   }

@@ -209,6 +209,7 @@ namespace VI
   {
     {
       TimerOutput::Scope t(timer, "newton: jacobian");
+      rows.set_linearisation_point(X);
       row_weights = rows.row_weights(C, X, stiffness_weight, multiplier_weight);
       rows.set_jacobian_rows(C, X, matrix, row_weights);
       matrix.compress(VectorOperation::insert);

@@ -121,6 +121,26 @@ TEST(Complementarity, FischerBurmeisterJacobianAtTheOriginIsInTheClarkeSet)
 }
 
 
+TEST(Complementarity, FreeSideAtTheOriginIsTheLimitAlongTheFreeHalfLine)
+{
+  // The other end of the Clarke set at (0, 0): the row enforces b = 0, and
+  // it is the gradient's limit along a > 0, b = 0 (for a cold start).
+  for (const auto type : {ComplementarityFunction::Type::min,
+                          ComplementarityFunction::Type::fischer_burmeister})
+    {
+      const ComplementarityFunction C(type);
+      const auto                    g    = C.free_side_gradient_at_origin();
+      const auto                    near = C.generalized_gradient(1e-10, 0.);
+      EXPECT_EQ(g[0], 0.);
+      EXPECT_EQ(std::abs(g[1]), 1.);
+      EXPECT_NEAR(g[0], near[0], 1e-12);
+      EXPECT_NEAR(g[1], near[1], 1e-12);
+      // and not the element the kink has elsewhere (the contact side)
+      EXPECT_NE(g[0], C.generalized_gradient(0., 0.)[0]);
+    }
+}
+
+
 TEST(Complementarity, NamesRoundTrip)
 {
   for (const auto &C : c_functions)

@@ -150,3 +150,42 @@ TEST(ContactRows, ResidualAndJacobianRowsOfTheComplementarity)
   EXPECT_EQ(next.active, 1u);
   EXPECT_EQ(next.switched, 1u);
 }
+
+
+TEST(ContactRows, ColdStartLinearisesOnTheFreeSide)
+{
+  const unsigned int n = 4;
+  IndexSet           nodes(n);
+  nodes.add_range(0, n);
+  AffineConstraints<double> u1(nodes);
+  u1.add_line(0);
+  u1.close();
+  VI::ContactRows rows;
+  rows.reinit(nodes, u1);
+  TrilinosWrappers::MPI::Vector X(NodalFields::system_index_set(nodes),
+                                  MPI_COMM_WORLD);
+  // The zero guess with boundary data at the constrained node 0 only.
+  X(0) = 1.;
+  X.compress(VectorOperation::insert);
+
+  const VI::ComplementarityFunction fb(
+    VI::ComplementarityFunction::Type::fischer_burmeister);
+  std::vector<bool> active;
+  for (const VI::ComplementarityFunction C :
+       {VI::ComplementarityFunction(), fb})
+    {
+      // Every row at the origin: the free side, no row in the active set.
+      rows.set_linearisation_point(X);
+      EXPECT_EQ(rows.linearised_active_set(C, X, active, false).active, 0u);
+      EXPECT_EQ(rows.row_gradient(C, 0., 0.), C.free_side_gradient_at_origin());
+      // One row off the origin (a data guess): the others are at the kink's
+      // contact side again.
+      X(3 * 3) = 0.5;
+      X.compress(VectorOperation::insert);
+      rows.set_linearisation_point(X);
+      EXPECT_EQ(rows.linearised_active_set(C, X, active, false).active, 2u);
+      EXPECT_EQ(rows.row_gradient(C, 0., 0.), C.generalized_gradient(0., 0.));
+      X(3 * 3) = 0.;
+      X.compress(VectorOperation::insert);
+    }
+}

@@ -483,3 +483,52 @@ TEST(SemismoothNewton, ContinuationRecoversFromAStalledActiveSet)
         << ComplementarityFunction(type).name();
     }
 }
+
+
+TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCycles)
+{
+  // A scripted iteration whose active set alternates between two sets: the
+  // complementarity residual goes 0.22, 0.47, 0.22, ... (as inexact
+  // directions made it on the L-shape), each step switching rows. No step
+  // crawls (0.22 is less than half of 0.47), but the smallest residual of
+  // the last stall_steps steps is not half the smallest before them: a
+  // cycle, which starts the continuation; on its path the script converges.
+  for (const bool cycling : {true, false})
+    {
+      VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+      data.max_iterations = 30;
+      VI::SemismoothNewton<Vector<double>> newton(data);
+      unsigned int                         evaluations = 0;
+      bool                                 smoothed    = false;
+      newton.residual = [&](const Vector<double> &, Vector<double> &R) {
+        R = 0.;
+        VI::ResidualNorms norms;
+        // (without the cycle: superlinear convergence, a factor 10 a step)
+        norms.complementarity          = smoothed ? 0. :
+                                         cycling ? (evaluations % 2 ? 0.22 : 0.47) :
+                                                   0.47 * std::pow(0.1, evaluations);
+        norms.smoothed_complementarity = norms.complementarity;
+        ++evaluations;
+        return norms;
+      };
+      newton.setup_jacobian      = [](const Vector<double> &) {};
+      newton.solve_with_jacobian = [](const Vector<double> &,
+                                      Vector<double> &dX) {
+        dX = 0.;
+        return 0u;
+      };
+      newton.active_set = [](const Vector<double> &, const bool) {
+        return VI::ActiveSetChange{10, 3};
+      };
+      newton.set_smoothing = [&](const Vector<double> &, const double mu) {
+        smoothed = smoothed || mu > 0;
+      };
+      Vector<double>         X(2);
+      const VI::NewtonReport report = newton.solve(X);
+      if (cycling)
+        EXPECT_EQ(report.continuation_start, data.stall_steps + 1);
+      else
+        EXPECT_EQ(report.continuation_start, 0u);
+      EXPECT_LE(report.final_residual.complementarity, data.tolerance);
+    }
+}

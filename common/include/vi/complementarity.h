@@ -64,6 +64,15 @@ namespace VI
     std::array<double, 2>
     generalized_gradient(const double a, const double b) const;
 
+    /**
+     * The other end of the generalised Jacobian at the origin: the limit of
+     * gradients from the free side a > 0, b = 0, (0, 1) for min and (0, -1)
+     * for Fischer-Burmeister, whose row enforces b = 0 (the node is treated
+     * as free). For a cold start (ContactRows::set_linearisation_point).
+     */
+    std::array<double, 2>
+    free_side_gradient_at_origin() const;
+
     /// True if 1/2 |C|^2 is continuously differentiable (Fischer-Burmeister).
     bool
     has_smooth_merit_function() const;

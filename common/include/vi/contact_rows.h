@@ -83,13 +83,33 @@ namespace VI
       return mu;
     }
 
+    /**
+     * X is the point of the next linearisation: called by the problem before
+     * it assembles a Jacobian from the rows (row_gradient() and all that
+     * use it). The one thing it decides is the cold start: if every row of
+     * X sits at the origin, a_i = b_i = 0 on all processes (the zero
+     * initial guess, which says nothing about contact), the rows there take
+     * the free side of the kink (ComplementarityFunction::
+     * free_side_gradient_at_origin), so that Newton's first step solves the
+     * membranes without contact and the second starts from where that
+     * solution penetrates, the classical start of the primal-dual active
+     * set method. Taking the contact side instead, as the kink does
+     * elsewhere, glues the membranes in the whole domain, and the active set
+     * then frees one ring of nodes per step (doc/stress.md, "Cold starts").
+     * A data guess, whose contact set sits at the origin and whose gaps
+     * elsewhere do not, keeps the contact side there.
+     */
+    void
+    set_linearisation_point(const dealii::TrilinosWrappers::MPI::Vector &X);
+
     /// The row function at one node, C(a, b) or U C_mu(a / U, b / B).
     double
     row_value(const ComplementarityFunction &C,
               const double                   a,
               const double                   b) const;
 
-    /// Its gradient (d/da, d/db): an element of the generalised Jacobian.
+    /// Its gradient (d/da, d/db): an element of the generalised Jacobian
+    /// (at the origin, the one set_linearisation_point() chose).
     std::array<double, 2>
     row_gradient(const ComplementarityFunction &C,
                  const double                   a,
@@ -161,6 +181,10 @@ namespace VI
     /// The smoothing parameter (0: none) and the frozen scales U, B
     /// (1 without smoothing, so that the rows are C(a, b) bit for bit).
     double mu = 0., U = 1., B = 1.;
+
+    /// Whether the linearisation point has every row at the origin
+    /// (set_linearisation_point()).
+    bool cold_start = false;
 
     std::vector<dealii::types::global_dof_index> node_indices;
     /// Position of each node among the locally owned nodes.

@@ -106,12 +106,14 @@ namespace VI
    * a fine mesh it (and Newton-Fischer-Burmeister with full steps) can need a
    * number of steps that grows with the mesh: where the load presses the
    * membranes together but the boundary data hold them apart, the active set
-   * from a cold start covers the whole domain and loses one ring of nodes per
-   * step (O(1/h) steps), since each step only sees the multiplier change sign
-   * next to the free nodes. No line search can help, the direction itself is
-   * too local. When the problem provides set_smoothing(), a stalled active set
-   * (see AdditionalData::stall_ratio) starts a continuation instead: Newton
-   * follows the central path of the smoothed C-function C_mu
+   * of a cold start (the contact set of the membranes solved without
+   * contact, ContactRows::set_linearisation_point) covers more than the
+   * contact set and loses one ring of nodes per step (O(1/h) steps), since
+   * each step only sees the multiplier change sign next to the free nodes. No
+   * line search can help, the direction itself is too local. When the problem
+   * provides set_smoothing(), a stalled active set (see
+   * AdditionalData::stall_ratio) starts a continuation instead: Newton follows
+   * the central path of the smoothed C-function C_mu
    * (ComplementarityFunction::smoothed_value), whose Jacobian couples the gap
    * and the multiplier at every node where both are below mu, so that a step
    * moves the contact zone by a distance of order one, not a mesh width. mu
