@@ -90,17 +90,29 @@ TEST(NodalFields, ExtractAndInsertRoundTrip)
 }
 
 
+namespace
+{
+  /// Nodes 0..3; node 0 on the boundary (constrained), no contact row there.
+  VI::ContactRows
+  rows_of_four_nodes(IndexSet &nodes)
+  {
+    nodes = IndexSet(4);
+    nodes.add_range(0, 4);
+    AffineConstraints<double> u1(nodes);
+    u1.add_line(0);
+    u1.close();
+    VI::ContactRows rows;
+    rows.reinit(nodes, u1);
+    return rows;
+  }
+} // namespace
+
+
 TEST(ContactRows, ResidualAndJacobianRowsOfTheComplementarity)
 {
-  // Nodes 0..3; node 0 on the boundary (constrained), no contact row there.
   const unsigned int n = 4;
-  IndexSet           nodes(n);
-  nodes.add_range(0, n);
-  AffineConstraints<double> u1(nodes);
-  u1.add_line(0);
-  u1.close();
-  VI::ContactRows rows;
-  rows.reinit(nodes, u1);
+  IndexSet           nodes;
+  VI::ContactRows    rows = rows_of_four_nodes(nodes);
   ASSERT_EQ(rows.nodes().size(), 3u);
 
   TrilinosWrappers::MPI::Vector X(NodalFields::system_index_set(nodes),
@@ -154,14 +166,8 @@ TEST(ContactRows, ResidualAndJacobianRowsOfTheComplementarity)
 
 TEST(ContactRows, ColdStartLinearisesOnTheFreeSide)
 {
-  const unsigned int n = 4;
-  IndexSet           nodes(n);
-  nodes.add_range(0, n);
-  AffineConstraints<double> u1(nodes);
-  u1.add_line(0);
-  u1.close();
-  VI::ContactRows rows;
-  rows.reinit(nodes, u1);
+  IndexSet                      nodes;
+  VI::ContactRows               rows = rows_of_four_nodes(nodes);
   TrilinosWrappers::MPI::Vector X(NodalFields::system_index_set(nodes),
                                   MPI_COMM_WORLD);
   // The zero guess with boundary data at the constrained node 0 only.

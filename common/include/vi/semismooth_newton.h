@@ -106,9 +106,9 @@ namespace VI
    * a fine mesh it (and Newton-Fischer-Burmeister with full steps) can need a
    * number of steps that grows with the mesh: where the load presses the
    * membranes together but the boundary data hold them apart, the active set
-   * of a cold start (the contact set of the membranes solved without
-   * contact, ContactRows::set_linearisation_point) covers more than the
-   * contact set and loses one ring of nodes per step (O(1/h) steps), since
+   * of a cold start (where the membranes solved without contact penetrate,
+   * ContactRows::set_linearisation_point) covers more than the contact set
+   * and loses one ring of nodes per step (O(1/h) steps), since
    * each step only sees the multiplier change sign next to the free nodes. No
    * line search can help, the direction itself is too local. When the problem
    * provides set_smoothing(), a stalled active set (see
