@@ -3,6 +3,7 @@
 #include <vi/contact_rows.h>
 #include <vi/nodal_fields.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -10,6 +11,16 @@ namespace VI
 {
   using namespace dealii;
   using NodalFields::n_fields;
+
+  namespace
+  {
+    /// The pair (a, b) = (X1 - X2, X3) of the node at local position k.
+    std::array<double, 2>
+    pair_at(const double *x, const std::size_t k)
+    {
+      return {{x[n_fields * k] - x[n_fields * k + 1], x[n_fields * k + 2]}};
+    }
+  } // namespace
 
   void
   ContactRows::reinit(const IndexSet                  &owned_nodes,
@@ -81,8 +92,7 @@ namespace VI
     double local[3]           = {0., 0., 0.}; // C, C_mu, NaN
     for (const std::size_t k : positions)
       {
-        const double a      = x[n_fields * k] - x[n_fields * k + 1];
-        const double b      = x[n_fields * k + 2];
+        const auto [a, b]   = pair_at(x, k);
         r[n_fields * k + 2] = row_value(C, a, b);
         const double scaled = std::abs(C.value(a / U_now, b / B_now));
         if (std::isnan(scaled) || std::isnan(r[n_fields * k + 2]))
@@ -125,18 +135,14 @@ namespace VI
   void
   ContactRows::set_linearisation_point(const TrilinosWrappers::MPI::Vector &X)
   {
-    const double *x       = X.begin();
-    int           at_zero = 1;
-    for (const std::size_t k : positions)
-      if (x[n_fields * k] - x[n_fields * k + 1] != 0. ||
-          x[n_fields * k + 2] != 0.)
-        {
-          at_zero = 0;
-          break;
-        }
-    const MPI_Comm comm = X.get_mpi_communicator();
-    cold_start          = Utilities::MPI::min(at_zero, comm) == 1 &&
-                 Utilities::MPI::sum(positions.size(), comm) > 0;
+    const double *x = X.begin();
+    const bool    at_zero =
+      std::all_of(positions.begin(), positions.end(), [x](const std::size_t k) {
+        return pair_at(x, k) == std::array<double, 2>{{0., 0.}};
+      });
+    // (without rows anywhere no gradient is asked for)
+    cold_start =
+      Utilities::MPI::min(int(at_zero), X.get_mpi_communicator()) == 1;
   }
 
 
@@ -182,9 +188,8 @@ namespace VI
     for (std::size_t n = 0; n < node_indices.size(); ++n)
       {
         const std::size_t k = positions[n];
-        const double      a = x[n_fields * k] - x[n_fields * k + 1];
-        const double      b = x[n_fields * k + 2];
-        const auto        g = row_gradient(C, a, b);
+        const auto [a, b]   = pair_at(x, k);
+        const auto g        = row_gradient(C, a, b);
 
         const types::global_dof_index i          = node_indices[n];
         const types::global_dof_index columns[3] = {
@@ -209,9 +214,8 @@ namespace VI
     for (std::size_t n = 0; n < positions.size(); ++n)
       {
         const std::size_t k = positions[n];
-        const auto        g = row_gradient(C,
-                                    x[n_fields * k] - x[n_fields * k + 1],
-                                    x[n_fields * k + 2]);
+        const auto [a, b]   = pair_at(x, k);
+        const auto g        = row_gradient(C, a, b);
         // A row that mainly enforces X3 = 0 has the units of X3 times U / B.
         weights[n] =
           enforces_gap(g) ? stiffness_weight[k] : multiplier_weight[k] * B / U;
@@ -234,9 +238,9 @@ namespace VI
     unsigned long long local[2] = {0, 0};
     for (std::size_t n = 0; n < positions.size(); ++n)
       {
-        const std::size_t k         = positions[n];
-        const bool        is_active = enforces_gap(row_gradient(
-          C, x[n_fields * k] - x[n_fields * k + 1], x[n_fields * k + 2]));
+        const std::size_t k  = positions[n];
+        const auto [a, b]    = pair_at(x, k);
+        const bool is_active = enforces_gap(row_gradient(C, a, b));
         local[0] += is_active;
         local[1] += compare && is_active != active[n];
         active[n] = is_active;
@@ -258,7 +262,7 @@ namespace VI
     std::fill(ind, ind + indicator.locally_owned_size(), 0.);
     types::global_dof_index n_contact = 0;
     for (const std::size_t k : positions)
-      if (x[n_fields * k] - x[n_fields * k + 1] <= x[n_fields * k + 2])
+      if (const auto [a, b] = pair_at(x, k); a <= b)
         {
           ind[k] = 1.;
           ++n_contact;
