@@ -531,15 +531,15 @@ namespace VI
     prm.declare_entry("Continuation",
                       "true",
                       Bool(),
-                      "When the active set stalls (six steps in a row "
+                      "When the active set stalls (three steps in a row "
                       "that switch rows and shrink the complementarity "
-                      "residual by less than half), follow the central "
-                      "path of the smoothed C-function instead, back to "
-                      "the C-function below the tolerance (doc/reference.md, "
-                      "Continuation). false: plain semismooth Newton "
-                      "throughout. step-twophase has no smoothed rows and "
-                      "globalises Fischer-Burmeister by a line search "
-                      "(Watchdog steps).");
+                      "residual by less than half, or six that cycle), "
+                      "follow the central path of the smoothed C-function "
+                      "instead, back to the C-function below the tolerance "
+                      "(doc/reference.md, Continuation). false: plain "
+                      "semismooth Newton throughout. step-twophase has no "
+                      "smoothed rows and globalises Fischer-Burmeister by a "
+                      "line search (Watchdog steps).");
     if (!mesh_starts)
       return;
     prm.declare_entry("Nested iteration",

@@ -88,31 +88,40 @@ namespace VI
   SemismoothNewton<VectorType>::stalled(const NewtonReport &report) const
   {
     const auto &steps = report.steps;
-    if (steps.size() < data.stall_steps + 1)
+    // Whether each of the last `count` steps switched rows (and there was a
+    // step before them).
+    const auto switching = [&steps](const std::size_t count) {
+      if (steps.size() < count + 1)
+        return false;
+      for (std::size_t n = steps.size() - count; n < steps.size(); ++n)
+        if (!steps[n].has_active_set || steps[n].active_set.switched == 0)
+          return false;
+      return true;
+    };
+    const auto r = [&steps](const std::size_t n) {
+      return steps[n].residual.complementarity;
+    };
+
+    if (switching(data.crawl_steps))
+      {
+        bool crawl = true;
+        for (std::size_t n = steps.size() - data.crawl_steps; n < steps.size();
+             ++n)
+          crawl = crawl && r(n) >= data.stall_ratio * r(n - 1);
+        if (crawl)
+          return true;
+      }
+    if (!switching(data.cycle_steps))
       return false;
-    // Over the last stall_steps steps, each of which switched rows: a ring
-    // crawl shrinks the complementarity residual by less than stall_ratio
-    // at every step; a cycle of active sets (inexact directions can bring
-    // one about) does not even shrink its smallest value by stall_ratio.
-    const std::size_t first       = steps.size() - data.stall_steps;
-    bool              crawl       = true;
+    const std::size_t first       = steps.size() - data.cycle_steps;
     double            best_before = std::numeric_limits<double>::infinity(),
            best_since             = best_before;
     for (std::size_t n = 0; n < steps.size(); ++n)
-      {
-        const double r = steps[n].residual.complementarity;
-        if (n < first)
-          {
-            best_before = std::min(best_before, r);
-            continue;
-          }
-        if (!steps[n].has_active_set || steps[n].active_set.switched == 0)
-          return false;
-        crawl = crawl &&
-                r >= data.stall_ratio * steps[n - 1].residual.complementarity;
-        best_since = std::min(best_since, r);
-      }
-    return crawl || best_since >= data.stall_ratio * best_before;
+      if (n < first)
+        best_before = std::min(best_before, r(n));
+      else
+        best_since = std::min(best_since, r(n));
+    return best_since >= data.stall_ratio * best_before;
   }
 
 
