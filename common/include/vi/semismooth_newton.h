@@ -174,9 +174,10 @@ namespace VI
       /// zone by one mesh width a step). A cycle: over `cycle_steps` steps
       /// the smallest residual stays above `stall_ratio` times the smallest
       /// before them (inexact directions can make active sets alternate).
-      /// Three crawling steps: the suite's plain runs on coarse meshes still
-      /// converge before, while six cost seed-smooth's cold start on
-      /// 256 x 256 cells 29 Fischer-Burmeister steps against 21. A cycle is
+      /// Three crawling steps: six cost seed-smooth's cold start on 256 x 256
+      /// cells 29 Fischer-Burmeister steps against 21; but a run from the
+      /// data that plain Newton ends in 7 steps then takes 12, as mu falls
+      /// a decade a step (doc/stress.md, "Cold starts"). A cycle is
       /// told from the noise of inexact steps over six: with three, the
       /// adaptive SIPG cold start on the disk takes 8 steps instead of 6.
       double       stall_ratio = 0.5;
