@@ -108,6 +108,15 @@ namespace VI
         for (std::size_t n = steps.size() - data.crawl_steps; n < steps.size();
              ++n)
           crawl = crawl && r(n) >= data.stall_ratio * r(n - 1);
+        // ... while the fronts keep their pace: a ring crawl switches about
+        // as many rows each step, converging steps ever fewer. Over the
+        // window, not step by step: inexact steps switch rows unevenly.
+        const auto switched = [&steps](const std::size_t n) {
+          return double(steps[n].active_set.switched);
+        };
+        crawl = crawl &&
+                switched(steps.size() - 1) >=
+                  data.crawl_pace * switched(steps.size() - data.crawl_steps);
         if (crawl)
           return true;
       }

@@ -492,16 +492,20 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
   // crawl does), cycles (0.47, 0.22, 0.47, ...: as inexact directions made
   // it on the L-shape; no step crawls, since 0.22 is less than half of
   // 0.47, but the smallest residual stops falling), or converges
-  // superlinearly (a factor 10 a step). The first two start the
-  // continuation, after crawl_steps and cycle_steps steps; on its path the
-  // script converges.
+  // superlinearly (a factor 10 a step), or settles: it crawls, but
+  // switches half as many rows each step, and the seventh step finds the
+  // active set. The first two start the continuation, after crawl_steps and
+  // cycle_steps steps; on its path the script converges. The last two
+  // converge by themselves.
   enum class Script
   {
     crawl,
     cycle,
-    converge
+    converge,
+    settle
   };
-  for (const Script script : {Script::crawl, Script::cycle, Script::converge})
+  for (const Script script :
+       {Script::crawl, Script::cycle, Script::converge, Script::settle})
     {
       VI::SemismoothNewton<Vector<double>>::AdditionalData data;
       data.max_iterations = 30;
@@ -512,10 +516,12 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
         R = 0.;
         VI::ResidualNorms norms;
         norms.complementarity =
-          smoothed                ? 0. :
-          script == Script::crawl ? 0.47 * std::pow(0.7, evaluations) :
-          script == Script::cycle ? (evaluations % 2 ? 0.22 : 0.47) :
-                                    0.47 * std::pow(0.1, evaluations);
+          smoothed                   ? 0. :
+          script == Script::crawl    ? 0.47 * std::pow(0.7, evaluations) :
+          script == Script::cycle    ? (evaluations % 2 ? 0.22 : 0.47) :
+          script == Script::converge ? 0.47 * std::pow(0.1, evaluations) :
+          evaluations < 7            ? 0.47 * std::pow(0.7, evaluations) :
+                                       0.;
         norms.smoothed_complementarity = norms.complementarity;
         ++evaluations;
         return norms;
@@ -526,8 +532,11 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
         dX = 0.;
         return 0u;
       };
-      newton.active_set = [](const Vector<double> &, const bool) {
-        return VI::ActiveSetChange{10, 3};
+      unsigned int linearisations = 0;
+      newton.active_set           = [&](const Vector<double> &, const bool) {
+        ++linearisations;
+        return VI::ActiveSetChange{
+          1000, script == Script::settle ? 640u >> linearisations : 3u};
       };
       newton.set_smoothing = [&](const Vector<double> &, const double mu) {
         smoothed = smoothed || mu > 0;
@@ -538,6 +547,10 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
                 script == Script::crawl ? data.crawl_steps + 1 :
                 script == Script::cycle ? data.cycle_steps + 1 :
                                           0u);
+      if (script == Script::settle)
+        {
+          EXPECT_EQ(report.iterations, 7u);
+        }
       EXPECT_LE(report.final_residual.complementarity, data.tolerance);
     }
 }
