@@ -532,8 +532,9 @@ namespace VI
                       "true",
                       Bool(),
                       "When the active set stalls (three steps in a row "
-                      "that switch rows and shrink the complementarity "
-                      "residual by less than half, or six that cycle), "
+                      "that switch rows at a steady pace and shrink the "
+                      "complementarity residual by less than half, or six "
+                      "that cycle), "
                       "follow the central path of the smoothed C-function "
                       "instead, back to the C-function below the tolerance "
                       "(doc/reference.md, Continuation). false: plain "
