@@ -109,14 +109,14 @@ namespace VI
              ++n)
           crawl = crawl && r(n) >= data.stall_ratio * r(n - 1);
         // ... while the fronts keep their pace: a ring crawl switches about
-        // as many rows each step, converging steps ever fewer. Over the
-        // window, not step by step: inexact steps switch rows unevenly.
+        // as many rows each step, converging steps ever fewer. The last two
+        // steps only: the first after the penetration set frees a wider
+        // band, and rings on unstructured faces vary in length.
         const auto switched = [&steps](const std::size_t n) {
           return double(steps[n].active_set.switched);
         };
-        crawl = crawl &&
-                switched(steps.size() - 1) >=
-                  data.crawl_pace * switched(steps.size() - data.crawl_steps);
+        crawl = crawl && switched(steps.size() - 1) >=
+                           data.crawl_pace * switched(steps.size() - 2);
         if (crawl)
           return true;
       }

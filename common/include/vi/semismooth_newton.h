@@ -172,16 +172,19 @@ namespace VI
       /// the complementarity residual by less than `stall_ratio` (superlinear
       /// convergence shrinks it by far more; a ring crawl moves the contact
       /// zone by one mesh width a step), and the last switches at least
-      /// `crawl_pace` times as many rows as the first (a ring is about as
-      /// long as the last, while a converging iteration switches ever fewer
-      /// rows even where its max-norm residual falls slowly).
+      /// `crawl_pace` times as many rows as the one before (a ring is about
+      /// as long as the last, while a converging iteration switches ever
+      /// fewer rows even where its max-norm residual falls slowly).
       /// Three steps: six cost seed-smooth's cold start on 256 x 256 cells
       /// 29 Fischer-Burmeister steps against 21. The pace spares the runs
       /// that converge by themselves: from the data on the same mesh, 680,
       /// 632, 424, 200 switched rows, then convergence in 7 steps, where
       /// the continuation took 12. Not all of them: the disk from the data
       /// on 49409 nodes switches 984, 944, 904 rows and would converge in 6
-      /// steps, but takes 10 (doc/stress.md, "Cold starts"). A cycle: over
+      /// steps, but takes 10. The margin is thin: HHO's Fischer-Burmeister
+      /// crawl on seed-smooth's 212480 unknowns has a step at 0.71 and
+      /// starts the continuation a step later (doc/stress.md, "Cold
+      /// starts"). A cycle: over
       /// `cycle_steps` steps the smallest residual stays above `stall_ratio`
       /// times the smallest before them (inexact directions can make active
       /// sets alternate). It is told from the noise of inexact steps over
