@@ -533,8 +533,8 @@ namespace VI
                       Bool(),
                       "When the active set stalls (three steps in a row "
                       "that switch rows at a steady pace and shrink the "
-                      "complementarity residual by less than half, or six "
-                      "that cycle), "
+                      "complementarity residual by less than half, six "
+                      "under the adaptive strategy, or six that cycle), "
                       "follow the central path of the smoothed C-function "
                       "instead, back to the C-function below the tolerance "
                       "(doc/reference.md, Continuation). false: plain "

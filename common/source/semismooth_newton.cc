@@ -42,6 +42,10 @@ namespace VI
       , name("semismooth Newton-" + C.name())
       , continuation(parameters.continuation)
   {
+    // The adaptive strategy's estimators often end a crawl first (see
+    // crawl_steps).
+    if (parameters.strategy == Strategy::adaptive)
+      crawl_steps = adaptive_crawl_steps;
   }
 
 

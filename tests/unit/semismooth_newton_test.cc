@@ -6,6 +6,7 @@
 
 #include <vi/complementarity.h>
 #include <vi/errors.h>
+#include <vi/parameters.h>
 #include <vi/semismooth_newton.h>
 
 #include <gtest/gtest.h>
@@ -495,20 +496,30 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
   // superlinearly (a factor 10 a step), or settles: it crawls, but
   // switches half as many rows each step, and the seventh step finds the
   // active set. The first two start the continuation, after crawl_steps and
-  // cycle_steps steps; on its path the script converges. The last two
-  // converge by themselves.
+  // cycle_steps steps; on its path the script converges. The next two
+  // converge by themselves. The last crawls under the adaptive strategy,
+  // whose continuation waits adaptive_crawl_steps steps.
   enum class Script
   {
     crawl,
     cycle,
     converge,
-    settle
+    settle,
+    adaptive_crawl
   };
-  for (const Script script :
-       {Script::crawl, Script::cycle, Script::converge, Script::settle})
+  for (const Script script : {Script::crawl,
+                              Script::cycle,
+                              Script::converge,
+                              Script::settle,
+                              Script::adaptive_crawl})
     {
-      VI::SemismoothNewton<Vector<double>>::AdditionalData data;
-      data.max_iterations = 30;
+      VI::NonlinearSolverParameters parameters;
+      parameters.max_iterations = 30;
+      if (script == Script::adaptive_crawl)
+        parameters.strategy = VI::Strategy::adaptive;
+      const VI::SemismoothNewton<Vector<double>>::AdditionalData data(
+        parameters,
+        ComplementarityFunction(ComplementarityFunction::Type::min));
       VI::SemismoothNewton<Vector<double>> newton(data);
       unsigned int                         evaluations = 0;
       bool                                 smoothed    = false;
@@ -516,8 +527,9 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
         R = 0.;
         VI::ResidualNorms norms;
         norms.complementarity =
-          smoothed                   ? 0. :
-          script == Script::crawl    ? 0.47 * std::pow(0.7, evaluations) :
+          smoothed ? 0. :
+          script == Script::crawl || script == Script::adaptive_crawl ?
+                     0.47 * std::pow(0.7, evaluations) :
           script == Script::cycle    ? (evaluations % 2 ? 0.22 : 0.47) :
           script == Script::converge ? 0.47 * std::pow(0.1, evaluations) :
           evaluations < 7            ? 0.47 * std::pow(0.7, evaluations) :
@@ -546,6 +558,8 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
       EXPECT_EQ(report.continuation_start,
                 script == Script::crawl ? data.crawl_steps + 1 :
                 script == Script::cycle ? data.cycle_steps + 1 :
+                script == Script::adaptive_crawl ?
+                                          data.adaptive_crawl_steps + 1 :
                                           0u);
       if (script == Script::settle)
         {
