@@ -24,10 +24,12 @@ per process, for one and two MPI processes.
 Writes doc/data/peer-best.{csv,md} and doc/data/peer-best.png; prints
 progress per run. About 15 minutes on two cores. Usage, from the
 repository root after ./demo.sh or ./test.sh:
-  bench/peer_best.py [--quick] [--reuse] [--gamma-lin=G]
+  bench/peer_best.py [--quick] [--reuse] [--gamma-lin=G] [--flux-degree=p-1]
 --quick stops at 12288 cells; --reuse takes the summaries of the last run;
 --gamma-lin=G runs ours with Nonlinear solver/gamma_lin = G instead of the
-default and writes doc/data/peer-best-gamma-lin-G.{csv,md,png}.
+default and writes doc/data/peer-best-gamma-lin-G.{csv,md,png};
+--flux-degree=p-1 reconstructs the fluxes in RT_(p-1) (Estimators/Flux
+degree) and adds -flux-p-1 to the names.
 STEP_MEMBRANES names another binary.
 """
 import json
@@ -42,7 +44,10 @@ QUICK = "--quick" in sys.argv
 REUSE = "--reuse" in sys.argv
 GAMMA_LIN = next((a.split("=", 1)[1] for a in sys.argv
                   if a.startswith("--gamma-lin=")), None)
-NAME = "peer-best" + (f"-gamma-lin-{GAMMA_LIN}" if GAMMA_LIN else "")
+FLUX_DEGREE = next((a.split("=", 1)[1] for a in sys.argv
+                    if a.startswith("--flux-degree=")), None)
+NAME = ("peer-best" + (f"-gamma-lin-{GAMMA_LIN}" if GAMMA_LIN else "")
+        + (f"-flux-{FLUX_DEGREE}" if FLUX_DEGREE else ""))
 OUT = os.path.join(ROOT, "output", "bench-" + NAME)
 CYCLES = 2 if QUICK else 4
 KSP_TOLERANCES = ["1e-1", "1e-2", "1e-4", "1e-8"]
@@ -65,6 +70,8 @@ SETTINGS = {"Mesh/Initial refinements": 4,
             "Output/Write VTU": "false"}
 if GAMMA_LIN:
     SETTINGS["Nonlinear solver/gamma_lin"] = GAMMA_LIN
+if FLUX_DEGREE:
+    SETTINGS["Estimators/Flux degree"] = FLUX_DEGREE
 
 
 def cycles(np, tolerance):
