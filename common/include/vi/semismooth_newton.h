@@ -199,11 +199,11 @@ namespace VI
       /// on the first mesh, and the next mesh inherited it: 8 and 7
       /// Newton steps instead of 6 and 2, 13 instead of 3 on 591363
       /// unknowns.
-      double       stall_ratio          = 0.5;
-      unsigned int crawl_steps          = 3;
-      unsigned int adaptive_crawl_steps = 6;
-      double       crawl_pace           = 0.75;
-      unsigned int cycle_steps          = 6;
+      static constexpr unsigned int adaptive_crawl_steps = 6;
+      double                        stall_ratio          = 0.5;
+      unsigned int                  crawl_steps          = 3;
+      double                        crawl_pace           = 0.75;
+      unsigned int                  cycle_steps          = 6;
       /// Whether a stalled active set starts the continuation (if the
       /// problem provides set_smoothing). From `Nonlinear solver`: its
       /// `Continuation`.
