@@ -18,6 +18,7 @@ packages=(
   libgtest-dev     # GoogleTest unit tests
   cmake make g++ git
   gnuplot-nox      # plots of the benchmark scripts in bench/
+  time             # /usr/bin/time: peak memory in bench/memory_model.py
   python3
 )
 missing=()

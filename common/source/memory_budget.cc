@@ -8,6 +8,7 @@
 #include <vi/parameters.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -22,42 +23,56 @@ namespace VI
   {
     // The model of a run's memory, measured as the peak resident memory of
     // one process (/usr/bin/time -f %M) of two cycles with nested
-    // iteration on seed-smooth, the square, default solvers and
-    // estimators, against the unknowns (all fields) of the finer mesh:
-    //
-    //   step-membranes parameters/membranes-default.prm   (Q1, Q2)
-    //   step-membranes parameters/membranes-dg.prm        (SIPG)
-    //   step-hho parameters/hho-default.prm               (HHO)
-    //     --set "Mesh/Cycles=2" --set "Mesh/Initial refinements=r-1"
-    //     --set "Discretization/Polynomial degree=p" --set "Output/Write
-    //     VTU=false"
-    //
-    // with 2^r x 2^r cells on the finer mesh, r = 6, 7, 8 for Q1 and 5, 6,
-    // 7 for the others (the unknowns per cell of unknowns_per_cell() are
-    // those the programs print). step-parabolic is charged like Q_p: its
-    // ring test (parameters/parabolic-ring.prm, three time steps, Initial
-    // refinements = 5, 6, 7) costs 2560 bytes per unknown, less than Q1. A
-    // process starts at 180 - 215 MB; each unknown then costs the bytes below
-    // (the slope between the two largest runs, made 25 % larger). Degrees
-    // beyond the measured ones are charged like the largest measured degree,
-    // scaled with the length of a matrix row, which grows like (2p + 1)^2.
+    // iteration on seed-smooth, the square, the default estimators, with
+    // each linear solver the program offers, against the unknowns (all
+    // fields) of the finer mesh (2^r x 2^r cells, r = 7, 8 for Q1, 6, 7 for
+    // the others, 5, 6 for SIPG with GMRES + ILU): bench/memory_model.py,
+    // whose table doc/data/memory-model.md is. step-parabolic is charged like
+    // Q_p with a direct solver: its ring test (parameters/parabolic-ring.prm,
+    // three time steps, Initial refinements = 5, 6, 7) costs 2560 bytes per
+    // unknown. A process starts at 180 - 215 MB; each unknown then costs the
+    // bytes below (the slope between the two runs, made 25 % larger).
+    // Degrees beyond the measured ones are charged like the largest
+    // measured degree, scaled with the length of a matrix row, which grows
+    // like (2p + 1)^2.
     constexpr double bytes_per_process = 2.2e8;
 
-    double
-    bytes_per_unknown(const Method method, const unsigned int degree)
+    /// How the linear systems are solved, as far as memory goes.
+    enum class Solve
     {
-      // Q1 3240, Q2 2960, SIPG (p = 1) 4220, HHO (p = 1) 390 bytes
-      // measured, times 1.25.
-      const bool         hho      = method == Method::hho;
-      const bool         dg       = method != Method::fem && !hho;
-      const double       measured = hho         ? 490. :
-                                    dg          ? 5300. :
-                                    degree == 1 ? 4050. :
-                                                  3700.;
+      direct,
+      krylov_ilu,
+      krylov_amg
+    };
+
+    Solve
+    solve_of(const LinearSolverParameters *linear_solver)
+    {
+      if (!linear_solver || linear_solver->solver == LinearSolverType::direct)
+        return Solve::direct;
+      return linear_solver->preconditioner == PreconditionerType::amg ?
+               Solve::krylov_amg :
+               Solve::krylov_ilu;
+    }
+
+    double
+    bytes_per_unknown(const Method       method,
+                      const unsigned int degree,
+                      const Solve        solve)
+    {
+      // Measured bytes per unknown, times 1.25, by solve: direct,
+      // Krylov + ILU, Krylov + AMG (GMRES; CG for HHO).
+      using Row        = std::array<double, 3>;
+      constexpr Row q1 = {{4080., 4180., 1940.}}, q2 = {{3710., 3890., 1870.}},
+                    sipg = {{5270., 2890., 1380.}}, hho = {{580., 400., 480.}};
+      const bool         is_hho = method == Method::hho;
+      const bool         dg     = method != Method::fem && !is_hho;
+      const Row         &row = is_hho ? hho : dg ? sipg : degree == 1 ? q1 : q2;
       const unsigned int measured_degree =
-        (hho || dg) ? 1 : std::min(degree, 2u);
-      const double row = (2. * degree + 1) / (2. * measured_degree + 1);
-      return measured * std::max(1., row * row);
+        (is_hho || dg) ? 1 : std::min(degree, 2u);
+      const double length = (2. * degree + 1) / (2. * measured_degree + 1);
+      return row[static_cast<unsigned int>(solve)] *
+             std::max(1., length * length);
     }
 
 
@@ -123,6 +138,7 @@ namespace VI
 
   MemoryBudget::MemoryBudget(const MeshParameters           &mesh,
                              const DiscretizationParameters &discretization,
+                             const LinearSolverParameters   &linear_solver,
                              const MPI_Comm                  comm)
       : MemoryBudget(static_cast<const DomainParameters &>(mesh),
                      mesh.initial_refinements +
@@ -130,6 +146,7 @@ namespace VI
                           mesh.cycles - 1 :
                           0),
                      discretization,
+                     &linear_solver,
                      comm)
   {
     to_lower += " or Mesh/Cycles";
@@ -139,7 +156,11 @@ namespace VI
   MemoryBudget::MemoryBudget(const DomainParameters         &mesh,
                              const DiscretizationParameters &discretization,
                              const MPI_Comm                  comm)
-      : MemoryBudget(mesh, mesh.initial_refinements, discretization, comm)
+      : MemoryBudget(mesh,
+                     mesh.initial_refinements,
+                     discretization,
+                     nullptr,
+                     comm)
   {
   }
 
@@ -147,6 +168,7 @@ namespace VI
   MemoryBudget::MemoryBudget(const DomainParameters         &mesh,
                              const unsigned int              levels,
                              const DiscretizationParameters &discretization,
+                             const LinearSolverParameters   *linear_solver,
                              const MPI_Comm                  comm)
   {
     Triangulation<2> coarse;
@@ -154,7 +176,10 @@ namespace VI
     const unsigned int p = discretization.degree;
     cells                = coarse.n_active_cells() * std::pow(4., levels);
     unknowns             = cells * unknowns_per_cell(discretization.method, p);
-    compare_with_machine(bytes_per_unknown(discretization.method, p), comm);
+    compare_with_machine(bytes_per_unknown(discretization.method,
+                                           p,
+                                           solve_of(linear_solver)),
+                         comm);
   }
 
 

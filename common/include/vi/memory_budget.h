@@ -8,6 +8,7 @@ namespace VI
   struct DomainParameters;
   struct MeshParameters;
   struct DiscretizationParameters;
+  struct LinearSolverParameters;
 
   /**
    * What a run of a stationary membrane program will need, known from its
@@ -16,12 +17,14 @@ namespace VI
    *
    * The need is a measured model: a base of every process (libraries, MPI)
    * plus a cost per unknown of the largest mesh, measured for each method
-   * with the default solvers and estimators (memory_budget.cc names the
-   * runs). The largest mesh is the last of a globally refined sequence, or
-   * the first one with adaptive refinement (whose growth is not known in
-   * advance), or the one mesh of a time-dependent run. The machine gives the
-   * smaller of the node's MemAvailable and the limit of the process's cgroup
-   * less its usage.
+   * and linear solver with the default estimators (bench/memory_model.py,
+   * doc/data/memory-model.md): a direct solver's factors or GMRES's
+   * Krylov basis under ILU cost two to three times what an AMG-
+   * preconditioned solve does. The largest mesh is the last of a globally
+   * refined sequence, or the first one with adaptive refinement (whose growth
+   * is not known in advance), or the one mesh of a time-dependent run. The
+   * machine gives the smaller of the node's MemAvailable and the limit of the
+   * process's cgroup less its usage.
    */
   struct MemoryBudget
   {
@@ -29,8 +32,10 @@ namespace VI
     /// (collective: rank 0 reads the machine's limits).
     MemoryBudget(const MeshParameters           &mesh,
                  const DiscretizationParameters &discretization,
+                 const LinearSolverParameters   &linear_solver,
                  const MPI_Comm                  comm);
-    /// The same for a run on one mesh (step-parabolic).
+    /// The same for a run on one mesh (step-parabolic, charged as a
+    /// stationary run with a direct solver: its ring test measured less).
     MemoryBudget(const DomainParameters         &mesh,
                  const DiscretizationParameters &discretization,
                  const MPI_Comm                  comm);
@@ -62,10 +67,13 @@ namespace VI
     std::string to_lower = "Mesh/Initial refinements";
 
   private:
-    /// The budget of `levels` refinements of the coarse mesh of `mesh`.
+    /// The budget of `levels` refinements of the coarse mesh of `mesh`,
+    /// each unknown costing what bytes_per_unknown() says of the
+    /// discretisation and the linear solver (nullptr: a direct one).
     MemoryBudget(const DomainParameters         &mesh,
                  const unsigned int              levels,
                  const DiscretizationParameters &discretization,
+                 const LinearSolverParameters   *linear_solver,
                  const MPI_Comm                  comm);
 
     /// needed and available for the cells and unknowns already set.

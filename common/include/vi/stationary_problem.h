@@ -59,6 +59,7 @@ namespace VI
                             parameters.mesh.cycles,
                             MemoryBudget(parameters.mesh,
                                          parameters.discretization,
+                                         parameters.linear_solver,
                                          comm),
                             comm)
     {
