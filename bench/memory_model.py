@@ -5,7 +5,7 @@ Each program runs two cycles with nested iteration on seed-smooth (the
 square, its default parameter file, no VTU) with each linear solver it
 offers, the finer mesh having 2^r x 2^r cells; /usr/bin/time gives the
 peak resident memory of the process. The bytes per unknown are the slope
-between the two largest meshes, over the unknowns (all fields) that
+between the two meshes, over the unknowns (all fields) that
 memory_budget.cc counts per cell (three nodal fields; HHO: cells and
 faces). memory_budget.cc charges them 25 % more.
 
@@ -14,7 +14,6 @@ Writes doc/data/memory-model.{csv,md}. About ten minutes:
     bench/memory_model.py
 """
 import os
-import subprocess
 import tempfile
 
 from vi_bench import program, run, write_table
