@@ -42,11 +42,11 @@ import statistics
 import subprocess
 import sys
 
-from vi_bench import ROOT, cost_study_settings, program, run, write_table
+from vi_bench import ROOT, cost_study_settings, option, program, run, write_table
 
 PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-blas")
-ROUNDS = next((int(a.split("=")[1]) for a in sys.argv[1:] if a.startswith("--rounds=")), 3)
+ROUNDS = option("rounds", 3, int)
 LIBRARIES = "/usr/lib/x86_64-linux-gnu"
 REFERENCE = {"LD_LIBRARY_PATH": f"{LIBRARIES}/blas:{LIBRARIES}/lapack"}
 

@@ -68,7 +68,7 @@ import itertools
 import os
 import sys
 
-from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, growth_exponent,
+from vi_bench import (DATA, ROOT, cost_study_settings, estimator_seconds, growth_exponent, option,
                       huge_pages_environment, plot_png, poisson_seconds, program,
                       read_table, run as run_program, write_csv, write_dat,
                       write_markdown, write_table)
@@ -77,22 +77,19 @@ PROGRAM = program("membranes")
 OUT = os.path.join(ROOT, "output", "bench-cost")
 QUICK = "--quick" in sys.argv
 TABLES_ONLY = "--tables-only" in sys.argv
-C_FUNCTION = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--c-function=")),
-                  "min")
-FLUX_DEGREE = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--flux-degree=")),
-                   "p")
+C_FUNCTION = option("c-function", "min")
+FLUX_DEGREE = option("flux-degree", "p")
 STEM = "cost" if C_FUNCTION == "min" else f"cost-{C_FUNCTION}"
 if FLUX_DEGREE != "p":
     STEM += f"-flux-{FLUX_DEGREE}"
 # GMRES iterations between two estimates of the adaptive strategy (Linear
 # solver/Check interval; the scene's 10 by default)
-CHECK_INTERVAL = next((int(a.split("=", 1)[1]) for a in sys.argv
-                       if a.startswith("--check-interval=")), None)
+CHECK_INTERVAL = option("check-interval", kind=int)
 if CHECK_INTERVAL:
     STEM += f"-check-{CHECK_INTERVAL}"
 # Newton's tolerance relative to the discretisation error (Nonlinear
 # solver/gamma_lin; the scene's 0.3 by default)
-GAMMA_LIN = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--gamma-lin=")), None)
+GAMMA_LIN = option("gamma-lin")
 if GAMMA_LIN:
     STEM += f"-gamma-lin-{GAMMA_LIN}"
 # Two refinements fewer at the start and two cycles more: the same meshes
@@ -103,7 +100,7 @@ if COARSE_START:
 # 12288 cells and three refinements (--coarse-start: 768 cells and five):
 # 2.4e6 unknowns. Peak memory on one process with RT_0 fluxes at d884e01
 # (/usr/bin/time): 3.0 GB; with one mesh more (9.4e6 unknowns), 11.3 GB.
-CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), None)
+CYCLES = option("cycles", kind=int)
 if CYCLES:
     STEM += f"-cycles-{CYCLES}"
 else:
@@ -111,7 +108,7 @@ else:
 # Every configuration run this many times, in rounds (all configurations,
 # then again); the table gives, for each mesh, the run of the median ratio
 # and the range of the ratio over the runs.
-REPEAT = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--repeat=")), 1)
+REPEAT = option("repeat", 1, int)
 if REPEAT > 1:
     STEM += f"-median-of-{REPEAT}"
 if QUICK:

@@ -36,16 +36,14 @@ import json
 import os
 import sys
 
-from vi_bench import (DATA, ROOT, estimator_seconds, plot_png, poisson_seconds,
+from vi_bench import (DATA, ROOT, estimator_seconds, option, plot_png, poisson_seconds,
                       program, run as run_program, write_dat, write_table)
 
 PROGRAM = program("membranes")
 QUICK = "--quick" in sys.argv
 REUSE = "--reuse" in sys.argv
-GAMMA_LIN = next((a.split("=", 1)[1] for a in sys.argv
-                  if a.startswith("--gamma-lin=")), None)
-FLUX_DEGREE = next((a.split("=", 1)[1] for a in sys.argv
-                    if a.startswith("--flux-degree=")), None)
+GAMMA_LIN = option("gamma-lin")
+FLUX_DEGREE = option("flux-degree")
 NAME = ("peer-best" + (f"-gamma-lin-{GAMMA_LIN}" if GAMMA_LIN else "")
         + (f"-flux-{FLUX_DEGREE}" if FLUX_DEGREE else ""))
 OUT = os.path.join(ROOT, "output", "bench-" + NAME)

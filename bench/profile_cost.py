@@ -35,11 +35,11 @@ import shutil
 import subprocess
 import sys
 
-from vi_bench import (ROOT, growth_exponent, huge_pages_environment, poisson_seconds,
+from vi_bench import (ROOT, growth_exponent, huge_pages_environment, option, poisson_seconds,
                       profile_settings, program, run, write_report)
 
 HUGE_PAGES = "--huge-pages" in sys.argv
-CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 7)
+CYCLES = option("cycles", 7, int)
 STEM = "profile-cost" + ("-huge-pages" if HUGE_PAGES else "") \
     + ("" if CYCLES == 7 else f"-cycles-{CYCLES}")
 OUT = os.path.join(ROOT, "output", "bench-profile", STEM)

@@ -36,9 +36,9 @@ import shutil
 import subprocess
 import sys
 
-from vi_bench import ROOT, profile_settings, program, run, write_report
+from vi_bench import ROOT, option, profile_settings, program, run, write_report
 
-CYCLES = next((int(a.split("=", 1)[1]) for a in sys.argv if a.startswith("--cycles=")), 6)
+CYCLES = option("cycles", 6, int)
 TABLES_ONLY = "--tables-only" in sys.argv
 STEM = "profile-memory" + ("" if CYCLES == 6 else f"-cycles-{CYCLES}")
 OUT = os.path.join(ROOT, "output", "bench-profile", STEM)

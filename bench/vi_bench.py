@@ -7,9 +7,18 @@ import json
 import math
 import os
 import subprocess
+import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DATA = os.path.join(ROOT, "doc", "data")
+
+
+def option(name, default=None, kind=str):
+    """The value of --name=value on the command line, converted by kind, or
+    default if it is not given."""
+    prefix = f"--{name}="
+    return next((kind(a[len(prefix):]) for a in sys.argv[1:] if a.startswith(prefix)),
+                default)
 
 
 def program(name):
