@@ -8,7 +8,6 @@
 #include <vi/parameters.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -37,42 +36,37 @@ namespace VI
     // like (2p + 1)^2.
     constexpr double bytes_per_process = 2.2e8;
 
-    /// How the linear systems are solved, as far as memory goes.
-    enum class Solve
+    /// Measured bytes per unknown of a method, times 1.25, by how its
+    /// linear systems are solved (Krylov: GMRES; CG for HHO).
+    struct Rates
     {
-      direct,
-      krylov_ilu,
-      krylov_amg
+      double direct, krylov_ilu, krylov_amg;
+
+      double
+      of(const LinearSolverParameters *linear_solver) const
+      {
+        if (!linear_solver || linear_solver->solver == LinearSolverType::direct)
+          return direct;
+        return linear_solver->preconditioner == PreconditionerType::amg ?
+                 krylov_amg :
+                 krylov_ilu;
+      }
     };
 
-    Solve
-    solve_of(const LinearSolverParameters *linear_solver)
-    {
-      if (!linear_solver || linear_solver->solver == LinearSolverType::direct)
-        return Solve::direct;
-      return linear_solver->preconditioner == PreconditionerType::amg ?
-               Solve::krylov_amg :
-               Solve::krylov_ilu;
-    }
-
     double
-    bytes_per_unknown(const Method       method,
-                      const unsigned int degree,
-                      const Solve        solve)
+    bytes_per_unknown(const Method                  method,
+                      const unsigned int            degree,
+                      const LinearSolverParameters *linear_solver)
     {
-      // Measured bytes per unknown, times 1.25, by solve: direct,
-      // Krylov + ILU, Krylov + AMG (GMRES; CG for HHO).
-      using Row        = std::array<double, 3>;
-      constexpr Row q1 = {{4080., 4180., 1940.}}, q2 = {{3710., 3890., 1870.}},
-                    sipg = {{5270., 2890., 1380.}}, hho = {{580., 400., 480.}};
-      const bool         is_hho = method == Method::hho;
-      const bool         dg     = method != Method::fem && !is_hho;
-      const Row         &row = is_hho ? hho : dg ? sipg : degree == 1 ? q1 : q2;
+      constexpr Rates q1{4080., 4180., 1940.}, q2{3710., 3890., 1870.},
+        sipg{5270., 2890., 1380.}, hho{580., 400., 480.};
+      const bool   is_hho = method == Method::hho;
+      const bool   dg     = method != Method::fem && !is_hho;
+      const Rates &rates  = is_hho ? hho : dg ? sipg : degree == 1 ? q1 : q2;
       const unsigned int measured_degree =
         (is_hho || dg) ? 1 : std::min(degree, 2u);
       const double length = (2. * degree + 1) / (2. * measured_degree + 1);
-      return row[static_cast<unsigned int>(solve)] *
-             std::max(1., length * length);
+      return rates.of(linear_solver) * std::max(1., length * length);
     }
 
 
@@ -176,10 +170,8 @@ namespace VI
     const unsigned int p = discretization.degree;
     cells                = coarse.n_active_cells() * std::pow(4., levels);
     unknowns             = cells * unknowns_per_cell(discretization.method, p);
-    compare_with_machine(bytes_per_unknown(discretization.method,
-                                           p,
-                                           solve_of(linear_solver)),
-                         comm);
+    compare_with_machine(
+      bytes_per_unknown(discretization.method, p, linear_solver), comm);
   }
 
 
