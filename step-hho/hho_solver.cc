@@ -597,8 +597,19 @@ namespace StepHHO
     newton.active_set = [&](const auto &X, const bool first) {
       return contact_rows.linearised_active_set(C, X, active_rows, !first);
     };
+    // The continuation's gap stiffness mu_r lambda_1 is a density; the cell
+    // unknowns X3_I are forces, of which a cell of measure |K| holds about
+    // |K| / n_c each.
+    double largest_cell = 0;
+    for (const auto &cell : triangulation.active_cell_iterators())
+      if (cell->is_locally_owned())
+        largest_cell = std::max(largest_cell, cell->measure());
+    const double C_F = domain.friedrichs_constant();
+    const double gap_stiffness =
+      data.mu1 * data.mu2 / (data.mu1 + data.mu2) / (C_F * C_F) *
+      Utilities::MPI::max(largest_cell, comm) / cell_fe.n_dofs_per_cell();
     newton.set_smoothing = [&](const auto &X, const double mu) {
-      contact_rows.set_smoothing(mu, X, multiplier_scale);
+      contact_rows.set_smoothing(mu, X, gap_stiffness);
     };
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &step) {

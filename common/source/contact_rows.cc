@@ -118,13 +118,12 @@ namespace VI
   void
   ContactRows::set_smoothing(const double                         mu,
                              const TrilinosWrappers::MPI::Vector &X,
-                             const double multiplier_scale)
+                             const double                         gap_stiffness)
   {
     if (mu > 0 && this->mu == 0)
       {
-        const auto frozen = scales(X, multiplier_scale);
-        U                 = frozen[0];
-        B                 = frozen[1];
+        U = scales(X, 0.)[0];
+        B = scales(X, path_stiffness_factor * gap_stiffness * U)[1];
       }
     else if (mu == 0)
       U = B = 1.;

@@ -127,6 +127,13 @@ namespace VI
   }
 
 
+  void
+  ContactSystem::set_gap_stiffness(const double gap_stiffness)
+  {
+    this->gap_stiffness = gap_stiffness;
+  }
+
+
   const ContactSystem::Vector &
   ContactSystem::coupling() const
   {
@@ -321,7 +328,7 @@ namespace VI
       return active_set(X, first);
     };
     newton.set_smoothing = [this](const Vector &X, const double mu) {
-      rows.set_smoothing(mu, X, multiplier_scale);
+      rows.set_smoothing(mu, X, gap_stiffness);
     };
     if (progress)
       newton.monitor = [progress](const NewtonStep &step) {

@@ -261,7 +261,8 @@ namespace VI
   template <int dim>
   void
   MembraneDiscretisation<dim>::set_coupling(ContactSystem &contact_system,
-                                            const Vector  &lumped_mass) const
+                                            const Vector  &lumped_mass,
+                                            const double   mu_gap) const
   {
     std::vector<types::global_dof_index> constrained_nodes;
     for (const types::global_dof_index i : owned_nodes)
@@ -273,6 +274,19 @@ namespace VI
       },
       constrained_nodes,
       /*fixed_second_field=*/obstacle != nullptr);
+
+    // mu_gap lambda_1 per unit gap, a density: times (psi_i, 1) for the
+    // forces of p >= 2.
+    double mass = 1.;
+    if (fe.degree > 1)
+      {
+        mass = 0.;
+        for (const types::global_dof_index i : owned_nodes)
+          mass = std::max(mass, lumped_mass(i));
+        mass = Utilities::MPI::max(mass, comm);
+      }
+    const double C_F = domain.friedrichs_constant();
+    contact_system.set_gap_stiffness(mu_gap / (C_F * C_F) * mass);
   }
 
 

@@ -245,10 +245,10 @@ namespace VI
         // the iterate stays near the central path (after the update of Qi,
         // Sun and Zhou's smoothing Newton method). mu stops at half the
         // tolerance: on the path there every pair has |C| <= mu, so the path
-        // itself ends the iteration. Returning to C instead leaves a band of
-        // nodes where gap and multiplier are both below the tolerance, whose
-        // branches the active set then sorts out a ring per step (seed-smooth
-        // on 512 x 512 cells from zero: 32 steps against 26).
+        // itself ends the iteration. Returning to C instead would leave a
+        // band of nodes where gap and multiplier are both below the
+        // tolerance, whose branches the active set would sort out a ring per
+        // step (doc/reference.md, "Continuation").
         double next_mu = mu;
         if (mu == 0 && report.continuation_start == 0 && stalled(report))
           {

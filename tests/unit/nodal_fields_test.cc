@@ -164,6 +164,39 @@ TEST(ContactRows, ResidualAndJacobianRowsOfTheComplementarity)
 }
 
 
+TEST(ContactRows, SmoothedRowsScaleTheMultiplierByTheGapStiffness)
+{
+  IndexSet                      nodes;
+  VI::ContactRows               rows = rows_of_four_nodes(nodes);
+  TrilinosWrappers::MPI::Vector X(NodalFields::system_index_set(nodes),
+                                  MPI_COMM_WORLD);
+  // As above: over the contact rows U = 2 and max X3 = 3.
+  const double values[4][3] = {{5, 0, 7}, {1, 0, 0}, {2, 2, 3}, {0, 1, 0}};
+  for (unsigned int i = 0; i < 4; ++i)
+    for (unsigned int a = 0; a < 3; ++a)
+      X(3 * i + a) = values[i][a];
+  X.compress(VectorOperation::insert);
+
+  // B = max(max X3, factor k U): with k = 0.01, 200 * 0.01 * 2 = 4.
+  const VI::ComplementarityFunction min;
+  const double                      mu = 0.1, k = 0.01;
+  ASSERT_EQ(VI::ContactRows::path_stiffness_factor, 200.);
+  rows.set_smoothing(mu, X, k);
+  EXPECT_DOUBLE_EQ(rows.row_value(min, 1., 0.5),
+                   2. * min.smoothed_value(0.5, 0.5 / 4., mu));
+  rows.set_smoothing(mu / 2, X, 1.); // frozen while the smoothing lasts
+  EXPECT_DOUBLE_EQ(rows.row_value(min, 1., 0.5),
+                   2. * min.smoothed_value(0.5, 0.5 / 4., mu / 2));
+  rows.set_smoothing(0., X, k);
+  EXPECT_EQ(rows.row_value(min, 1., 0.5), 0.5);
+  // A softer gap: B = max X3 = 3.
+  rows.set_smoothing(mu, X, k / 10);
+  EXPECT_DOUBLE_EQ(rows.row_value(min, 1., 0.5),
+                   2. * min.smoothed_value(0.5, 0.5 / 3., mu));
+  rows.set_smoothing(0., X, k);
+}
+
+
 TEST(ContactRows, ColdStartLinearisesOnTheFreeSide)
 {
   IndexSet                      nodes;

@@ -66,15 +66,29 @@ namespace VI
     /**
      * Smooth the constraint rows with the parameter mu > 0, or return to C
      * with mu = 0 (SemismoothNewton::set_smoothing). The smoothed row of
-     * node i is U C_mu(a_i / U, b_i / B), with the scales U and B of
-     * evaluate() taken at X when smoothing starts and kept while it lasts,
-     * so that mu is dimensionless and the homotopy does not move with the
-     * iterate.
+     * node i is U C_mu(a_i / U, b_i / B) with
+     *
+     *   U = max_i max(|X1_i|, |X2_i|),
+     *   B = max(max_i |X3_i|, path_stiffness_factor gap_stiffness U),
+     *
+     * taken at X when smoothing starts and kept while it lasts, so that mu
+     * is dimensionless and the homotopy does not move with the iterate.
+     * `gap_stiffness` is the coefficient X3_i per unit of gap in the
+     * softest mode of the membranes, mu_r lambda_1(Omega) (ContactSystem::
+     * set_gap_stiffness): B is then the same on every mesh and in every
+     * unit of length, tension and load. evaluate()'s scale |F| / max D,
+     * which holds the Dirichlet data (of order |g| / h^2 once divided by
+     * D), made the scaled multipliers, and with them the path
+     * x_i y_i = mu^2, shrink like h^2 (doc/reference.md, "Continuation").
      */
     void
     set_smoothing(const double                                 mu,
                   const dealii::TrilinosWrappers::MPI::Vector &X,
-                  const double multiplier_scale);
+                  const double                                 gap_stiffness);
+
+    /// B over the multiplier of a gap U in the softest mode (measured:
+    /// doc/reference.md, "Continuation").
+    static constexpr double path_stiffness_factor = 200.;
 
     /// The smoothing parameter mu of the rows (0: the rows of C).
     double

@@ -114,6 +114,17 @@ namespace VI
       const std::vector<dealii::types::global_dof_index> &constrained_nodes,
       const bool fixed_second_field = false);
 
+    /**
+     * The coefficient X3_i of the multiplier that holds a unit gap open in
+     * the membranes' softest mode: mu_r lambda_1(Omega) (mu_r = mu1 mu2 /
+     * (mu1 + mu2), lambda_1 = 1 / C_F^2 the first eigenvalue of -Lap),
+     * times (psi_i, 1) / D_i where X3_i is a force rather than a density.
+     * It scales the multiplier on the continuation's path
+     * (ContactRows::set_smoothing).
+     */
+    void
+    set_gap_stiffness(const double gap_stiffness);
+
     /// The coupling D per node (zero away from the contact nodes).
     const Vector &
     coupling() const;
@@ -208,6 +219,7 @@ namespace VI
     Vector                   coupling_vector;
     double                   load_norm        = 0;
     double                   multiplier_scale = 0;
+    double                   gap_stiffness    = 0;
     std::vector<double>      stiffness_weight, multiplier_weight, row_weights;
     std::vector<bool>        active_rows; ///< of the last linearisation
 

@@ -176,7 +176,8 @@ namespace VI
       /// as long as the last, while a converging iteration switches ever
       /// fewer rows even where its max-norm residual falls slowly).
       /// Three steps: six cost seed-smooth's cold start on 256 x 256 cells
-      /// 29 Fischer-Burmeister steps against 21. The pace spares the runs
+      /// eight more Fischer-Burmeister steps (measured with the residual's
+      /// scale of the multiplier on the path). The pace spares the runs
       /// that converge by themselves: from the data on the same mesh, 680,
       /// 632, 424, 200 switched rows, then convergence in 7 steps, where
       /// the continuation took 12. Not all of them: the disk from the data
@@ -198,7 +199,8 @@ namespace VI
       /// disk with nested iteration, three steps started the continuation
       /// on the first mesh, and the next mesh inherited it: 8 and 7
       /// Newton steps instead of 6 and 2, 13 instead of 3 on 591363
-      /// unknowns.
+      /// unknowns (measured with the residual's scale of the multiplier on
+      /// the path).
       static constexpr unsigned int adaptive_crawl_steps = 6;
       double                        stall_ratio          = 0.5;
       unsigned int                  crawl_steps          = 3;
