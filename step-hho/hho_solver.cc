@@ -604,10 +604,10 @@ namespace StepHHO
     for (const auto &cell : triangulation.active_cell_iterators())
       if (cell->is_locally_owned())
         largest_cell = std::max(largest_cell, cell->measure());
-    const double C_F = domain.friedrichs_constant();
-    const double gap_stiffness =
-      data.mu1 * data.mu2 / (data.mu1 + data.mu2) / (C_F * C_F) *
-      Utilities::MPI::max(largest_cell, comm) / cell_fe.n_dofs_per_cell();
+    const double gap_stiffness = VI::ContactRows::gap_stiffness(
+      data.mu1 * data.mu2 / (data.mu1 + data.mu2),
+      domain.friedrichs_constant(),
+      Utilities::MPI::max(largest_cell, comm) / cell_fe.n_dofs_per_cell());
     newton.set_smoothing = [&](const auto &X, const double mu) {
       contact_rows.set_smoothing(mu, X, gap_stiffness);
     };

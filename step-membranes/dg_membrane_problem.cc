@@ -434,17 +434,15 @@ namespace StepMembranes
     contact_system.set_coupling(
       [&](const types::global_dof_index i) { return coupling(i); }, {});
 
-    // The continuation's gap stiffness mu_r lambda_1, a density: times
-    // (psi_I, 1)_K for the forces of the L2 bracket.
-    double mass = 1.;
-    if (!mass_lumped())
-      mass = lumped_mass.linfty_norm(); // over all processes
-    const double C_F = domain.friedrichs_constant();
-    contact_system.set_gap_stiffness(
-      data.mu1 * data.mu2 / (data.mu1 + data.mu2) / (C_F * C_F) * mass);
+    // The continuation's gap stiffness; the multiplier of the L2 bracket
+    // is a force, (psi_I, 1)_K per unit density.
+    const double mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    contact_system.set_gap_stiffness(VI::ContactRows::gap_stiffness(
+      mu_r,
+      domain.friedrichs_constant(),
+      mass_lumped() ? 1. : lumped_mass.linfty_norm()));
 
     // Row weights in force units: mu_r S_ii for rows that enforce u1 = u2.
-    const double        mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
     std::vector<double> stiffness_weight(owned_nodes.n_elements());
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
       {

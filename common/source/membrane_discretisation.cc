@@ -275,18 +275,12 @@ namespace VI
       constrained_nodes,
       /*fixed_second_field=*/obstacle != nullptr);
 
-    // mu_gap lambda_1 per unit gap, a density: times (psi_i, 1) for the
-    // forces of p >= 2.
-    double mass = 1.;
-    if (fe.degree > 1)
-      {
-        mass = 0.;
-        for (const types::global_dof_index i : owned_nodes)
-          mass = std::max(mass, lumped_mass(i));
-        mass = Utilities::MPI::max(mass, comm);
-      }
-    const double C_F = domain.friedrichs_constant();
-    contact_system.set_gap_stiffness(mu_gap / (C_F * C_F) * mass);
+    // The multiplier of p >= 2 is a force: (psi_i, 1) per unit density.
+    contact_system.set_gap_stiffness(
+      ContactRows::gap_stiffness(mu_gap,
+                                 domain.friedrichs_constant(),
+                                 fe.degree == 1 ? 1. :
+                                                  lumped_mass.linfty_norm()));
   }
 
 

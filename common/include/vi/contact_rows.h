@@ -86,6 +86,18 @@ namespace VI
                   const dealii::TrilinosWrappers::MPI::Vector &X,
                   const double                                 gap_stiffness);
 
+    /// The gap stiffness of set_smoothing(): mu_gap lambda_1 = mu_gap /
+    /// C_F^2, times `force_per_density` = (psi_i, 1) / D_i where X3_i is a
+    /// force rather than a density.
+    static double
+    gap_stiffness(const double mu_gap,
+                  const double friedrichs_constant,
+                  const double force_per_density = 1.)
+    {
+      return mu_gap / (friedrichs_constant * friedrichs_constant) *
+             force_per_density;
+    }
+
     /// B over the multiplier of a gap U in the softest mode (measured:
     /// doc/reference.md, "Continuation").
     static constexpr double path_stiffness_factor = 200.;
