@@ -1,0 +1,136 @@
+#!/usr/bin/env python3
+"""Cold starts on meshes of about 1e6 unknowns per field (doc/stress.md,
+"Cold starts": the target of at most 25 Newton steps from zero up to 1e6
+unknowns per field, for every method).
+
+Each scene is solved once per method and C-function on its mesh of about
+1e6 unknowns per field, without nested iteration, from the zero initial
+guess, with the continuation (the default):
+
+  fem       step-membranes, Q1, exact Newton, GMRES + contact AMG to the
+            exact tolerance (the step counts of MUMPS), no estimators
+  sipg      the same with SIPG Q1 (four unknowns per cell and field)
+  hho       step-hho, cells P1 / faces P0, LU of the condensed face system;
+            also one refinement after bench/cold_start.py --method hho
+  adaptive  step-membranes, Q1, the adaptive strategy with the contact AMG
+            and the estimators that stop it
+
+  seed-smooth  parameters/membranes-seed-smooth.prm
+  disk         parameters/membranes-disk.prm (its Q2 scene in Q1)
+  L-shape      parameters/membranes-l-shape.prm
+
+Two runs at a time, one thread each: about 45 minutes on two cores, up to
+5 GB per run. Writes doc/data/cold_start_million.{csv,md}. Usage, from the
+repository root after ./demo.sh or ./test.sh:
+  bench/cold_start_million.py [--methods=fem,sipg,hho,adaptive] [--reuse]
+--reuse takes the runs whose summary.json the last run left in
+output/bench-cold-start-million. STEP_MEMBRANES and STEP_HHO name other
+binaries.
+"""
+import json
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+
+from vi_bench import ROOT, cold_start_settings, option, program, run, write_table
+
+OUT = os.path.join(ROOT, "output", "bench-cold-start-million")
+REUSE = "--reuse" in sys.argv
+METHODS = option("methods", "fem,sipg,hho,adaptive").split(",")
+
+# (scene, parameter file, refinements per method: about 1e6 unknowns per
+# field; HHO first one refinement after its table in bench/cold_start.py)
+SCENES = [("seed-smooth", "membranes-seed-smooth.prm",
+           {"fem": [10], "sipg": [9], "hho": [8, 9], "adaptive": [10]}),
+          ("disk", "membranes-disk.prm",
+           {"fem": [8], "sipg": [7], "hho": [6, 7], "adaptive": [8]}),
+          ("L-shape", "membranes-l-shape.prm",
+           {"fem": [9], "sipg": [8], "hho": [7, 8], "adaptive": [9]})]
+
+
+def settings(method, refinements, c_function):
+    """The run's --set overrides."""
+    s = cold_start_settings(refinements, "zero", c_function)
+    if method == "hho":
+        s.update({"Nonlinear solver/Strategy": "exact",
+                  "Linear solver/Solver": "direct"})
+        return s
+    s.update({"Linear solver/Solver": "gmres",
+              "Linear solver/Preconditioner": "amg"})
+    if method == "adaptive":
+        s.update({"Nonlinear solver/Strategy": "adaptive",
+                  "Estimators/Enabled": "true"})
+    else:
+        s.update({"Nonlinear solver/Strategy": "exact",
+                  "Discretization/Method": method,
+                  "Estimators/Enabled": "false"})
+    return s
+
+
+def solve(case):
+    """One run's summary (also of a failed run)."""
+    method, scene, prm, refinements, c_function = case
+    directory = os.path.join(OUT, f"{method}-{scene}-{refinements}-{c_function}")
+    if REUSE and os.path.exists(os.path.join(directory, "summary.json")):
+        with open(os.path.join(directory, "summary.json")) as f:
+            return json.load(f)
+    binary = program("hho" if method == "hho" else "membranes")
+    try:
+        return run(binary, prm, settings(method, refinements, c_function),
+                   directory, threads=1)
+    except subprocess.CalledProcessError:
+        with open(os.path.join(directory, "summary.json")) as f:
+            return json.load(f)
+
+
+def row(case, summary):
+    """The table's row of a run."""
+    method, scene, _, _, c_function = case
+    r = {"method": method, "scene": scene, "c_function": c_function}
+    if summary.get("status") != "converged" or not summary.get("cycles"):
+        return {**r, "newton": "failed"}
+    c = summary["cycles"][0]
+    smoothed = [s["k"] for s in c.get("newton_steps", []) if "smoothing" in s]
+    # (step-hho counts both membranes and the multiplier: a membrane has
+    # the cell unknowns of one field and the faces of one)
+    per_field = c.get("dofs_per_field",
+                      c.get("dofs_cell", 0) // 3 + c.get("dofs_condensed", 0) // 2)
+    return {**r, "cells": c["cells"], "dofs_per_field": per_field,
+            "newton": c["newton_iterations"],
+            "continuation_from": smoothed[0] - 1 if smoothed else "",
+            "gmres": c["linear_iterations"] if method != "hho" else "",
+            "error_energy": c["error_energy"],
+            "effectivity": c.get("effectivity", float("nan")),
+            "seconds": round(c["wall_seconds"], 1)}
+
+
+cases = [(method, scene, prm, refinements, c_function)
+         for method in METHODS
+         for scene, prm, meshes in SCENES
+         for refinements in meshes[method]
+         for c_function in ["min", "fischer-burmeister"]]
+
+
+def report(case):
+    r = row(case, solve(case))
+    print(f"{r['method']:8s} {r['scene']:12s} {r.get('dofs_per_field', '')!s:>8s} "
+          f"unknowns/field, {r['c_function']:18s}: {r['newton']} steps"
+          + (f" (continuation after {r['continuation_from']})"
+             if r.get("continuation_from", "") != "" else ""), flush=True)
+    return r
+
+
+with ThreadPoolExecutor(max_workers=2) as pool:
+    rows = list(pool.map(report, cases))
+
+write_table("cold_start_million", rows,
+            ["method", "scene", "C-function", "cells", "unknowns per field",
+             "Newton steps", "continuation after step", "GMRES iterations",
+             "energy error", "effectivity", "seconds"],
+            [("method", "{}"), ("scene", "{}"), ("c_function", "{}"),
+             ("cells", "{}"), ("dofs_per_field", "{}"), ("newton", "{}"),
+             ("continuation_from", "{}"), ("gmres", "{}"),
+             ("error_energy", "{:.3e}"), ("effectivity", "{:.2f}"),
+             ("seconds", "{}")])
+print("wrote doc/data/cold_start_million.{csv,md}")
