@@ -29,12 +29,10 @@ root after ./demo.sh or ./test.sh:
 output/bench-cold-start[-<method>].
 STEP_MEMBRANES and STEP_HHO name other binaries.
 """
-import json
 import os
-import subprocess
 import sys
 
-from vi_bench import ROOT, cold_start_settings, program, run, write_table
+from vi_bench import ROOT, cold_start_settings, program, run_kept, write_table
 
 METHOD = (sys.argv[sys.argv.index("--method") + 1]
           if "--method" in sys.argv else "fem")
@@ -71,15 +69,7 @@ def solve(scene, prm, refinements, guess, c_function, continuation):
         settings["Benchmark/Compare with PETSc VI"] = (
             "true" if METHOD == "fem" and c_function == "min"
             and continuation == "true" else "false")
-    if REUSE and os.path.exists(os.path.join(directory, "summary.json")):
-        with open(os.path.join(directory, "summary.json")) as f:
-            return json.load(f)
-    try:
-        summary = run(PROGRAM, prm, settings, directory)
-    except subprocess.CalledProcessError:
-        with open(os.path.join(directory, "summary.json")) as f:
-            summary = json.load(f)
-    return summary
+    return run_kept(PROGRAM, prm, settings, directory, reuse=REUSE)
 
 
 def steps(summary):

@@ -26,12 +26,10 @@ doc/data/cold_start_adaptive_amg.{csv,md}; --reuse takes the runs whose
 summary.json the last run left in output/bench-cold-start-adaptive[-amg].
 STEP_MEMBRANES names another binary.
 """
-import json
 import os
-import subprocess
 import sys
 
-from vi_bench import ROOT, cold_start_settings, program, run, write_table
+from vi_bench import ROOT, cold_start_settings, program, run_kept, write_table
 
 PROGRAM = program("membranes")
 AMG = "--amg" in sys.argv
@@ -50,19 +48,12 @@ def solve(scene, prm, refinements, guess, c_function):
     """One run's summary (also of a failed run)."""
     directory = os.path.join(
         OUT, f"{scene}-{refinements}-{guess}-{c_function}")
-    if REUSE and os.path.exists(os.path.join(directory, "summary.json")):
-        with open(os.path.join(directory, "summary.json")) as f:
-            return json.load(f)
     settings = cold_start_settings(refinements, guess, c_function)
     settings.update({"Nonlinear solver/Strategy": "adaptive",
                      "Linear solver/Solver": "gmres",
                      "Linear solver/Preconditioner": "amg" if AMG else "ilu",
                      "Estimators/Enabled": "true"})
-    try:
-        return run(PROGRAM, prm, settings, directory)
-    except subprocess.CalledProcessError:
-        with open(os.path.join(directory, "summary.json")) as f:
-            return json.load(f)
+    return run_kept(PROGRAM, prm, settings, directory, reuse=REUSE)
 
 
 def row(scene, guess, c_function, summary):

@@ -27,13 +27,11 @@ repository root after ./demo.sh or ./test.sh:
 output/bench-cold-start-million. STEP_MEMBRANES and STEP_HHO name other
 binaries.
 """
-import json
 import os
-import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
-from vi_bench import ROOT, cold_start_settings, option, program, run, write_table
+from vi_bench import ROOT, cold_start_settings, option, program, run_kept, write_table
 
 OUT = os.path.join(ROOT, "output", "bench-cold-start-million")
 REUSE = "--reuse" in sys.argv
@@ -72,16 +70,9 @@ def solve(case):
     """One run's summary (also of a failed run)."""
     method, scene, prm, refinements, c_function = case
     directory = os.path.join(OUT, f"{method}-{scene}-{refinements}-{c_function}")
-    if REUSE and os.path.exists(os.path.join(directory, "summary.json")):
-        with open(os.path.join(directory, "summary.json")) as f:
-            return json.load(f)
-    binary = program("hho" if method == "hho" else "membranes")
-    try:
-        return run(binary, prm, settings(method, refinements, c_function),
-                   directory, threads=1)
-    except subprocess.CalledProcessError:
-        with open(os.path.join(directory, "summary.json")) as f:
-            return json.load(f)
+    return run_kept(program("hho" if method == "hho" else "membranes"), prm,
+                    settings(method, refinements, c_function), directory,
+                    reuse=REUSE, threads=1)
 
 
 def row(case, summary):

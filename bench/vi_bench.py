@@ -50,6 +50,21 @@ def run(binary, prm, settings, directory, np=1, threads=None, environment=None,
         return json.load(f)
 
 
+def run_kept(binary, prm, settings, directory, reuse=False, threads=None):
+    """run(), but also the summary.json of a run that failed (its status
+    says why), and with reuse the summary a previous run left in
+    directory, without running."""
+    summary_file = os.path.join(directory, "summary.json")
+    if reuse and os.path.exists(summary_file):
+        with open(summary_file) as f:
+            return json.load(f)
+    try:
+        return run(binary, prm, settings, directory, threads=threads)
+    except subprocess.CalledProcessError:
+        with open(summary_file) as f:
+            return json.load(f)
+
+
 def cold_start_settings(refinements, guess, c_function):
     """One Q1 mesh without nested iteration, Newton from the initial guess
     `guess` (bench/cold_start.py, bench/cold_start_adaptive.py)."""

@@ -205,12 +205,10 @@ namespace StepMembranes
 
     // Coupling -D / +D in the rows of u1 / u2, and X3 = 0 as the row of each
     // constrained node (boundary, hanging), where there is no contact row.
-    const double mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
-    set_coupling(contact_system,
-                 lumped_mass,
-                 this->obstacle != nullptr ? data.mu1 : mu_r);
+    set_coupling(contact_system, lumped_mass, data.mu1, data.mu2);
 
     // Rows that enforce u1 = u2 weigh mu_r S_ii.
+    const double        mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
     std::vector<double> stiffness_weight(owned_nodes.n_elements());
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
       stiffness_weight[k] =

@@ -166,10 +166,7 @@ namespace StepParabolic
     contact_system.set_stiffness_weights(std::move(stiffness_weight));
 
     // The coupling D: lumped masses for p = 1, the identity for p >= 2.
-    set_coupling(contact_system,
-                 lumped_mass,
-                 data.obstacle ? data.mu1 :
-                                 data.mu1 * data.mu2 / (data.mu1 + data.mu2));
+    set_coupling(contact_system, lumped_mass, data.mu1, data.mu2);
 
     // The AMG hierarchy of S + M / (mu dt): once per value of dt.
     if (with_amg && preconditioner_dt != dt)

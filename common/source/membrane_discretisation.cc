@@ -262,7 +262,8 @@ namespace VI
   void
   MembraneDiscretisation<dim>::set_coupling(ContactSystem &contact_system,
                                             const Vector  &lumped_mass,
-                                            const double   mu_gap) const
+                                            const double   mu1,
+                                            const double   mu2) const
   {
     std::vector<types::global_dof_index> constrained_nodes;
     for (const types::global_dof_index i : owned_nodes)
@@ -276,6 +277,7 @@ namespace VI
       /*fixed_second_field=*/obstacle != nullptr);
 
     // The multiplier of p >= 2 is a force: (psi_i, 1) per unit density.
+    const double mu_gap = obstacle != nullptr ? mu1 : mu1 * mu2 / (mu1 + mu2);
     contact_system.set_gap_stiffness(
       ContactRows::gap_stiffness(mu_gap,
                                  domain.friedrichs_constant(),

@@ -153,12 +153,13 @@ namespace VI
     /// The coupling D: lumped masses (psi_i, 1) for p = 1, the identity for
     /// p >= 2 (the multiplier's basis is dual to the nodal one); the row
     /// X3_i = 0 of each constrained node, which has no contact row; and the
-    /// gap stiffness of the continuation with the tension `mu_gap` of the
-    /// gap (mu1 mu2 / (mu1 + mu2), mu1 over an obstacle).
+    /// gap stiffness of the continuation with the tension of the gap,
+    /// mu1 mu2 / (mu1 + mu2), or mu1 over an obstacle.
     void
     set_coupling(ContactSystem &contact_system,
                  const Vector  &lumped_mass,
-                 const double   mu_gap) const;
+                 const double   mu1,
+                 const double   mu2) const;
 
     /// The potentials u1h, u2h of X, conforming (a GMRES iterate need not
     /// satisfy the hanging node constraints; its conforming version has
