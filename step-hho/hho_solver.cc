@@ -8,6 +8,7 @@
 
 #include <vi/errors.h>
 #include <vi/nodal_fields.h>
+#include <vi/reduced_tension.h>
 
 #include "hho_problem.h"
 #include "jacobian_solver.h"
@@ -604,10 +605,11 @@ namespace StepHHO
     for (const auto &cell : triangulation.active_cell_iterators())
       if (cell->is_locally_owned())
         largest_cell = std::max(largest_cell, cell->measure());
-    const double gap_stiffness = VI::ContactRows::gap_stiffness(
-      data.mu1 * data.mu2 / (data.mu1 + data.mu2),
-      domain.friedrichs_constant(),
-      Utilities::MPI::max(largest_cell, comm) / cell_fe.n_dofs_per_cell());
+    const double gap_stiffness =
+      VI::ContactRows::gap_stiffness(VI::reduced_tension(data.mu1, data.mu2),
+                                     domain.friedrichs_constant(),
+                                     Utilities::MPI::max(largest_cell, comm) /
+                                       cell_fe.n_dofs_per_cell());
     newton.set_smoothing = [&](const auto &X, const double mu) {
       contact_rows.set_smoothing(mu, X, gap_stiffness);
     };

@@ -72,6 +72,8 @@
 #include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/vector.h>
 
+#include <vi/reduced_tension.h>
+
 namespace StepHHO
 {
   namespace StaticCondensation
@@ -225,7 +227,7 @@ namespace StepHHO
                         FullMatrix<double>  &S_difference) const
       {
         contact_coupling(cell, S_difference);
-        S_difference.add(mu1 * mu2 / (mu1 + mu2), cell.Sc);
+        S_difference.add(VI::reduced_tension(mu1, mu2), cell.Sc);
       }
 
 

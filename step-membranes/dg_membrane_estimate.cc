@@ -11,6 +11,7 @@
 
 #include <vi/estimators.h>
 #include <vi/nodal_fields.h>
+#include <vi/reduced_tension.h>
 #include <vi/transmitted_load.h>
 
 #include "dg_membrane_problem.h"
@@ -507,7 +508,7 @@ namespace StepMembranes
     std::vector<types::global_dof_index> broken(fe.n_dofs_per_cell()),
       nodes(fe_continuous.n_dofs_per_cell()), marked;
     std::vector<double> gap_values(points.size());
-    const double        tension = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    const double        tension = VI::reduced_tension(data.mu1, data.mu2);
     for (const auto &cell : dof_handler.active_cell_iterators())
       if (cell->is_locally_owned())
         {

@@ -21,6 +21,7 @@
 #include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
 #include <vi/program.h>
+#include <vi/reduced_tension.h>
 
 #include <algorithm>
 #include <cmath>
@@ -436,7 +437,7 @@ namespace StepMembranes
 
     // The continuation's gap stiffness; the multiplier of the L2 bracket
     // is a force, (psi_I, 1)_K per unit density.
-    const double mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    const double mu_r = VI::reduced_tension(data.mu1, data.mu2);
     contact_system.set_gap_stiffness(VI::ContactRows::gap_stiffness(
       mu_r,
       domain.friedrichs_constant(),

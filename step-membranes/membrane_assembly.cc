@@ -10,6 +10,7 @@
 #include <vi/errors.h>
 #include <vi/mesh_sequence.h>
 #include <vi/nodal_fields.h>
+#include <vi/reduced_tension.h>
 
 #include "membrane_problem.h"
 
@@ -208,7 +209,7 @@ namespace StepMembranes
     set_coupling(contact_system, lumped_mass, data.mu1, data.mu2);
 
     // Rows that enforce u1 = u2 weigh mu_r S_ii.
-    const double        mu_r = data.mu1 * data.mu2 / (data.mu1 + data.mu2);
+    const double        mu_r = VI::reduced_tension(data.mu1, data.mu2);
     std::vector<double> stiffness_weight(owned_nodes.n_elements());
     for (std::size_t k = 0; k < owned_nodes.n_elements(); ++k)
       stiffness_weight[k] =

@@ -1,6 +1,7 @@
 #include <vi/contact_preconditioner.h>
 #include <vi/linear_solvers.h>
 #include <vi/nodal_fields.h>
+#include <vi/reduced_tension.h>
 
 #include <algorithm>
 #include <cmath>
@@ -54,7 +55,7 @@ namespace VI
     const ComplementarityFunction       &C,
     const TrilinosWrappers::MPI::Vector &X)
   {
-    const double mu_r = mu1 * mu2 / (mu1 + mu2);
+    const double mu_r = reduced_tension(mu1, mu2);
     const auto   n    = diagonal.size();
     alpha.assign(n, 0.);
     beta.assign(n, 1.);

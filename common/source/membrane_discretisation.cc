@@ -19,6 +19,7 @@
 #include <vi/membrane_discretisation.h>
 #include <vi/nodal_fields.h>
 #include <vi/parameters.h>
+#include <vi/reduced_tension.h>
 
 #include <map>
 
@@ -277,7 +278,7 @@ namespace VI
       /*fixed_second_field=*/obstacle != nullptr);
 
     // The multiplier of p >= 2 is a force: (psi_i, 1) per unit density.
-    const double mu_gap = obstacle != nullptr ? mu1 : mu1 * mu2 / (mu1 + mu2);
+    const double mu_gap = obstacle != nullptr ? mu1 : reduced_tension(mu1, mu2);
     contact_system.set_gap_stiffness(
       ContactRows::gap_stiffness(mu_gap,
                                  domain.friedrichs_constant(),

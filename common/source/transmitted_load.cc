@@ -1,6 +1,7 @@
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/lac/vector.h>
 
+#include <vi/reduced_tension.h>
 #include <vi/transmitted_load.h>
 
 #include <algorithm>
@@ -132,7 +133,7 @@ namespace VI
                          quadrature,
                          update_values | update_JxW_values);
     std::vector<double>                  g(n_q), s1_values(n_q), s2_values(n_q);
-    const double                         m = mu1 * mu2 / (mu1 + mu2);
+    const double                         m = reduced_tension(mu1, mu2);
     std::vector<types::global_dof_index> dofs(
       dof_handler->get_fe().n_dofs_per_cell());
     std::vector<types::global_dof_index> load_nodes;
