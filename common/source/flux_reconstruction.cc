@@ -338,8 +338,18 @@ namespace VI
   };
 
 
+  template <int dim>
+  ArrayView<const typename FluxReconstruction<dim>::Membership>
+  FluxReconstruction<dim>::parts_of(const CellIterator &cell) const
+  {
+    const std::size_t begin = membership_start[cell->active_cell_index()],
+                      end   = membership_start[cell->active_cell_index() + 1];
+    return {memberships.data() + begin, end - begin};
+  }
+
+
   // The right-hand sides of one cell's parts in its patches, in the order
-  // of memberships[cell], record = (n_tau + n_q) n_fields numbers each.
+  // of parts_of(cell), record = (n_tau + n_q) n_fields numbers each.
   template <int dim>
   struct FluxReconstruction<dim>::CellShare
   {
@@ -361,17 +371,17 @@ namespace VI
                                       CellScratch        &scratch,
                                       CellShare          &share) const
   {
-    const unsigned int n_fields       = scratch.sources.n_fields;
-    const unsigned int n_tau          = fe_flux.n_dofs_per_cell(),
-                       n_q            = fe_divergence.n_dofs_per_cell();
-    const unsigned int     record     = (n_tau + n_q) * n_fields;
-    constexpr unsigned int n_v        = GeometryInfo<dim>::vertices_per_cell;
-    const auto            &parts      = memberships[cell->active_cell_index()];
-    FEValues<dim>         &hat_values = scratch.hat_values;
-    auto                  &flux       = scratch.flux;
-    auto                  &source     = scratch.source;
-    auto                  &flux_moments = scratch.flux_moments;
-    auto                  &vertex_rhs   = scratch.vertex_rhs;
+    const unsigned int n_fields   = scratch.sources.n_fields;
+    const unsigned int n_tau      = fe_flux.n_dofs_per_cell(),
+                       n_q        = fe_divergence.n_dofs_per_cell();
+    const unsigned int     record = (n_tau + n_q) * n_fields;
+    constexpr unsigned int n_v    = GeometryInfo<dim>::vertices_per_cell;
+    const ArrayView<const Membership> parts        = parts_of(cell);
+    FEValues<dim>                    &hat_values   = scratch.hat_values;
+    auto                             &flux         = scratch.flux;
+    auto                             &source       = scratch.source;
+    auto                             &flux_moments = scratch.flux_moments;
+    auto                             &vertex_rhs   = scratch.vertex_rhs;
     flux_moments.resize(n_fields * n_tau);
     vertex_rhs.assign(n_v * record, 0.);
 
@@ -436,14 +446,19 @@ namespace VI
     share.cell = cell;
     share.rhs.assign(parts.size() * record, 0.);
     for (unsigned int m = 0; m < parts.size(); ++m)
-      for (unsigned int v = 0; v < n_v; ++v)
-        if (const double w = parts[m].hat[v]; w != 0.)
-          {
-            const double *from = &vertex_rhs[v * record];
-            double       *to   = &share.rhs[m * record];
-            for (unsigned int i = 0; i < record; ++i)
-              to[i] += w * from[i];
-          }
+      if (parts[m].hat < n_v)
+        std::copy_n(&vertex_rhs[parts[m].hat * record],
+                    record,
+                    &share.rhs[m * record]);
+      else
+        for (unsigned int v = 0; v < n_v; ++v)
+          if (const double w = hanging_hats[parts[m].hat - n_v][v]; w != 0.)
+            {
+              const double *from = &vertex_rhs[v * record];
+              double       *to   = &share.rhs[m * record];
+              for (unsigned int i = 0; i < record; ++i)
+                to[i] += w * from[i];
+            }
     const std::int8_t *signs = &piola_signs[cell->active_cell_index() * n_tau];
     for (unsigned int m = 0; m < parts.size(); ++m)
       for (unsigned int f = 0; f < n_fields; ++f)
@@ -565,7 +580,7 @@ namespace VI
           CellScratch                                              &scratch,
           CellShare &share) { cell_share(*cell, scratch, share); };
     const auto copier = [&](const CellShare &share) {
-      const auto &parts = memberships[share.cell->active_cell_index()];
+      const ArrayView<const Membership> parts = parts_of(share.cell);
       for (unsigned int m = 0; m < parts.size(); ++m)
         if (parts[m].rank == rank)
           add_cell_share(parts[m].index,

@@ -19,7 +19,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -66,14 +65,28 @@ namespace VI
     };
     static constexpr unsigned int chunk_size = 1024;
 
-    /// A cell of the current patch: its data, psi_a on it, where its share
-    /// came from, and its polar coordinates around the vertex.
+    /// A cell of the current patch: its data (cell `cell` of `table`),
+    /// psi_a on it, where its share came from, and its polar coordinates
+    /// around the vertex.
     struct Member
     {
       std::pair<double, double> polar;
-      const CellData           *data;
+      const CellTable          *table;
+      std::size_t               cell;
       const double             *hat;
       ShareHere                 share;
+
+      /// the expansion of the cell's dof k
+      std::pair<const std::pair<types::global_dof_index, double> *,
+                const std::pair<types::global_dof_index, double> *>
+      expansion(const unsigned int k) const
+      {
+        const unsigned int *start =
+          &table->expansion_start[cell * table->n_tau + k];
+        return {table->expansion.data() + start[0],
+                table->expansion.data() + start[1]};
+      }
+
       bool
       operator<(const Member &other) const
       {
@@ -176,7 +189,9 @@ namespace VI
 
       r.patches.clear();
       r.hat_masses.clear();
-      r.memberships.assign(tria.n_active_cells(), {});
+      r.membership_start.clear();
+      r.memberships.clear();
+      r.hanging_hats.clear();
       r.n_sent.clear();
       r.received.clear();
       r.local_solvers.clear();
@@ -212,7 +227,9 @@ namespace VI
       for (const auto &hat_cell : hats.active_cell_iterators())
         if (hat_cell->is_locally_owned())
           owned_cells.push_back(hat_cell);
-      mine.cells.resize(owned_cells.size());
+      CellTable &table = mine.cells;
+      table.reinit(n_tau, n_q, owned_cells.size());
+      std::vector<types::global_dof_index> rt_dofs(owned_cells.size() * n_tau);
 
       parallel::apply_to_subranges(
         std::size_t(0),
@@ -227,42 +244,31 @@ namespace VI
                                    r.quadrature,
                                    update_values | update_jacobians |
                                      update_JxW_values);
-          std::vector<types::global_dof_index> rt_dofs(n_tau);
+          std::vector<types::global_dof_index> cell_dofs(n_tau);
           for (std::size_t c = begin; c < end; ++c)
             {
               const CellIterator cell(owned_cells[c]);
-              CellData          &data = mine.cells[c];
-              data.cell               = cell;
               for (unsigned int d = 0; d < dim; ++d)
-                data.center[d] = cell->center()[d];
-              const auto dof_cell = same_cell(cell, r.dof_handler);
-              dof_cell->get_dof_indices(rt_dofs);
+                table.centers[c * dim + d] = cell->center()[d];
+              same_cell(cell, r.dof_handler)->get_dof_indices(cell_dofs);
+              std::copy(cell_dofs.begin(),
+                        cell_dofs.end(),
+                        &rt_dofs[c * n_tau]);
               std::int8_t *const cell_signs =
                 &r.piola_signs[cell->active_cell_index() * n_tau];
               PiolaDivergence<dim>::topological_signs(
                 cell, r.fe_flux, ArrayView<std::int8_t>(cell_signs, n_tau));
-              data.signs.assign(cell_signs, cell_signs + n_tau);
-              for (unsigned int k = 0; k < n_tau; ++k)
-                {
-                  data.expansion_start.push_back(data.expansion.size());
-                  if (flux_constraints.is_constrained(rt_dofs[k]))
-                    for (const auto &entry :
-                         *flux_constraints.get_constraint_entries(rt_dofs[k]))
-                      data.expansion.push_back(entry);
-                  else
-                    data.expansion.emplace_back(rt_dofs[k], 1.);
-                }
-              data.expansion_start.push_back(data.expansion.size());
+              std::copy_n(cell_signs, n_tau, &table.signs[c * n_tau]);
               hat_values.reinit(cell);
-              data.vertex_mass.assign(n_v * n_q, 0.);
+              double *const  vertex_mass = &table.vertex_masses[c * n_v * n_q];
               Tensor<2, dim> mean_jacobian;
               for (const unsigned int q : hat_values.quadrature_point_indices())
                 {
                   for (unsigned int v = 0; v < n_v; ++v)
                     for (unsigned int k = 0; k < n_q; ++k)
-                      data.vertex_mass[v * n_q + k] +=
-                        hat_values.shape_value(v, q) *
-                        r.q_reference[q * n_q + k] * hat_values.JxW(q);
+                      vertex_mass[v * n_q + k] += hat_values.shape_value(v, q) *
+                                                  r.q_reference[q * n_q + k] *
+                                                  hat_values.JxW(q);
                   mean_jacobian += r.quadrature.weight(q) *
                                    Tensor<2, dim>(hat_values.jacobian(q));
                 }
@@ -276,10 +282,13 @@ namespace VI
               for (unsigned int a = 0, m = 0; a < dim; ++a)
                 for (unsigned int b = a; b < dim; ++b, ++m)
                   metric[m] = G[a][b];
-              data.metric.assign(metric, metric + n_metric);
+              std::copy_n(metric, n_metric, &table.metrics[c * n_metric]);
             }
         },
         /*grainsize=*/1024);
+      // the expansions, in the order of the cells
+      for (const types::global_dof_index dof : rt_dofs)
+        table.add_expansion(dof, flux_constraints);
     }
 
     // The shares psi_j of the owned cells, in the order of the cells, and the
@@ -364,18 +373,16 @@ namespace VI
               solved_here.push_back(i);
               continue;
             }
-          Shares    &to   = outgoing[owner];
-          CellData  &data = mine.cells[mine.cell[i]];
+          Shares    &to = outgoing[owner];
           const auto sent =
             sent_cell.emplace(std::make_pair(owner, mine.cell[i]),
                               to.cells.size());
           if (sent.second)
-            to.cells.push_back(data);
+            to.cells.append(mine.cells, mine.cell[i]);
           to.add(mine.patch[i], sent.first->second, hat);
-          Membership membership{owner, reconstruction.n_sent[owner]++, 0, {}};
-          std::copy_n(hat, n_v, membership.hat.begin());
-          reconstruction.memberships[data.cell->active_cell_index()].push_back(
-            membership);
+          add_part(owned_cells[mine.cell[i]]->active_cell_index(),
+                   {owner, reconstruction.n_sent[owner]++, 0, 0},
+                   hat);
         }
       if (n_rank > 1)
         incoming = Utilities::MPI::some_to_some(comm, outgoing);
@@ -441,32 +448,11 @@ namespace VI
         reconstruction.received[from].resize(shares.patch.size());
     }
 
-    // A cell's data are released after the last of its patches solved here
-    // (or after sending, if it has none): what is held is the front of the
-    // patch loop, not the mesh.
-    void
-    hold_cell_data()
-    {
-      pending = std::vector<std::atomic<unsigned int>>(mine.cells.size());
-      for (const unsigned int i : solved_here)
-        pending[mine.cell[i]].fetch_add(1, std::memory_order_relaxed);
-      for (unsigned int c = 0; c < mine.cells.size(); ++c)
-        if (pending[c].load(std::memory_order_relaxed) == 0)
-          release(mine.cells[c]);
-    }
-
-    static void
-    release(CellData &data)
-    {
-      const CellIterator cell = data.cell;
-      data                    = CellData();
-      data.cell               = cell;
-    }
-
     // The patches, in chunks on all threads: per patch, its cells (data,
     // psi_a, where the share came from) in a canonical order, its unknowns,
     // their numbering and its layout. What a chunk finds is gathered after,
     // in the order of the patches, so that nothing depends on the threads.
+    // The cells' data are not needed after.
     void
     lay_out_patches()
     {
@@ -497,10 +483,13 @@ namespace VI
             }
         },
         /*grainsize=*/1);
+      mine.cells = CellTable();
+      for (auto &[from, shares] : incoming)
+        shares.cells = CellTable();
     }
 
     // Patch p of those solved here: its cells, unknowns and layout, added to
-    // its chunk; then the data of the cells it was the last to need go.
+    // its chunk.
     void
     lay_out_patch(PatchChunk &chunk, const std::size_t p, PatchScratch &scratch)
     {
@@ -523,14 +512,6 @@ namespace VI
                                      layouts_mutex,
                                      scratch.layout_key));
       chunk.patches.push_back(std::move(patch));
-
-      for (const Member &member : scratch.members)
-        if (member.share.from == rank)
-          {
-            const unsigned int c = mine.cell[member.share.index];
-            if (pending[c].fetch_sub(1, std::memory_order_acq_rel) == 1)
-              release(mine.cells[c]);
-          }
     }
 
     // Cells in a canonical order (by angle around a, then distance), so that
@@ -549,12 +530,13 @@ namespace VI
           const Shares   &shares =
             share.from == rank ? mine : incoming.at(share.from);
           Member member;
-          member.data  = &shares.cells[shares.cell[share.index]];
+          member.table = &shares.cells;
+          member.cell  = shares.cell[share.index];
           member.hat   = &shares.hat[share.index * n_v];
           member.share = share;
           Tensor<1, dim> d;
           for (unsigned int k = 0; k < dim; ++k)
-            d[k] = member.data->center[k] - x_a[k];
+            d[k] = member.table->centers[member.cell * dim + k] - x_a[k];
           member.polar = {std::atan2(d[1], d[0]), d.norm()};
           members.push_back(member);
         }
@@ -587,15 +569,9 @@ namespace VI
             }
           for (unsigned int k = 0; k < n_tau; ++k)
             if (is_free[k])
-              for (unsigned int e = member.data->expansion_start[k];
-                   e < member.data->expansion_start[k + 1];
-                   ++e)
-                {
-                  const types::global_dof_index g =
-                    member.data->expansion[e].first;
-                  if (scratch.find_free(g) == scratch.free_dofs.end())
-                    scratch.free_dofs.emplace_back(g, unnumbered);
-                }
+              for (auto [e, end] = member.expansion(k); e != end; ++e)
+                if (scratch.find_free(e->first) == scratch.free_dofs.end())
+                  scratch.free_dofs.emplace_back(e->first, unnumbered);
         }
     }
 
@@ -630,30 +606,65 @@ namespace VI
           for (unsigned int k = 0; k < n_tau; ++k)
             {
               layout.sigma_start.push_back(layout.sigma_entries.size());
-              for (unsigned int e = member.data->expansion_start[k];
-                   e < member.data->expansion_start[k + 1];
-                   ++e)
-                {
-                  const auto &[g, w]   = member.data->expansion[e];
-                  const unsigned int I = local_number(g);
-                  if (I != not_free)
-                    layout.sigma_entries.emplace_back(I, w);
-                }
+              for (auto [e, end] = member.expansion(k); e != end; ++e)
+                if (const unsigned int I = local_number(e->first);
+                    I != not_free)
+                  layout.sigma_entries.emplace_back(I, e->second);
             }
           layout.sigma_start.push_back(layout.sigma_entries.size());
+          const CellTable  &table = *member.table;
           const std::size_t start = chunk.hat_masses.size();
           chunk.hat_masses.resize(start + n_q, 0.);
           for (unsigned int v = 0; v < n_v; ++v)
             for (unsigned int k = 0; k < n_q; ++k)
               chunk.hat_masses[start + k] +=
-                member.hat[v] * member.data->vertex_mass[v * n_q + k];
+                member.hat[v] *
+                table.vertex_masses[(member.cell * n_v + v) * n_q + k];
           chunk.metrics.insert(chunk.metrics.end(),
-                               member.data->metric.begin(),
-                               member.data->metric.end());
+                               &table.metrics[member.cell * n_metric],
+                               &table.metrics[(member.cell + 1) * n_metric]);
           chunk.cells.push_back(member.share);
-          scratch.signs_of_cells.push_back(member.data->signs.data());
+          scratch.signs_of_cells.push_back(&table.signs[member.cell * n_tau]);
         }
       layout.n_sigma = chunk.dofs.size() - patch.dofs_start;
+    }
+
+    // An owned cell's part in a patch, psi_a on the cell given by its values
+    // at the vertices: in `parts` until all are known (store_parts()).
+    void
+    add_part(const unsigned int cell, Membership part, const double *hat)
+    {
+      const unsigned int n_nonzero = n_v - std::count(hat, hat + n_v, 0.);
+      const double      *one       = std::find(hat, hat + n_v, 1.);
+      if (n_nonzero == 1 && one != hat + n_v)
+        part.hat = one - hat;
+      else
+        {
+          part.hat = n_v + reconstruction.hanging_hats.size();
+          reconstruction.hanging_hats.emplace_back();
+          std::copy_n(hat, n_v, reconstruction.hanging_hats.back().begin());
+        }
+      parts.emplace_back(cell, part);
+    }
+
+    // The parts by cell, each cell's in the order they were found: a
+    // counting sort on the active cell indices.
+    void
+    store_parts()
+    {
+      FluxReconstruction<dim> &r = reconstruction;
+      r.membership_start.assign(tria.n_active_cells() + 1, 0);
+      for (const auto &[cell, part] : parts)
+        ++r.membership_start[cell + 1];
+      std::partial_sum(r.membership_start.begin(),
+                       r.membership_start.end(),
+                       r.membership_start.begin());
+      r.memberships.resize(parts.size());
+      std::vector<std::size_t> next(r.membership_start.begin(),
+                                    r.membership_start.end() - 1);
+      for (const auto &[cell, part] : parts)
+        r.memberships[next[cell]++] = part;
+      parts = decltype(parts)();
     }
 
     // In the order of the patches: their solvers, shared between patches
@@ -741,12 +752,9 @@ namespace VI
           const auto [from, index] = chunk.cells[first_cell + c];
           if (from == rank)
             {
-              Membership membership{rank, patch_number, c, {}};
-              std::copy_n(&mine.hat[index * n_v], n_v, membership.hat.begin());
-              reconstruction
-                .memberships[mine.cells[mine.cell[index]]
-                               .cell->active_cell_index()]
-                .push_back(membership);
+              add_part(owned_cells[mine.cell[index]]->active_cell_index(),
+                       {rank, patch_number, c, 0},
+                       &mine.hat[index * n_v]);
             }
           else
             {
@@ -863,10 +871,12 @@ namespace VI
               }
             r.constraint_start.push_back(r.constraint_entries.size());
           }
+      store_parts();
       r.cells_with_shares.clear();
       for (const auto &cell : tria.active_cell_iterators())
         if (cell->is_locally_owned() &&
-            !r.memberships[cell->active_cell_index()].empty())
+            r.membership_start[cell->active_cell_index() + 1] >
+              r.membership_start[cell->active_cell_index()])
           r.cells_with_shares.push_back(cell);
       hats.clear();
     }
@@ -897,13 +907,13 @@ namespace VI
     std::vector<std::size_t>  group_start;
     std::vector<ShareHere>    shares_here;
     std::vector<unsigned int> patches_here;
-    /// Per cell of mine: its patches solved here that are still to be laid
-    /// out.
-    std::vector<std::atomic<unsigned int>> pending;
 
     std::vector<PatchChunk> chunks;
     Layouts                 layouts; // shared by the patches of all chunks
     std::mutex              layouts_mutex;
+
+    /// The owned cells' parts in patches: (active cell index, part).
+    std::vector<std::pair<unsigned int, Membership>> parts;
 
     std::vector<NewSolver>               new_solvers;
     std::vector<std::size_t>             dofs_offset;
@@ -923,7 +933,6 @@ namespace VI
     setup.compute_hat_shares();
     setup.exchange_shares();
     setup.group_shares_here();
-    setup.hold_cell_data();
     setup.lay_out_patches();
     setup.gather_patches();
     setup.factorise_solvers();

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <deal.II/base/array_view.h>
 #include <deal.II/base/geometry_info.h>
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/quadrature_lib.h>
@@ -202,7 +203,7 @@ namespace VI
     struct DivergenceBasis;
     struct PatchLayout;
     struct LocalSolver;
-    struct CellData;
+    struct CellTable;
     /// FNV-1a over the entries of a key.
     struct KeyHash
     {
@@ -244,18 +245,28 @@ namespace VI
       std::shared_ptr<const LocalSolver> solver;
     };
 
+    static constexpr unsigned int n_vertices =
+      dealii::GeometryInfo<dim>::vertices_per_cell;
+
     /// An owned cell's part in a patch: the patch is solved by `rank`;
     /// here it is patch number `index` with the cell at `position`,
     /// elsewhere `index` numbers the cell's right-hand side among those
-    /// sent to `rank`.
+    /// sent to `rank`. psi_a on the cell is the Q1 shape function of its
+    /// vertex `hat` if hat < n_vertices (a = that vertex), and otherwise
+    /// has the values hanging_hats[hat - n_vertices] at the vertices (a
+    /// cell with hanging vertices that depend on a): 16 bytes for the four
+    /// parts of almost every cell, which the reconstruction keeps per mesh.
     struct Membership
     {
       unsigned int rank;
       unsigned int index;
       unsigned int position;
-      /// psi_a at the cell's vertices
-      std::array<double, dealii::GeometryInfo<dim>::vertices_per_cell> hat;
+      unsigned int hat;
     };
+
+    /// The parts of the owned cell `cell` in patches.
+    dealii::ArrayView<const Membership>
+    parts_of(const CellIterator &cell) const;
 
     /// The layout shared by the patches of the connectivity of `layout`
     /// and the Piola signs of its cells, with its divergence basis and its
@@ -343,8 +354,11 @@ namespace VI
     /// and their cells' (psi_a, q_k)_K, in blocks of consecutive patches.
     std::vector<unsigned int>        patch_positions;
     std::vector<std::vector<double>> hat_masses;
-    /// For every active cell (owned ones only): its parts in patches.
-    std::vector<std::vector<Membership>> memberships;
+    /// For every active cell c (owned ones only): its parts in patches,
+    /// memberships[membership_start[c] ... membership_start[c + 1] - 1].
+    std::vector<std::size_t>                    membership_start;
+    std::vector<Membership>                     memberships;
+    std::vector<std::array<double, n_vertices>> hanging_hats;
     /// The owned cells with parts in patches, in the order of the mesh.
     std::vector<CellIterator> cells_with_shares;
     /// Right-hand sides sent to each rank per reconstruction, and for those
