@@ -50,7 +50,8 @@ STACK_BYTES = 32768  # of the stack copied per sample, for the unwinding
 PAGE = 4096
 # (a function of ours, possibly after its return type; templates removed)
 OURS = re.compile(r"(^|\s)(VI|StepMembranes)::")
-# The phases of a cycle: the method of MembraneProblem that run() called
+# The phases of a cycle: the method of MembraneProblem that
+# VI::StationaryProblem::run() called
 # (the patch set-up is the flux reconstruction's reinit in setup_system).
 PHASES = {"refine_mesh": "refinement", "setup_system": "set-up",
           "assemble_system": "assembly", "initialize_iterate": "Newton with its estimators",
@@ -86,11 +87,17 @@ def phase(frames):
     """The phase of a cycle a call stack (innermost first) belongs to, or
     None outside the cycles' phases."""
     names = [function_name(frame) for frame in frames]
-    methods = [m.group(1) for m in
-               (re.search(r"MembraneProblem<>::(\w+)$", name) for name in reversed(names)) if m]
-    if "run" not in methods or methods.index("run") + 1 >= len(methods):
+    outermost_first = names[::-1]
+    run_frame = next((i for i, name in enumerate(outermost_first)
+                      if name.endswith("StationaryProblem::run")), None)
+    if run_frame is None:
         return None
-    method = methods[methods.index("run") + 1]
+    methods = [m.group(1) for m in
+               (re.search(r"MembraneProblem<>::(\w+)$", name)
+                for name in outermost_first[run_frame + 1:]) if m]
+    if not methods:
+        return None
+    method = methods[0]
     if method == "setup_system" and any(n.endswith("FluxReconstruction<>::reinit")
                                         for n in names):
         return "patch set-up"

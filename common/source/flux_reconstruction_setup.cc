@@ -286,7 +286,9 @@ namespace VI
             }
         },
         /*grainsize=*/1024);
-      // the expansions, in the order of the cells
+      // the expansions, in the order of the cells (one entry per dof away
+      // from hanging faces)
+      table.expansion.reserve(rt_dofs.size());
       for (const types::global_dof_index dof : rt_dofs)
         table.add_expansion(dof, flux_constraints);
     }
@@ -300,6 +302,12 @@ namespace VI
                        numbers::invalid_unsigned_int);
       std::vector<std::pair<types::global_dof_index, std::array<double, n_v>>>
         psi;
+      // (n_v shares per cell away from hanging vertices: reserved, the
+      // arrays are not grown by doubling)
+      mine.patch.reserve(owned_cells.size() * n_v);
+      mine.cell.reserve(owned_cells.size() * n_v);
+      mine.hat.reserve(owned_cells.size() * n_v * n_v);
+      parts.reserve(owned_cells.size() * n_v);
       for (std::size_t c = 0; c < owned_cells.size(); ++c)
         {
           const auto &hat_cell = owned_cells[c];
