@@ -60,7 +60,7 @@ doc/data/<files>.csv (the same other options name the files), without
 running it.
 The full study takes about 3 minutes (at 1db72e7, 2.6 - 3.3 with the
 various options) and 3 - 5 GB of memory (RT_0 - RT_1 fluxes); one mesh
-more (--coarse-start --cycles=7, RT_0) about 12 minutes and 11.3 GB.
+more (--coarse-start --cycles=7, RT_0) about 12 minutes and 11.0 GB.
 STEP_MEMBRANES names another binary (e.g. a copy, so that the build tree
 can be rebuilt while the study runs).
 """
@@ -99,7 +99,7 @@ if COARSE_START:
     STEM += "-coarse-start"
 # 12288 cells and three refinements (--coarse-start: 768 cells and five):
 # 2.4e6 unknowns. Peak memory on one process with RT_0 fluxes at d884e01
-# (/usr/bin/time): 3.0 GB; with one mesh more (9.4e6 unknowns), 11.3 GB.
+# (/usr/bin/time): 3.0 GB; with one mesh more (9.4e6 unknowns), 11.0 GB.
 CYCLES = option("cycles", kind=int)
 if CYCLES:
     STEM += f"-cycles-{CYCLES}"

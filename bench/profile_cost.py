@@ -6,7 +6,7 @@ One run of the one-thread configuration of
   bench/membranes_cost.py --c-function=fischer-burmeister --flux-degree=p-1
                           --gamma-lin=0.1 --coarse-start --cycles=7
 (Fischer-Burmeister, RT_0 fluxes, nested sequence from 768 cells to 3.1e6
-unknowns per field, 11.3 GB) under `perf record -F 199`. The phases of a
+unknowns per field, 11.0 GB) under `perf record -F 199`. The phases of a
 cycle run one after the other, in this order: refinement, set-up, patch
 set-up ("estimators: patch matrices"), assembly, Newton with its
 estimators (the rest of the contact solve), errors and output, the
@@ -25,7 +25,7 @@ Usage, from the repository root after ./demo.sh or ./test.sh:
 --huge-pages runs with glibc's heap in huge pages
 (GLIBC_TUNABLES=glibc.malloc.hugetlb=1, the other tunables kept).
 --cycles=N stops after N meshes instead of 7 (5: half a minute and 1
-GB; 7: about 6 minutes and 11.3 GB).
+GB; 7: about 6 minutes and 11.0 GB).
 Needs perf (Debian package linux-perf).
 """
 import bisect
@@ -123,8 +123,9 @@ def main():
                f"field: wall time {growth_exponent(wall1, wall0, n1, n0):.2f}, the program's own "
                f"samples {growth_exponent(own1, own0, n1, n0):.2f}; kernel CPU of the last "
                f"solve (getrusage) {table[-1][0]['solve_usage']['system_seconds']:.2f} s, "
-               f"{table[-1][0]['solve_usage']['minor_page_faults']:.0f} minor faults. "
-               f"Binary of {summary.get('git', '?')}"
+               f"{table[-1][0]['solve_usage']['minor_page_faults']:.0f} minor faults; "
+               f"peak resident memory of the run (summary.json) "
+               f"{summary['peak_resident_bytes'] / 1e9:.2f} GB. Binary of {summary.get('git', '?')}"
                + (", glibc's heap in huge pages." if HUGE_PAGES else "."))
     write_report(STEM, out)
 

@@ -208,7 +208,9 @@ def main():
             f"fault): {touched / 1e9:.2f} GB in the last cycle; "
             f"the contact solve's minor faults (summary.json) "
             f"{usage['minor_page_faults']:.0f}, "
-            f"{usage['minor_page_faults'] * PAGE / 1e9:.2f} GB:", "",
+            f"{usage['minor_page_faults'] * PAGE / 1e9:.2f} GB; the run's peak resident "
+            f"memory (summary.json) {fault_summary['peak_resident_bytes'] / 1e9:.2f} GB, "
+            f"{fault_summary['peak_resident_bytes'] / unknowns:.0f} bytes per unknown:", "",
             "| phase | GB first touched |", "|---|---|"]
     out += [f"| {name} | {sum(b.values()) / 1e9:.2f} |" for name, b in per_phase]
     for name, bytes_of in per_phase:

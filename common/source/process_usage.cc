@@ -39,4 +39,14 @@ namespace VI
             system_seconds - earlier.system_seconds,
             minor_faults - earlier.minor_faults};
   }
+
+
+  double
+  peak_resident_bytes(const MPI_Comm comm)
+  {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    // (ru_maxrss in KiB on Linux)
+    return dealii::Utilities::MPI::sum(1024. * usage.ru_maxrss, comm);
+  }
 } // namespace VI

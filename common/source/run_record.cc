@@ -4,6 +4,7 @@
 
 #include <vi/errors.h>
 #include <vi/parameters.h>
+#include <vi/process_usage.h>
 #include <vi/program.h>
 #include <vi/run_record.h>
 #include <vi/timer_summary.h>
@@ -177,7 +178,8 @@ namespace VI
   void
   RunRecord::finish(const std::string &files, const std::string &status)
   {
-    summary["status"] = status;
+    summary["status"]              = status;
+    summary["peak_resident_bytes"] = peak_resident_bytes(comm);
     write();
     if (Utilities::MPI::this_mpi_process(comm) == 0)
       std::cout << "\nOutput in " << directory << "/: " << files << std::endl;

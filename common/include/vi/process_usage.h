@@ -29,4 +29,10 @@ namespace VI
     ProcessUsage
     operator-(const ProcessUsage &earlier) const;
   };
+
+  /// The largest resident memory each process of `comm` has had so far
+  /// (getrusage's ru_maxrss), summed over the processes: at most what the
+  /// run has needed of the machine at once. Collective.
+  double
+  peak_resident_bytes(const MPI_Comm comm);
 } // namespace VI
