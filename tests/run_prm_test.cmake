@@ -1,6 +1,7 @@
 # Run one .prm test (called by ctest, see CMakeLists.txt).
 #   KIND = run:   the program must succeed, with no failure and no non-finite
-#                 number in output/summary.json; output/convergence.txt is
+#                 number in output/summary.json, which gives the peak
+#                 resident memory; output/convergence.txt is
 #                 compared with REFERENCE by numdiff (relative 1e-6,
 #                 absolute 1e-12).
 #   KIND = input: the program must fail with exit status 1, print exactly the
@@ -20,6 +21,10 @@ if(KIND STREQUAL "run")
   file(READ ${WORKDIR}/output/summary.json summary)
   if(summary MATCHES "\"status\": \"failed\"" OR summary MATCHES "null")
     message(FATAL_ERROR "summary.json reports a failure or a non-finite number")
+  endif()
+  # ... and the most memory it held, by which users size their next run.
+  if(NOT summary MATCHES "\"peak_resident_bytes\": [1-9][0-9]*")
+    message(FATAL_ERROR "summary.json does not give the peak resident memory")
   endif()
   compare_table(${REFERENCE} ${WORKDIR}/output/convergence.txt
     "output/convergence.txt")
