@@ -99,7 +99,7 @@ if COARSE_START:
     STEM += "-coarse-start"
 # 12288 cells and three refinements (--coarse-start: 768 cells and five):
 # 2.4e6 unknowns. Peak memory on one process with RT_0 fluxes at d884e01
-# (/usr/bin/time): 3.0 GB; with one mesh more (9.4e6 unknowns), 11.0 GB.
+# (/usr/bin/time): 3.0 GB; with one mesh more (9.4e6 unknowns), 11.3 GB.
 CYCLES = option("cycles", kind=int)
 if CYCLES:
     STEM += f"-cycles-{CYCLES}"
