@@ -76,17 +76,6 @@ namespace VI
       const double             *hat;
       ShareHere                 share;
 
-      /// the expansion of the cell's dof k
-      std::pair<const std::pair<types::global_dof_index, double> *,
-                const std::pair<types::global_dof_index, double> *>
-      expansion(const unsigned int k) const
-      {
-        const unsigned int *start =
-          &table->expansion_start[cell * table->n_tau + k];
-        return {table->expansion.data() + start[0],
-                table->expansion.data() + start[1]};
-      }
-
       bool
       operator<(const Member &other) const
       {
@@ -577,9 +566,10 @@ namespace VI
             }
           for (unsigned int k = 0; k < n_tau; ++k)
             if (is_free[k])
-              for (auto [e, end] = member.expansion(k); e != end; ++e)
-                if (scratch.find_free(e->first) == scratch.free_dofs.end())
-                  scratch.free_dofs.emplace_back(e->first, unnumbered);
+              for (const auto &[g, w] :
+                   member.table->expansion_of(member.cell, k))
+                if (scratch.find_free(g) == scratch.free_dofs.end())
+                  scratch.free_dofs.emplace_back(g, unnumbered);
         }
     }
 
@@ -614,10 +604,10 @@ namespace VI
           for (unsigned int k = 0; k < n_tau; ++k)
             {
               layout.sigma_start.push_back(layout.sigma_entries.size());
-              for (auto [e, end] = member.expansion(k); e != end; ++e)
-                if (const unsigned int I = local_number(e->first);
-                    I != not_free)
-                  layout.sigma_entries.emplace_back(I, e->second);
+              for (const auto &[g, w] :
+                   member.table->expansion_of(member.cell, k))
+                if (const unsigned int I = local_number(g); I != not_free)
+                  layout.sigma_entries.emplace_back(I, w);
             }
           layout.sigma_start.push_back(layout.sigma_entries.size());
           const CellTable  &table = *member.table;
@@ -882,9 +872,7 @@ namespace VI
       store_parts();
       r.cells_with_shares.clear();
       for (const auto &cell : tria.active_cell_iterators())
-        if (cell->is_locally_owned() &&
-            r.membership_start[cell->active_cell_index() + 1] >
-              r.membership_start[cell->active_cell_index()])
+        if (cell->is_locally_owned() && r.parts_of(cell).size() > 0)
           r.cells_with_shares.push_back(cell);
       hats.clear();
     }

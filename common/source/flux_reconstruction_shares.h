@@ -3,6 +3,7 @@
 // shares of the hat functions on it.
 #pragma once
 
+#include <deal.II/base/array_view.h>
 #include <deal.II/base/geometry_info.h>
 #include <deal.II/base/types.h>
 #include <deal.II/lac/affine_constraints.h>
@@ -67,6 +68,14 @@ namespace VI
       return metrics.size() / n_metric;
     }
 
+    /// The expansion of dof k of cell c.
+    ArrayView<const std::pair<types::global_dof_index, double>>
+    expansion_of(const std::size_t c, const unsigned int k) const
+    {
+      const unsigned int *start = &expansion_start[c * n_tau + k];
+      return {expansion.data() + start[0], start[1] - start[0]};
+    }
+
     /// Dof k of the next cell without expansion: the entries of its
     /// constraint, or the dof itself with weight 1.
     void
@@ -96,11 +105,8 @@ namespace VI
       add(vertex_masses, other.vertex_masses, n_v * n_q);
       for (unsigned int k = 0; k < n_tau; ++k)
         {
-          expansion.insert(expansion.end(),
-                           other.expansion.begin() +
-                             other.expansion_start[c * n_tau + k],
-                           other.expansion.begin() +
-                             other.expansion_start[c * n_tau + k + 1]);
+          const auto entries = other.expansion_of(c, k);
+          expansion.insert(expansion.end(), entries.begin(), entries.end());
           expansion_start.push_back(expansion.size());
         }
     }
