@@ -251,7 +251,8 @@ namespace VI
   ContactSystem::solve(const Vector                        &b,
                        Vector                              &dX,
                        const Gmres<Vector>::Monitor        &monitor,
-                       const std::function<bool(Vector &)> &accepted_update)
+                       const std::function<bool(Vector &)> &accepted_update,
+                       const Gmres<Vector>::Schedule       &schedule)
   {
     // The constraint rows of A carry the row weights: scale b alike.
     Vector weighted_b(b);
@@ -297,9 +298,18 @@ namespace VI
     };
 
     TimerOutput::Scope t(timer, "newton: linear solve");
-    dX                             = 0;
-    const LinearSolveReport report = Gmres<Vector>(settings).solve(
-      A, P, dX, weighted_b, smoothed ? Gmres<Vector>::Monitor() : monitor);
+    // On the path no estimate watches GMRES (above).
+    Gmres<Vector>::Monitor  watch;
+    Gmres<Vector>::Schedule checks;
+    if (!smoothed)
+      {
+        watch = monitor;
+        if (linear.predict_checks)
+          checks = schedule;
+      }
+    dX = 0;
+    const LinearSolveReport report =
+      Gmres<Vector>(settings).solve(A, P, dX, weighted_b, watch, checks);
     if (accepted_update && !smoothed)
       accepted_update(dX);
     return report.iterations;

@@ -98,7 +98,8 @@ namespace VI
                            const Operator   &preconditioner,
                            VectorType       &x,
                            const VectorType &b,
-                           const Monitor    &monitor) const
+                           const Monitor    &monitor,
+                           const Schedule   &schedule) const
   {
     const unsigned int m = std::max(1u, data.krylov_dimension);
     LinearSolveReport  report;
@@ -137,7 +138,8 @@ namespace VI
     VectorType current;
     current.reinit(b, true);
 
-    double tolerance = 0;
+    double       tolerance  = 0;
+    unsigned int last_check = 0;
     // Set when a cycle ended because its recurrence residual met the
     // tolerance, with the true residual it started from.
     bool   recurrence_converged = false;
@@ -203,8 +205,15 @@ namespace VI
                 ++j;
                 break;
               }
-            if (monitor && report.iterations % data.check_interval == 0)
+            // The schedule is asked at every iteration: it may keep the
+            // residuals it sees.
+            const bool asked = schedule && schedule(report.iterations,
+                                                    report.final_residual,
+                                                    report.initial_residual);
+            if (monitor && (asked || report.iterations - last_check >=
+                                       data.check_interval))
               {
+                last_check = report.iterations;
                 iterate(j + 1, current);
                 if (monitor(current, report.iterations))
                   {

@@ -655,7 +655,16 @@ namespace VI
                       Integer(1),
                       "Every how many GMRES iterations the estimators of "
                       "the current iterate are evaluated (adaptive "
-                      "strategy).");
+                      "strategy): at most this many apart with 'Predict "
+                      "checks'.");
+    prm.declare_entry("Predict checks",
+                      "true",
+                      Bool(),
+                      "Adaptive strategy: also evaluate the estimators where "
+                      "GMRES's residual, scaled by eta_alg / residual of the "
+                      "last check, predicts that eta_alg passes its test "
+                      "(false: every 'Check interval' iterations, as in "
+                      "[DMV20]).");
     prm.declare_entry("ILU fill",
                       "0",
                       Integer(0, 10),
@@ -675,6 +684,7 @@ namespace VI
     max_iterations   = prm.get_integer("Maximum iterations");
     krylov_dimension = prm.get_integer("Krylov dimension");
     check_interval   = prm.get_integer("Check interval");
+    predict_checks   = prm.get_bool("Predict checks");
     ilu_fill         = prm.get_integer("ILU fill");
     require_positive(tolerance, "Linear solver/Tolerance");
   }

@@ -1,6 +1,7 @@
 // VI::AdaptiveStopping with a made-up iterate and estimate: the GMRES
-// checks with and without look-ahead, the accepted update, the Newton criterion
-// and the records; and the progress line of run_record.h.
+// checks with and without look-ahead, the predicted checks, the accepted
+// update, the Newton criterion and the records; and the progress line of
+// run_record.h.
 #include <deal.II/base/index_set.h>
 #include <deal.II/lac/trilinos_vector.h>
 
@@ -137,6 +138,39 @@ TEST_F(AdaptiveStoppingTest, WithoutLookAheadEachCheckEstimatesItsOwnIterate)
     EXPECT_DOUBLE_EQ(r.estimate.eta_alg, 1.);
   MPIVector dX = update(0.75);
   EXPECT_FALSE(stopping.accepted_update_of_step()(dX));
+}
+
+
+// The schedule asks for a check where the last check's eta_alg / residual
+// times GMRES's residual is a hundredth of that check's threshold gamma_alg
+// max(eta_disc, eta_lin) = 0.3 and the residual has met the forcing term
+// 1e-2; nothing before the first check of a solve, and nothing for the other
+// strategies.
+TEST_F(AdaptiveStoppingTest, ScheduleAsksWhereTheResidualPredictsAPass)
+{
+  VI::AdaptiveStopping<Iterate, Estimate> stopping(parameters, hooks);
+  stopping.start_solve();
+  stopping.start_step(point);
+  const auto monitor  = stopping.gmres_monitor();
+  const auto schedule = stopping.gmres_schedule();
+  EXPECT_FALSE(schedule(1, 1e-12, 1.));
+  EXPECT_FALSE(schedule(10, 0.5, 1.));
+  EXPECT_FALSE(monitor(update(0.5), 10));  // eta_alg = 1: 2 per residual
+  EXPECT_FALSE(schedule(11, 0.002, 1.));   // predicts 0.004 > 0.003
+  EXPECT_TRUE(schedule(12, 0.001, 1.));    // predicts 0.002
+  EXPECT_FALSE(schedule(12, 0.001, 0.05)); // above the forcing term
+
+  stopping.start_solve();
+  EXPECT_FALSE(schedule(1, 1e-12, 1.));
+
+  parameters.strategy = VI::Strategy::inexact;
+  VI::AdaptiveStopping<Iterate, Estimate> recording(parameters, hooks);
+  recording.start_solve();
+  recording.start_step(point);
+  const auto recording_schedule = recording.gmres_schedule();
+  recording_schedule(10, 0.5, 1.);
+  recording.gmres_monitor()(update(0.5), 10);
+  EXPECT_FALSE(recording_schedule(12, 1e-12, 1.));
 }
 
 

@@ -145,6 +145,45 @@ TEST(Gmres, MonitorCanStopWithTheCurrentIterate)
 }
 
 
+TEST(Gmres, ScheduleAddsChecksAtTheResidualItSees)
+{
+  // The schedule sees every iteration's residual, which is that of the
+  // iterate the monitor gets; checks come where it asks and, between, at
+  // most check_interval iterations apart.
+  const System           system(80);
+  Solver::AdditionalData data;
+  data.check_interval     = 7;
+  data.relative_tolerance = 1e-12;
+  std::vector<unsigned int> asked_at, checked_at;
+  std::vector<double>       residuals(1);
+  Vector<double>            x(80);
+  Solver(data).solve(
+    system.op(),
+    system.jacobi(),
+    x,
+    system.b,
+    [&](const Vector<double> &current, const unsigned int i) {
+      checked_at.push_back(i);
+      EXPECT_NEAR(system.residual(current), residuals[i], 1e-8 * residuals[1]);
+      return false;
+    },
+    [&](const unsigned int i, const double residual, const double initial) {
+      EXPECT_EQ(residuals.size(), i);
+      EXPECT_DOUBLE_EQ(initial, system.residual(Vector<double>(80)));
+      residuals.push_back(residual);
+      if (i == 2 || i == 3)
+        asked_at.push_back(i);
+      return i == 2 || i == 3;
+    });
+  ASSERT_EQ(asked_at.size(), 2u);
+  ASSERT_GE(checked_at.size(), 4u);
+  EXPECT_EQ(checked_at[0], 2u);
+  EXPECT_EQ(checked_at[1], 3u);
+  EXPECT_EQ(checked_at[2], 10u);
+  EXPECT_EQ(checked_at[3], 17u);
+}
+
+
 TEST(Gmres, IterationLimitIsAFailure)
 {
   const System           system(80);

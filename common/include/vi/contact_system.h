@@ -167,16 +167,17 @@ namespace VI
      * A dX = b with the Jacobian of the last setup_jacobian(): sparse LU, or
      * GMRES to the tolerance of the strategy (Linear solver/Tolerance, or the
      * forcing term for the inexact one). `monitor` sees the update every
-     * `Linear solver/Check interval` iterations and may stop GMRES; if it
-     * leaves an update in `accepted_update`, that update is returned instead
-     * of the last one (the look-ahead of AdaptiveStopping).
-     * Returns the number of GMRES iterations (0 for LU).
+     * `Linear solver/Check interval` iterations, or earlier where `schedule`
+     * asks, and may stop GMRES; if it leaves an update in `accepted_update`,
+     * that update is returned instead of the last one (the look-ahead of
+     * AdaptiveStopping). Returns the number of GMRES iterations (0 for LU).
      */
     unsigned int
     solve(const Vector                        &b,
           Vector                              &dX,
           const Gmres<Vector>::Monitor        &monitor         = {},
-          const std::function<bool(Vector &)> &accepted_update = {});
+          const std::function<bool(Vector &)> &accepted_update = {},
+          const Gmres<Vector>::Schedule       &schedule        = {});
 
     /// The active set of the last Jacobian against the previous one.
     ActiveSetChange

@@ -54,6 +54,12 @@ namespace VI
     /// Called with the current iterate and the iteration count i; returns
     /// true to stop with that iterate.
     using Monitor = std::function<bool(const VectorType &x, unsigned int i)>;
+    /// Called at every iteration i with GMRES's residual |b - A x^i| (which
+    /// the recurrence gives at no cost) and the initial one |b - A x^0|;
+    /// returns true to hand x^i to the monitor now, besides every
+    /// check_interval iterations.
+    using Schedule = std::function<
+      bool(unsigned int i, double residual, double initial_residual)>;
 
     struct AdditionalData
     {
@@ -61,7 +67,8 @@ namespace VI
       unsigned int krylov_dimension   = 100;   ///< restart length
       double       relative_tolerance = 1e-12; ///< on |b - A x| / |b - A x0|
       double       absolute_tolerance = 0.;
-      unsigned int check_interval     = 10; ///< nu
+      /// nu: the monitor sees at least every nu-th iterate
+      unsigned int check_interval = 10;
     };
 
     explicit Gmres(const AdditionalData &data);
@@ -69,14 +76,16 @@ namespace VI
     /**
      * Solve A x = b from the initial guess x. Throws SolverFailure if the
      * tolerance is not reached within max_iterations (unless the monitor
-     * stopped the iteration).
+     * stopped the iteration). The monitor sees the iterate check_interval
+     * iterations after its last check, or earlier where `schedule` asks.
      */
     LinearSolveReport
     solve(const Operator   &A,
           const Operator   &preconditioner,
           VectorType       &x,
           const VectorType &b,
-          const Monitor    &monitor = {}) const;
+          const Monitor    &monitor  = {},
+          const Schedule   &schedule = {}) const;
 
   private:
     AdditionalData data;

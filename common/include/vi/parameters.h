@@ -269,6 +269,7 @@ namespace VI
     unsigned int       max_iterations   = 2000;
     unsigned int       krylov_dimension = 200;
     unsigned int       check_interval   = 10;
+    bool               predict_checks   = true;
     unsigned int       ilu_fill         = 0;
 
     /// `solvers`: the accepted values of "Solver" ("direct", "direct|gmres").
