@@ -208,7 +208,7 @@ namespace VI
      * when checked after one iteration); the forcing term keeps each step an
      * inexact Newton step. The hundredth keeps the accepted iterates those
      * of a check every 10 iterations to a few digits (a quarter raised
-     * effectivities of the test suite by up to 11 %); with a preconditioner
+     * effectivities of the test suite by up to 20 %); with a preconditioner
      * that gains a digit per iteration it costs two iterations. Before the
      * first check of a solve nothing is known of eta_alg / |r| on its mesh,
      * and the first check comes after nu iterations.
