@@ -592,7 +592,15 @@ namespace VI
                                                    const double eta_lin,
                                                    const double eta_alg) const
   {
-    return eta_alg <= gamma_alg * std::max(eta_disc, eta_lin);
+    return eta_alg <= algebraic_threshold(eta_disc, eta_lin);
+  }
+
+
+  double
+  NonlinearSolverParameters::algebraic_threshold(const double eta_disc,
+                                                 const double eta_lin) const
+  {
+    return gamma_alg * std::max(eta_disc, eta_lin);
   }
 
 

@@ -392,8 +392,8 @@ namespace VI
       // A flux-free estimate has no eta_disc (NaN): its test is against
       // eta_lin.
       alg_threshold =
-        parameters.gamma_alg *
-        (c.eta_disc > c.eta_lin_controlled ? c.eta_disc : c.eta_lin_controlled);
+        parameters.algebraic_threshold(std::isnan(c.eta_disc) ? 0. : c.eta_disc,
+                                       c.eta_lin_controlled);
     }
 
     void

@@ -242,6 +242,9 @@ namespace VI
     algebraic_error_small(const double eta_disc,
                           const double eta_lin,
                           const double eta_alg) const;
+    /// The bound of the algebraic test, gamma_alg max(eta_disc, eta_lin).
+    double
+    algebraic_threshold(const double eta_disc, const double eta_lin) const;
     bool
     linearisation_error_small(const double eta_disc,
                               const double eta_lin) const;
