@@ -501,7 +501,7 @@ namespace StepMembranes
   void
   DGMembraneProblem<dim>::solve()
   {
-    stopping.start_solve();
+    stopping.start_solve({double(dof_handler.n_dofs()), dim, fe.degree});
     final_estimate.reset();
     VI::SemismoothNewton<Vector> newton =
       contact_system.make_newton(parameters.output.verbose ? &pcout : nullptr);

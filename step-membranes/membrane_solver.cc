@@ -31,7 +31,7 @@ namespace StepMembranes
   void
   MembraneProblem<dim>::solve_contact_problem()
   {
-    stopping.start_solve();
+    stopping.start_solve({double(dof_handler.n_dofs()), dim, fe.degree});
     final_estimate.reset();
     final_estimate_sharpened = false;
     if (parameters.nonlinear_method == Parameters::NonlinearMethod::petsc_vi)

@@ -238,7 +238,7 @@ namespace StepParabolic
     solution = previous_solution;
     system_constraints.distribute(solution);
 
-    stopping.start_solve();
+    stopping.start_solve({double(dof_handler.n_dofs()), dim, fe.degree});
     final_estimate.reset();
 
     VI::SemismoothNewton<Vector> newton =

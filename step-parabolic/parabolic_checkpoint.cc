@@ -30,7 +30,7 @@ namespace StepParabolic
     using VI::Checkpoint::read_entry;
 
     const std::string checkpoint_name = "checkpoint.txt";
-    const std::string checkpoint_head = "step-parabolic checkpoint, format 2";
+    const std::string checkpoint_head = "step-parabolic checkpoint, format 3";
     const std::string wrong_head      = "not a checkpoint of step-parabolic";
 
     /// The files Triangulation::save() writes for `name`.
@@ -127,6 +127,9 @@ namespace StepParabolic
             out << "l2_totals " << a.l2_squared << ' ' << a.l2_disc_squared
                 << ' ' << a.l2_lin_squared << ' ' << a.change << ' '
                 << a.change_disc << ' ' << a.change_lin << '\n';
+            const auto learnt = stopping.learnt_prediction();
+            out << "gmres_prediction " << learnt.alg_per_residual << ' '
+                << learnt.alg_threshold << ' ' << learnt.size << '\n';
             out << "variant_totals";
             for (unsigned int v = 0; v < a.variant_squared.size(); ++v)
               out << ' ' << a.variant_squared[v] << ' ' << a.variant_l2[v];
@@ -190,6 +193,12 @@ namespace StepParabolic
         read_entry(in, "l2_totals", a.l2_squared);
         in >> a.l2_disc_squared >> a.l2_lin_squared >> a.change >>
           a.change_disc >> a.change_lin;
+        // (GMRES's first check of the next step is predicted as it would
+        // have been without the interruption)
+        decltype(stopping.learnt_prediction()) learnt;
+        read_entry(in, "gmres_prediction", learnt.alg_per_residual);
+        in >> learnt.alg_threshold >> learnt.size;
+        stopping.restore_prediction(learnt);
         read_entry(in, "variant_totals", a.variant_squared[0]);
         in >> a.variant_l2[0];
         for (unsigned int v = 1; v < a.variant_squared.size(); ++v)

@@ -174,6 +174,42 @@ TEST_F(AdaptiveStoppingTest, ScheduleAsksWhereTheResidualPredictsAPass)
 }
 
 
+// With the size of its problem, a solve starts from the last one's
+// eta_alg / |r| and threshold, scaled to the new mesh: four times the
+// unknowns in 2D with Q1 double eta_alg / |r| (2 -> 4) and halve the
+// threshold (0.3 -> 0.15), so the first check is asked where 4 |r| <=
+// 0.0015. On the same mesh (a time step) nothing is scaled; a checkpoint
+// carries the prediction.
+TEST_F(AdaptiveStoppingTest, ScheduleCarriesThePredictionToTheNextSolve)
+{
+  using Stopping = VI::AdaptiveStopping<Iterate, Estimate>;
+  Stopping stopping(parameters, hooks);
+  stopping.start_solve({1000., 2, 1});
+  stopping.start_step(point);
+  const auto schedule = stopping.gmres_schedule();
+  EXPECT_FALSE(schedule(10, 0.5, 1.));
+  EXPECT_FALSE(stopping.gmres_monitor()(update(0.5), 10));
+
+  stopping.start_solve({4000., 2, 1});
+  stopping.start_step(point);
+  EXPECT_FALSE(schedule(3, 4e-4, 1.));  // predicts 1.6e-3 > 1.5e-3
+  EXPECT_TRUE(schedule(4, 3.5e-4, 1.)); // predicts 1.4e-3
+
+  const Stopping::Prediction learnt = stopping.learnt_prediction();
+  EXPECT_DOUBLE_EQ(learnt.alg_per_residual, 4.);
+  EXPECT_DOUBLE_EQ(learnt.alg_threshold, 0.15);
+  EXPECT_DOUBLE_EQ(learnt.size, 4000.);
+
+  Stopping resumed(parameters, hooks);
+  resumed.restore_prediction(learnt);
+  resumed.start_solve({4000., 2, 1});
+  EXPECT_TRUE(resumed.gmres_schedule()(4, 3.5e-4, 1.));
+
+  stopping.start_solve();
+  EXPECT_FALSE(schedule(4, 1e-12, 1.));
+}
+
+
 // The other strategies only record: GMRES runs to its tolerance, and a
 // shortened step (line search) is estimated afresh.
 TEST_F(AdaptiveStoppingTest, OtherStrategiesOnlyRecord)
