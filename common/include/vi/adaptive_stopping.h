@@ -170,15 +170,14 @@ namespace VI
      * mesh, below), so that GMRES's first check on a new mesh or time step
      * comes where its residual predicts a pass, not after nu iterations.
      *
-     * On a mesh refined by a factor N_new / N_old in unknowns, h shrinks by
-     * (N_old / N_new)^(1/d). eta_alg is a dual norm of the algebraic
-     * residual: for its smooth part, which the preconditioner leaves, it is
-     * O(1) times the residual function while |r| (nodal, Euclidean) is
-     * O(h), so eta_alg / |r| grows like 1/h (doubling per uniform
-     * refinement in 2D, as measured on the nested disk meshes: 8.6 - 9.2,
-     * 17 - 21, 35, 68 - 84). The threshold follows eta_disc ~
-     * N^(-p/d). A wrong guess is cheap: the check it asks for measures
-     * eta_alg / |r| afresh.
+     * eta_alg is a dual norm of the algebraic residual R: for its smooth
+     * part, which the preconditioner leaves, it is O(1) times R, while the
+     * nodal residual r_i = <R, psi_i> is O(h^d) on each of the N ~ h^(-d)
+     * nodes, so |r| (Euclidean) is O(h^(d/2)) and eta_alg / |r| grows like
+     * N^(1/2) (doubling per uniform refinement in 2D, as measured on the
+     * nested disk meshes: 8.6 - 9.2, 17 - 21, 35, 68 - 84). The threshold
+     * follows eta_disc ~ N^(-p/d). A wrong guess is cheap: the check it
+     * asks for measures eta_alg / |r| afresh.
      */
     void
     start_solve(const SolveSize &size = {})
@@ -189,7 +188,7 @@ namespace VI
       if (size.size > 0 && prediction.size > 0 && size.dim > 0)
         {
           const double refinement = size.size / prediction.size;
-          prediction.alg_per_residual *= std::pow(refinement, 1. / size.dim);
+          prediction.alg_per_residual *= std::sqrt(refinement);
           prediction.alg_threshold *=
             std::pow(refinement, -double(size.degree) / size.dim);
           prediction.size = size.size;
