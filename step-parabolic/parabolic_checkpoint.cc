@@ -129,7 +129,7 @@ namespace StepParabolic
                 << a.change_disc << ' ' << a.change_lin << '\n';
             const auto learnt = stopping.learnt_prediction();
             out << "gmres_prediction " << learnt.alg_per_residual << ' '
-                << learnt.alg_threshold << ' ' << learnt.size << '\n';
+                << learnt.alg_threshold << ' ' << learnt.unknowns << '\n';
             out << "variant_totals";
             for (unsigned int v = 0; v < a.variant_squared.size(); ++v)
               out << ' ' << a.variant_squared[v] << ' ' << a.variant_l2[v];
@@ -195,9 +195,9 @@ namespace StepParabolic
           a.change_disc >> a.change_lin;
         // (GMRES's first check of the next step is predicted as it would
         // have been without the interruption)
-        decltype(stopping.learnt_prediction()) learnt;
+        typename decltype(stopping)::Prediction learnt;
         read_entry(in, "gmres_prediction", learnt.alg_per_residual);
-        in >> learnt.alg_threshold >> learnt.size;
+        in >> learnt.alg_threshold >> learnt.unknowns;
         stopping.restore_prediction(learnt);
         read_entry(in, "variant_totals", a.variant_squared[0]);
         in >> a.variant_l2[0];

@@ -198,7 +198,7 @@ TEST_F(AdaptiveStoppingTest, ScheduleCarriesThePredictionToTheNextSolve)
   const Stopping::Prediction learnt = stopping.learnt_prediction();
   EXPECT_DOUBLE_EQ(learnt.alg_per_residual, 4.);
   EXPECT_DOUBLE_EQ(learnt.alg_threshold, 0.15);
-  EXPECT_DOUBLE_EQ(learnt.size, 4000.);
+  EXPECT_DOUBLE_EQ(learnt.unknowns, 4000.);
 
   Stopping resumed(parameters, hooks);
   resumed.restore_prediction(learnt);

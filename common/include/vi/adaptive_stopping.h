@@ -143,14 +143,14 @@ namespace VI
     /**
      * The size of the problem a Newton solve works on, for the prediction
      * of gmres_schedule() across solves: the number of unknowns (or cells)
-     * of the mesh, its dimension and the degree of the fields. Without a
-     * size the prediction starts afresh.
+     * of the mesh, its dimension and the degree of the fields. Without
+     * unknowns the prediction starts afresh.
      */
     struct SolveSize
     {
-      double       size   = 0;
-      unsigned int dim    = 0;
-      unsigned int degree = 0;
+      double       unknowns = 0;
+      unsigned int dim      = 0;
+      unsigned int degree   = 0;
     };
 
     /**
@@ -161,7 +161,7 @@ namespace VI
      */
     struct Prediction
     {
-      double alg_per_residual = 0, alg_threshold = 0, size = 0;
+      double alg_per_residual = 0, alg_threshold = 0, unknowns = 0;
     };
 
     /**
@@ -185,16 +185,16 @@ namespace VI
       records.clear();
       final_estimate.reset();
       newton_step = 0;
-      if (size.size > 0 && prediction.size > 0 && size.dim > 0)
+      if (size.unknowns > 0 && size.dim > 0 && prediction.unknowns > 0)
         {
-          const double refinement = size.size / prediction.size;
+          const double refinement = size.unknowns / prediction.unknowns;
           prediction.alg_per_residual *= std::sqrt(refinement);
           prediction.alg_threshold *=
             std::pow(refinement, -double(size.degree) / size.dim);
-          prediction.size = size.size;
+          prediction.unknowns = size.unknowns;
         }
       else
-        prediction = Prediction{0, 0, size.size};
+        prediction = Prediction{0, 0, size.unknowns};
     }
 
     /// What the prediction has learnt (for a checkpoint).
