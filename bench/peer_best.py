@@ -3,7 +3,8 @@
 (issue "Faster than the best-tuned peer"; doc/performance.md).
 
 The unit disk with an exact solution (parameters/estimators-disk-p1.prm),
-Q1, nested iteration from 3072 to 196608 cells (9411 to 591363 unknowns).
+Q1, nested iteration from 3072 to 786432 cells (9411 to 2.4e6 unknowns,
+the targets' range of 1e4 to 3e6; the next mesh has 9.4e6).
 Ours: the adaptive strategy as a user gets it (Newton-min, GMRES + contact
 AMG stopped by the estimators, the estimate at the end of every mesh).
 The peer: SNESVINEWTONRSLS with GMRES + BoomerAMG on the same discrete
@@ -22,10 +23,13 @@ the peer's = the same set-up and assembly plus its own solve. One thread
 per process, for one and two MPI processes.
 
 Writes doc/data/peer-best.{csv,md} and doc/data/peer-best.png; prints
-progress per run. About 15 minutes on two cores. Usage, from the
-repository root after ./demo.sh or ./test.sh:
-  bench/peer_best.py [--quick] [--reuse] [--gamma-lin=G] [--flux-degree=p-1]
---quick stops at 12288 cells; --reuse takes the summaries of the last run;
+progress per run. About 70 minutes on two cores, the last mesh four
+fifths of it. Usage, from the repository root after ./demo.sh or
+./test.sh:
+  bench/peer_best.py [--quick] [--cycles=N] [--reuse] [--gamma-lin=G]
+                     [--flux-degree=p-1]
+--quick stops at 12288 cells; --cycles=4 at 196608 (about 15 minutes);
+--reuse takes the summaries of the last run;
 --gamma-lin=G runs ours with Nonlinear solver/gamma_lin = G instead of the
 default and writes doc/data/peer-best-gamma-lin-G.{csv,md,png};
 --flux-degree=p-1 reconstructs the fluxes in RT_(p-1) (Estimators/Flux
@@ -47,7 +51,7 @@ FLUX_DEGREE = option("flux-degree")
 NAME = ("peer-best" + (f"-gamma-lin-{GAMMA_LIN}" if GAMMA_LIN else "")
         + (f"-flux-{FLUX_DEGREE}" if FLUX_DEGREE else ""))
 OUT = os.path.join(ROOT, "output", "bench-" + NAME)
-CYCLES = 2 if QUICK else 4
+CYCLES = 2 if QUICK else option("cycles", 5, int)
 KSP_TOLERANCES = ["1e-1", "1e-2", "1e-4", "1e-8"]
 SNES_TOLERANCES = ["none", "1e-1", "1e-2", "1e-4"]
 TOLERANCES = [(ksp, snes) for snes in SNES_TOLERANCES for ksp in KSP_TOLERANCES]
