@@ -129,6 +129,23 @@ TEST(ExpressionFunction, GradientNearACornerSingularity)
 }
 
 
+// A kink 1.5 h from the point, between the stencil's inner and outer
+// points: the second-order differences of the inner points are exact
+// (slope -1) and the fourth-order ones are not (-13/12), so the stencil's
+// own check must send the point to the smaller steps.
+TEST(ExpressionFunction, GradientNextToAKinkBetweenTheStencilsPoints)
+{
+  const std::string               kink = "abs(x - 1.5e-4)";
+  const VI::ExpressionFunction<2> f(
+    kink, constants, Point<2>(1, 1), false, 1e-4);
+  const auto         parser = deal_ii_parser(kink, false);
+  const Point<2>     p(0., 0.5);
+  const Tensor<1, 2> exact({-1., 0.});
+  EXPECT_LE((f.gradient(p) - exact).norm(), 1e-9);
+  EXPECT_NEAR(parser->gradient(p)[0], -13. / 12., 1e-9);
+}
+
+
 TEST(ExpressionFunction, TwoThreadsSharingOneObjectGetTheSameNumbers)
 {
   const VI::ExpressionFunction<2> f(disk, constants, Point<2>(), false, 1e-4);
