@@ -58,8 +58,8 @@ namespace VI
                       const unsigned int            degree,
                       const LinearSolverParameters *linear_solver)
     {
-      constexpr Rates q1{4080., 4180., 1940.}, q2{3710., 3890., 1870.},
-        sipg{5270., 2890., 1380.}, hho{580., 400., 480.};
+      constexpr Rates q1{3980., 4120., 1830.}, q2{3680., 3840., 1730.},
+        sipg{5240., 2870., 1360.}, hho{570., 390., 480.};
       const bool   is_hho = method == Method::hho;
       const bool   dg     = method != Method::fem && !is_hho;
       const Rates &rates  = is_hho ? hho : dg ? sipg : degree == 1 ? q1 : q2;
