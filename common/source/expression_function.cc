@@ -147,10 +147,10 @@ namespace VI
         const Point<dim> near = p + shift, far = near + shift;
         const Point<dim> near_below = p - shift, far_below = near_below - shift;
         const double     f_far = evaluate(e, far), f_near = evaluate(e, near);
-        const double     f_near_below = evaluate(e, near_below);
+        const double     f_near_below = evaluate(e, near_below),
+                     f_far_below      = evaluate(e, far_below);
         gradient[i] =
-          (-f_far + 8 * f_near - 8 * f_near_below + evaluate(e, far_below)) /
-          (12 * step);
+          (-f_far + 8 * f_near - 8 * f_near_below + f_far_below) / (12 * step);
         if (second_order)
           (*second_order)[i] = (f_near - f_near_below) / (2 * step);
       }

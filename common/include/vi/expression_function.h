@@ -40,9 +40,9 @@ namespace VI
    * clear is first asked of its own values: where the second-order
    * differences (f(p + h e_i) - f(p - h e_i)) / (2 h) agree with it to
    * 1e-6 (on smooth functions they differ by h^2 / 6 times the third
-   * derivative, about 1e-9), no kink lies within 2h, and the gradient
-   * costs 4 dim evaluations instead of the 8 dim of the comparison with
-   * step h / 4.
+   * derivative, about 1e-9; a kink within 2h makes them differ), the
+   * gradient costs 4 dim evaluations instead of the 8 dim of the
+   * comparison with step h / 4.
    *
    * A malformed formula or an unknown name throws InputError with
    * muparser's diagnosis (at construction: the formula is evaluated once at
