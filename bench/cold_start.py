@@ -22,9 +22,11 @@ seed-smooth: a quarter of an hour more); about 25 minutes on two cores.
 --method sipg solves the same scenes with SIPG Q1 (step-membranes), --method
 hho with HHO of degree 1 (step-hho, direct solves of the condensed face
 system, from zero only); neither has the PETSc peer. Writes doc/data/cold_start.{csv,md}
-(fem) or doc/data/cold_start_<method>.{csv,md}. Usage, from the repository
+(fem) or doc/data/cold_start_<method>.{csv,md}, with the suffix _smoothing
+for --continuation-method=smoothing. Usage, from the repository
 root after ./demo.sh or ./test.sh:
   bench/cold_start.py [--method fem|sipg|hho] [--fine] [--reuse]
+                      [--continuation-method=smoothing]
 --reuse takes the runs whose summary.json the last run left in
 output/bench-cold-start[-<method>].
 STEP_MEMBRANES and STEP_HHO name other binaries.
@@ -32,12 +34,13 @@ STEP_MEMBRANES and STEP_HHO name other binaries.
 import os
 import sys
 
-from vi_bench import ROOT, cold_start_settings, program, run_kept, write_table
+from vi_bench import (CONTINUATION_SUFFIX, ROOT, cold_start_settings, program,
+                      run_kept, write_table)
 
 METHOD = (sys.argv[sys.argv.index("--method") + 1]
           if "--method" in sys.argv else "fem")
 PROGRAM = program("hho" if METHOD == "hho" else "membranes")
-SUFFIX = "" if METHOD == "fem" else "_" + METHOD
+SUFFIX = ("" if METHOD == "fem" else "_" + METHOD) + CONTINUATION_SUFFIX
 OUT = os.path.join(ROOT, "output", "bench-cold-start" + SUFFIX.replace("_", "-"))
 FINE = "--fine" in sys.argv
 REUSE = "--reuse" in sys.argv

@@ -21,6 +21,7 @@ cores. Writes
 doc/data/cold_start_adaptive.{csv,md}. Usage, from the repository root
 after ./demo.sh or ./test.sh:
   bench/cold_start_adaptive.py [--amg] [--reuse]
+                               [--continuation-method=smoothing]
 --amg preconditions GMRES with the contact AMG instead of ILU and writes
 doc/data/cold_start_adaptive_amg.{csv,md}; --reuse takes the runs whose
 summary.json the last run left in output/bench-cold-start-adaptive[-amg].
@@ -29,13 +30,13 @@ STEP_MEMBRANES names another binary.
 import os
 import sys
 
-from vi_bench import ROOT, cold_start_settings, program, run_kept, write_table
+from vi_bench import (CONTINUATION_SUFFIX, ROOT, cold_start_settings, program,
+                      run_kept, write_table)
 
 PROGRAM = program("membranes")
 AMG = "--amg" in sys.argv
-NAME = "cold_start_adaptive" + ("_amg" if AMG else "")
-OUT = os.path.join(ROOT, "output",
-                   "bench-cold-start-adaptive" + ("-amg" if AMG else ""))
+NAME = "cold_start_adaptive" + ("_amg" if AMG else "") + CONTINUATION_SUFFIX
+OUT = os.path.join(ROOT, "output", "bench-" + NAME.replace("_", "-"))
 REUSE = "--reuse" in sys.argv
 
 # (scene, parameter file, initial refinements of the meshes)

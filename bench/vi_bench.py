@@ -65,15 +65,26 @@ def run_kept(binary, prm, settings, directory, reuse=False, threads=None):
             return json.load(f)
 
 
+# --continuation-method=smoothing: the cold-start studies with the smoothed
+# C-function instead of the default interior-point method; their tables
+# then carry the suffix "_smoothing".
+CONTINUATION_METHOD = option("continuation-method", "interior point")
+CONTINUATION_SUFFIX = ("_smoothing" if CONTINUATION_METHOD == "smoothing"
+                       else "")
+
+
 def cold_start_settings(refinements, guess, c_function):
     """One Q1 mesh without nested iteration, Newton from the initial guess
-    `guess` (bench/cold_start.py, bench/cold_start_adaptive.py)."""
+    `guess` (bench/cold_start.py, bench/cold_start_adaptive.py,
+    bench/cold_start_million.py), with the continuation method of
+    --continuation-method."""
     return {"Mesh/Initial refinements": refinements,
             "Mesh/Cycles": 1,
             "Discretization/Polynomial degree": 1,
             "Nonlinear solver/Nested iteration": "false",
             "Nonlinear solver/Initial guess": guess,
             "Nonlinear solver/C-function": c_function,
+            "Nonlinear solver/Continuation method": CONTINUATION_METHOD,
             "Output/Write VTU": "false"}
 
 

@@ -610,9 +610,7 @@ namespace StepHHO
                                      domain.friedrichs_constant(),
                                      Utilities::MPI::max(largest_cell, comm) /
                                        cell_fe.n_dofs_per_cell());
-    newton.set_smoothing = [&](const auto &X, const double mu) {
-      contact_rows.set_smoothing(mu, X, gap_stiffness);
-    };
+    contact_rows.attach_continuation(newton, gap_stiffness);
     if (parameters.output.verbose)
       newton.monitor = [&](const VI::NewtonStep &step) {
         pcout << "      k = " << std::setw(2) << step.iteration << ": "

@@ -90,17 +90,24 @@ namespace VI
     double       *r           = R.begin();
     const auto [U_now, B_now] = scales(X, multiplier_scale);
     double local[3]           = {0., 0., 0.}; // C, C_mu, NaN
-    for (const std::size_t k : positions)
+    for (std::size_t n = 0; n < positions.size(); ++n)
       {
+        const std::size_t k = positions[n];
         const auto [a, b]   = pair_at(x, k);
-        r[n_fields * k + 2] = row_value(C, a, b);
+        if (interior_point)
+          {
+            const double xs = a / U, ys = b / B;
+            r[n_fields * k + 2] = U * (xs * ys - targets[n]) / (xs + ys);
+          }
+        else
+          r[n_fields * k + 2] = row_value(C, a, b);
         const double scaled = std::abs(C.value(a / U_now, b / B_now));
         if (std::isnan(scaled) || std::isnan(r[n_fields * k + 2]))
           local[2] = 1;
         else
           {
             local[0] = std::max(local[0], scaled);
-            if (mu > 0)
+            if (on_path())
               local[1] = std::max(local[1], std::abs(r[n_fields * k + 2]) / U);
           }
       }
@@ -111,7 +118,7 @@ namespace VI
     const double nan      = std::numeric_limits<double>::quiet_NaN();
     norms.complementarity = global[2] > 0 ? nan : global[0];
     norms.smoothed_complementarity =
-      global[2] > 0 ? nan : (mu > 0 ? global[1] : global[0]);
+      global[2] > 0 ? nan : (on_path() ? global[1] : global[0]);
   }
 
 
@@ -121,13 +128,128 @@ namespace VI
                              const double                         gap_stiffness)
   {
     if (mu > 0 && this->mu == 0)
-      {
-        U = scales(X, 0.)[0];
-        B = scales(X, path_stiffness_factor * gap_stiffness * U)[1];
-      }
+      freeze_scales(X, gap_stiffness);
     else if (mu == 0)
       U = B = 1.;
     this->mu = mu;
+  }
+
+
+  void
+  ContactRows::freeze_scales(const TrilinosWrappers::MPI::Vector &X,
+                             const double                         gap_stiffness)
+  {
+    U = scales(X, 0.)[0];
+    B = scales(X, path_stiffness_factor * gap_stiffness * U)[1];
+  }
+
+
+  void
+  ContactRows::enter_interior_point(TrilinosWrappers::MPI::Vector &X,
+                                    const double                   mu2,
+                                    const double gap_stiffness)
+  {
+    freeze_scales(X, gap_stiffness);
+    mu             = 0;
+    interior_point = true;
+    targets.assign(positions.size(), 0.);
+    double      *x    = X.begin();
+    const double root = std::sqrt(mu2);
+    for (const std::size_t k : positions)
+      {
+        const auto [a, b] = pair_at(x, k);
+        // The larger member stays (at least sqrt(mu2)): the crawl's
+        // iterate keeps its gaps and its multipliers.
+        double x_new = a / U, y_new = b / B;
+        if (x_new >= y_new)
+          {
+            x_new = std::max(x_new, root);
+            y_new = mu2 / x_new;
+          }
+        else
+          {
+            y_new = std::max(y_new, root);
+            x_new = mu2 / y_new;
+          }
+        const double shift = 0.5 * (x_new * U - a);
+        x[n_fields * k] += shift;
+        x[n_fields * k + 1] -= shift;
+        x[n_fields * k + 2] = y_new * B;
+      }
+  }
+
+
+  void
+  ContactRows::set_interior_point_targets(
+    const TrilinosWrappers::MPI::Vector *dX,
+    const double                         target)
+  {
+    for (std::size_t n = 0; n < positions.size(); ++n)
+      {
+        targets[n] = target;
+        if (dX)
+          {
+            const auto [da, db] = pair_at(dX->begin(), positions[n]);
+            targets[n] -= (da / U) * (db / B);
+          }
+      }
+  }
+
+
+  std::array<double, 2>
+  ContactRows::step_to_boundary(const TrilinosWrappers::MPI::Vector &X,
+                                const TrilinosWrappers::MPI::Vector &dX,
+                                const double                         s) const
+  {
+    double t = std::numeric_limits<double>::infinity(), sum = 0;
+    for (const std::size_t k : positions)
+      {
+        const auto [a, b]   = pair_at(X.begin(), k);
+        const auto [da, db] = pair_at(dX.begin(), k);
+        const double x = a / U, y = b / B, dx = da / U, dy = db / B;
+        if (dx < 0)
+          t = std::min(t, -x / dx);
+        if (dy < 0)
+          t = std::min(t, -y / dy);
+        sum += (x + s * dx) * (y + s * dy);
+      }
+    const MPI_Comm comm = X.get_mpi_communicator();
+    const double   rows = Utilities::MPI::sum(double(positions.size()), comm);
+    return {{Utilities::MPI::min(t, comm),
+             Utilities::MPI::sum(sum, comm) / std::max(rows, 1.)}};
+  }
+
+
+  void
+  ContactRows::attach_continuation(
+    SemismoothNewton<TrilinosWrappers::MPI::Vector> &newton,
+    const double                                     gap_stiffness)
+  {
+    using Vector         = TrilinosWrappers::MPI::Vector;
+    newton.set_smoothing = [this, gap_stiffness](const Vector &X,
+                                                 const double  mu) {
+      set_smoothing(mu, X, gap_stiffness);
+    };
+    auto &rows = newton.interior_point;
+    rows.enter = [this, gap_stiffness](Vector &X, const double mu2) {
+      enter_interior_point(X, mu2, gap_stiffness);
+    };
+    rows.set_targets = [this](const Vector *dX, const double target) {
+      set_interior_point_targets(dX, target);
+    };
+    rows.step_to_boundary =
+      [this](const Vector &X, const Vector &dX, const double s) {
+        return step_to_boundary(X, dX, s);
+      };
+    rows.leave = [this]() { leave_interior_point(); };
+  }
+
+
+  void
+  ContactRows::leave_interior_point()
+  {
+    interior_point = false;
+    U = B = 1.;
   }
 
 
@@ -161,6 +283,11 @@ namespace VI
                             const double                   a,
                             const double                   b) const
   {
+    if (interior_point)
+      {
+        const double x = a / U, y = b / B;
+        return {{y / (x + y), x / (x + y) * U / B}};
+      }
     if (mu == 0)
       return (cold_start && a == 0. && b == 0.) ?
                C.free_side_gradient_at_origin() :

@@ -268,15 +268,15 @@ namespace VI
     settings.krylov_dimension   = linear.krylov_dimension;
     settings.check_interval     = linear.check_interval;
     settings.relative_tolerance = linear_tolerance(nonlinear, linear);
-    // On the continuation's path the rows are those of C_mu, which the
-    // estimators do not see: an iterate whose estimate would stop GMRES
-    // (eta_alg small against eta_lin, which holds the distance from
-    // complementarity) need not be a usable direction of the smoothed
+    // On the continuation's path the rows are those of C_mu or of x y = t,
+    // which the estimators do not see: an iterate whose estimate would stop
+    // GMRES (eta_alg small against eta_lin, which holds the distance from
+    // complementarity) need not be a usable direction of the path's
     // system, and Newton would stall on it. GMRES then stops at the forcing
     // term of the inexact strategy, and the estimators judge only the Newton
     // iterates.
-    const bool smoothed = rows.smoothing() > 0 && monitor &&
-                          nonlinear.strategy == Strategy::adaptive;
+    const bool smoothed =
+      rows.on_path() && monitor && nonlinear.strategy == Strategy::adaptive;
     if (smoothed)
       settings.relative_tolerance =
         std::max(settings.relative_tolerance, nonlinear.forcing_term);
@@ -337,9 +337,7 @@ namespace VI
     newton.active_set = [this](const Vector &X, const bool first) {
       return active_set(X, first);
     };
-    newton.set_smoothing = [this](const Vector &X, const double mu) {
-      rows.set_smoothing(mu, X, gap_stiffness);
-    };
+    rows.attach_continuation(newton, gap_stiffness);
     if (progress)
       newton.monitor = [progress](const NewtonStep &step) {
         *progress << "      k = " << std::setw(2) << step.iteration << ": "

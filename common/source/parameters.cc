@@ -68,6 +68,9 @@ namespace VI
       {Strategy::exact, "exact"},
       {Strategy::inexact, "inexact"},
       {Strategy::adaptive, "adaptive"}};
+    const Spellings<ContinuationMethod> continuation_method_spellings = {
+      {ContinuationMethod::interior_point, "interior point"},
+      {ContinuationMethod::smoothing, "smoothing"}};
     const Spellings<InitialGuess> initial_guess_spellings =
       {{InitialGuess::zero, "zero"}, {InitialGuess::data, "data"}};
     const Spellings<LinearSolverType> linear_solver_spellings = {
@@ -535,12 +538,20 @@ namespace VI
                       "that switch rows at a steady pace and shrink the "
                       "complementarity residual by less than half, six "
                       "under the adaptive strategy, or six that cycle), "
-                      "follow the central path of the smoothed C-function "
-                      "instead, back to the C-function below the tolerance "
-                      "(doc/reference.md, Continuation). false: plain "
+                      "follow the central path gap x multiplier = mu^2 "
+                      "to the solution instead (Continuation method; "
+                      "doc/reference.md, Continuation). false: plain "
                       "semismooth Newton throughout. step-twophase has no "
-                      "smoothed rows and globalises Fischer-Burmeister by a "
+                      "central path and globalises Fischer-Burmeister by a "
                       "line search (Watchdog steps).");
+    prm.declare_entry(
+      "Continuation method",
+      "interior point",
+      Selection(all_spellings(continuation_method_spellings)),
+      "interior point: a primal-dual interior-point method (Mehrotra's "
+      "predictor-corrector, gaps and multipliers kept positive); "
+      "smoothing: semismooth Newton on the smoothed C-function, mu "
+      "lowered with the length of each step.");
     if (!mesh_starts)
       return;
     prm.declare_entry("Nested iteration",
@@ -567,13 +578,15 @@ namespace VI
     const ParameterSubsection section(prm, "Nonlinear solver");
     c_function =
       ComplementarityFunction::from_name(prm.get("C-function")).type();
-    strategy       = parse_choice(strategy_spellings, prm.get("Strategy"));
-    gamma_lin      = prm.get_double("gamma_lin");
-    gamma_alg      = prm.get_double("gamma_alg");
-    forcing_term   = prm.get_double("Forcing term");
-    max_iterations = prm.get_integer("Maximum iterations");
-    tolerance      = prm.get_double("Tolerance");
-    continuation   = prm.get_bool("Continuation");
+    strategy            = parse_choice(strategy_spellings, prm.get("Strategy"));
+    gamma_lin           = prm.get_double("gamma_lin");
+    gamma_alg           = prm.get_double("gamma_alg");
+    forcing_term        = prm.get_double("Forcing term");
+    max_iterations      = prm.get_integer("Maximum iterations");
+    tolerance           = prm.get_double("Tolerance");
+    continuation        = prm.get_bool("Continuation");
+    continuation_method = parse_choice(continuation_method_spellings,
+                                       prm.get("Continuation method"));
     if (mesh_starts)
       {
         nested_iteration = prm.get_bool("Nested iteration");

@@ -41,6 +41,7 @@ namespace VI
       , tolerance(parameters.tolerance)
       , name("semismooth Newton-" + C.name())
       , continuation(parameters.continuation)
+      , continuation_method(parameters.continuation_method)
   {
     // The adaptive strategy's estimators often end a crawl first (see
     // crawl_steps).
@@ -233,8 +234,7 @@ namespace VI
                std::to_string(data.stagnation_steps) +
                " steps and the residual stays above the tolerance (" +
                norms.describe("equations", data.tolerance) + ")");
-        if (!set_smoothing || !data.continuation || converged(norms) ||
-            criterion_met)
+        if (!can_continue() || converged(norms) || criterion_met)
           continue;
 
         // The continuation: it starts once, when the active set stalls,
@@ -253,6 +253,12 @@ namespace VI
         if (mu == 0 && report.continuation_start == 0 && stalled(report))
           {
             report.continuation_start = k;
+            if (data.continuation_method == ContinuationMethod::interior_point)
+              {
+                // It ends converged or stopped by the criterion, or fails.
+                interior_point_phase(X, R, norms, report, k);
+                break;
+              }
             next_mu = std::clamp(norms.complementarity, data.tolerance, 1.);
           }
         else if (mu > 0)
@@ -287,6 +293,113 @@ namespace VI
       }
     report.final_residual = norms;
     return report;
+  }
+
+
+  template <typename VectorType>
+  bool
+  SemismoothNewton<VectorType>::can_continue() const
+  {
+    if (!data.continuation)
+      return false;
+    if (data.continuation_method == ContinuationMethod::smoothing)
+      return bool(set_smoothing);
+    const InteriorPointRows &rows = interior_point;
+    return rows.enter && rows.set_targets && rows.step_to_boundary &&
+           rows.leave;
+  }
+
+
+  template <typename VectorType>
+  void
+  SemismoothNewton<VectorType>::interior_point_phase(VectorType    &X,
+                                                     VectorType    &R,
+                                                     ResidualNorms &norms,
+                                                     NewtonReport  &report,
+                                                     unsigned int   k) const
+  {
+    const InteriorPointRows &rows = interior_point;
+    // Every pair on x y = mu2 (= mu^2 of the central path): a mu ten times
+    // the complementarity residual keeps the rows of the crawl's over-large
+    // active set off the boundary (AdditionalData::interior_point_start).
+    const double mu_start =
+      data.interior_point_start *
+      std::clamp(norms.complementarity, data.tolerance, 1.);
+    double mu2 = mu_start * mu_start;
+    rows.enter(X, mu2);
+    rows.set_targets(nullptr, 0.);
+    norms = residual(X, R);
+
+    VectorType rhs, dX_predictor, dX;
+    rhs.reinit(X);
+    dX_predictor.reinit(X);
+    dX.reinit(X);
+    // Solve the Jacobian of the last setup_jacobian() for -R.
+    const auto newton_direction = [&](VectorType &direction) {
+      rhs = R;
+      rhs *= -1.;
+      const unsigned int iterations = solve_with_jacobian(rhs, direction);
+      if (!std::isfinite(direction.l2_norm()))
+        fail("the interior-point direction is not a number at iteration " +
+             std::to_string(k) + " (singular Jacobian?)");
+      return iterations;
+    };
+
+    for (bool criterion_met = false; !converged(norms) && !criterion_met;)
+      {
+        if (!norms.is_finite() || !(mu2 > 0))
+          fail("the interior-point iterate is not a number at iteration " +
+               std::to_string(k));
+        if (++k > data.max_iterations)
+          fail("no convergence in " + std::to_string(data.max_iterations) +
+               " iterations (relative residuals: " +
+               norms.describe("equations", data.tolerance) + ")");
+        setup_jacobian(X);
+        NewtonStep step;
+        if (active_set)
+          {
+            step.has_active_set = true;
+            step.active_set     = active_set(X, false);
+          }
+        // The predictor aims at x y = 0. How far it gets before a pair
+        // leaves the positive quadrant says how much centring the corrector
+        // needs: sigma = (its mean product / mu2)^3 (Mehrotra), small where
+        // the predictor goes far. The corrector aims at x y = sigma mu2 with
+        // the predictor's second-order term dx dy, with the same Jacobian.
+        step.linear_iterations = newton_direction(dX_predictor);
+        const double t_predictor =
+          std::min(1., rows.step_to_boundary(X, dX_predictor, 0.)[0]);
+        const double sigma =
+          std::pow(rows.step_to_boundary(X, dX_predictor, t_predictor)[1] / mu2,
+                   3);
+        rows.set_targets(&dX_predictor, sigma * mu2);
+        residual(X, R);
+        step.linear_iterations += newton_direction(dX);
+
+        // The fraction of the way to the boundary tends to 1 with mu2, so
+        // that the last steps converge superlinearly.
+        step.step_length =
+          std::min(1.,
+                   std::max(data.fraction_to_boundary, 1. - std::sqrt(mu2)) *
+                     rows.step_to_boundary(X, dX, 0.)[0]);
+        X.add(step.step_length, dX);
+        mu2 = rows.step_to_boundary(X, dX, 0.)[1];
+        rows.set_targets(nullptr, 0.);
+        norms = residual(X, R);
+
+        step.iteration = k;
+        step.residual  = norms;
+        step.smoothing = std::sqrt(mu2);
+        report.steps.push_back(step);
+        report.iterations = k;
+        report.linear_iterations += step.linear_iterations;
+        if (monitor)
+          monitor(step);
+        if (stopping_criterion)
+          criterion_met = stopping_criterion(X, step);
+      }
+    rows.leave();
+    norms = residual(X, R);
   }
 
 

@@ -13,10 +13,13 @@
 
 #include "test_helpers.h"
 
+#include <array>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 using dealii::FullMatrix;
 using dealii::Vector;
@@ -62,8 +65,10 @@ namespace
             Ku += K(i, j) * X(j);
           R(i)           = Ku - X(n + i) - f(i);
           const double a = X(i) - psi(i), b = X(n + i);
-          R(n + i) =
-            mu > 0 ? U * C.smoothed_value(a / U, b / B, mu) : C.value(a, b);
+          R(n + i) = interior ?
+                       U * (a / U * b / B - targets[i]) / (a / U + b / B) :
+                     mu > 0 ? U * C.smoothed_value(a / U, b / B, mu) :
+                              C.value(a, b);
           equations += R(i) * R(i);
           load += f(i) * f(i);
           norms.complementarity =
@@ -85,10 +90,14 @@ namespace
             jacobian(i, j) = K(i, j);
           jacobian(i, n + i) = -1.;
           const double a = X(i) - psi(i), b = X(n + i);
-          const auto   g     = mu > 0 ? C.smoothed_gradient(a / U, b / B, mu) :
-                                        C.generalized_gradient(a, b);
-          jacobian(n + i, i) = g[0];
-          jacobian(n + i, n + i) = mu > 0 ? g[1] * U / B : g[1];
+          const double x = a / U, y = b / B;
+          const auto   g     = interior ? std::array<double, 2>{{y, x}} :
+                               mu > 0   ? C.smoothed_gradient(x, y, mu) :
+                                          C.generalized_gradient(a, b);
+          const double scale = interior ? 1. / (x + y) : 1.;
+          jacobian(n + i, i) = scale * g[0];
+          jacobian(n + i, n + i) =
+            scale * (mu > 0 || interior ? g[1] * U / B : g[1]);
         }
       inverse = jacobian;
       inverse.gauss_jordan();
@@ -133,6 +142,54 @@ namespace
       mu = new_mu;
     }
 
+    /// The interior-point rows U (x y - t_i) / (x + y) of
+    /// SemismoothNewton::InteriorPointRows, with the scales U, B of
+    /// set_smoothing().
+    void
+    attach_interior_point(VI::SemismoothNewton<Vector<double>> &newton)
+    {
+      auto &rows = newton.interior_point;
+      rows.enter = [this](Vector<double> &X, const double mu2) {
+        set_smoothing(X, 1.); // (only the scales)
+        mu       = 0;
+        interior = true;
+        targets.assign(n, 0.);
+        for (unsigned int i = 0; i < n; ++i)
+          {
+            double x = (X(i) - psi(i)) / U, y = X(n + i) / B;
+            if (x >= y)
+              y = mu2 / (x = std::max(x, std::sqrt(mu2)));
+            else
+              x = mu2 / (y = std::max(y, std::sqrt(mu2)));
+            X(i)     = psi(i) + x * U;
+            X(n + i) = y * B;
+          }
+      };
+      rows.set_targets = [this](const Vector<double> *dX, const double t) {
+        for (unsigned int i = 0; i < n; ++i)
+          targets[i] = t - (dX ? (*dX)(i) / U * (*dX)(n + i) / B : 0.);
+      };
+      rows.step_to_boundary =
+        [this](const Vector<double> &X, const Vector<double> &dX, double s) {
+          double t = std::numeric_limits<double>::infinity(), sum = 0;
+          for (unsigned int i = 0; i < n; ++i)
+            {
+              const double x = (X(i) - psi(i)) / U, y = X(n + i) / B,
+                           dx = dX(i) / U, dy = dX(n + i) / B;
+              if (dx < 0)
+                t = std::min(t, -x / dx);
+              if (dy < 0)
+                t = std::min(t, -y / dy);
+              sum += (x + s * dx) * (y + s * dy);
+            }
+          return std::array<double, 2>{{t, sum / n}};
+        };
+      rows.leave = [this]() {
+        interior = false;
+        U = B = 1;
+      };
+    }
+
     /// The active set of Newton-min's linearisation at X (the nodes with
     /// X - psi <= lambda), compared with the previous one unless `first`:
     /// the SemismoothNewton::active_set callback.
@@ -154,6 +211,8 @@ namespace
     const unsigned int      n;
     ComplementarityFunction C;
     double                  mu = 0, U = 1, B = 1;
+    bool                    interior = false; ///< interior-point rows
+    std::vector<double>     targets;          ///< their t_i
     FullMatrix<double>      K;
     Vector<double>          f, psi;
     FullMatrix<double>      jacobian, inverse;
@@ -426,63 +485,75 @@ TEST(SemismoothNewton, ContinuationRecoversFromAStalledActiveSet)
   // origin), hence active: the string lies on the obstacle, and
   // primal-dual active set steps free one node at each end per step (only
   // there does the multiplier change sign), about 0.35 (n + 1) steps to the
-  // contact set [0.354, 0.646]. The continuation on the smoothed C-function
-  // frees the whole set in a few steps, and ends on the same discrete
-  // solution. Both C-functions take full steps, as in the contact programs.
+  // contact set [0.354, 0.646]. The continuation along the central path,
+  // by either method, frees the whole set in a few steps, and ends on the
+  // same discrete solution. Both C-functions take full steps, as in the
+  // contact programs.
   const unsigned int n = 120;
   for (const auto type : {ComplementarityFunction::Type::min,
                           ComplementarityFunction::Type::fischer_burmeister})
-    {
-      ObstacleProblem problem(n, ComplementarityFunction(type));
-      typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
-      data.tolerance      = 1e-13;
-      data.max_iterations = 200;
-      const auto start    = [&]() {
-        Vector<double> X(2 * n);
-        for (unsigned int i = 0; i < n; ++i)
-          X(i) = problem.psi(i);
-        return X;
-      };
-      const auto active_set = [&](const Vector<double> &X, bool) {
-        VI::ActiveSetChange change;
-        for (unsigned int i = 0; i < n; ++i)
-          change.active += X(i) - problem.psi(i) <= X(n + i);
-        change.switched = 1; // stalls only by its residual here
-        return change;
-      };
+    for (const auto method : {VI::ContinuationMethod::interior_point,
+                              VI::ContinuationMethod::smoothing})
+      {
+        const std::string name =
+          ComplementarityFunction(type).name() +
+          (method == VI::ContinuationMethod::smoothing ? ", smoothing" :
+                                                         ", interior point");
+        ObstacleProblem problem(n, ComplementarityFunction(type));
+        typename VI::SemismoothNewton<Vector<double>>::AdditionalData data;
+        data.tolerance           = 1e-13;
+        data.max_iterations      = 200;
+        data.continuation_method = method;
+        const auto start         = [&]() {
+          Vector<double> X(2 * n);
+          for (unsigned int i = 0; i < n; ++i)
+            X(i) = problem.psi(i);
+          return X;
+        };
+        const auto active_set = [&](const Vector<double> &X, bool) {
+          VI::ActiveSetChange change;
+          for (unsigned int i = 0; i < n; ++i)
+            change.active += X(i) - problem.psi(i) <= X(n + i);
+          change.switched = 1; // stalls only by its residual here
+          return change;
+        };
 
-      Vector<double> X_plain  = start();
-      auto           plain    = problem.make_newton(data);
-      plain.active_set        = active_set;
-      const auto plain_report = plain.solve(X_plain);
-      expect_solution(problem, X_plain);
+        Vector<double> X_plain  = start();
+        auto           plain    = problem.make_newton(data);
+        plain.active_set        = active_set;
+        const auto plain_report = plain.solve(X_plain);
+        expect_solution(problem, X_plain);
 
-      Vector<double> X      = start();
-      auto           newton = problem.make_newton(data);
-      newton.active_set     = active_set;
-      newton.set_smoothing  = [&](const Vector<double> &X, const double mu) {
-        problem.set_smoothing(X, mu);
-      };
-      const auto report = newton.solve(X);
-      expect_solution(problem, X);
-      for (unsigned int i = 0; i < 2 * n; ++i)
-        EXPECT_NEAR(X(i), X_plain(i), 1e-10)
-          << ComplementarityFunction(type).name();
-      EXPECT_GT(report.continuation_start, 0u);
-      EXPECT_EQ(plain_report.continuation_start, 0u);
-      // It stops on the residual of C, not of the smoothing.
-      EXPECT_LE(report.final_residual.complementarity, data.tolerance);
-      std::cout << ComplementarityFunction(type).name() << ": "
-                << plain_report.iterations << " plain steps, "
-                << report.iterations << " with the continuation (after step "
-                << report.continuation_start << ")" << std::endl;
-      // Plain steps crawl (min 44, FB 47); the continuation takes 20 and 24.
-      EXPECT_GE(plain_report.iterations, 35u)
-        << ComplementarityFunction(type).name();
-      EXPECT_LE(report.iterations,
-                type == ComplementarityFunction::Type::min ? 22u : 26u)
-        << ComplementarityFunction(type).name();
-    }
+        Vector<double> X      = start();
+        auto           newton = problem.make_newton(data);
+        newton.active_set     = active_set;
+        if (method == VI::ContinuationMethod::smoothing)
+          newton.set_smoothing = [&](const Vector<double> &X, const double mu) {
+            problem.set_smoothing(X, mu);
+          };
+        else
+          problem.attach_interior_point(newton);
+        const auto report = newton.solve(X);
+        expect_solution(problem, X);
+        for (unsigned int i = 0; i < 2 * n; ++i)
+          EXPECT_NEAR(X(i), X_plain(i), 1e-10) << name;
+        EXPECT_GT(report.continuation_start, 0u) << name;
+        EXPECT_EQ(plain_report.continuation_start, 0u);
+        // It stops on the residual of C, with the rows of C again.
+        EXPECT_LE(report.final_residual.complementarity, data.tolerance);
+        EXPECT_FALSE(problem.interior);
+        std::cout << name << ": " << plain_report.iterations << " plain steps, "
+                  << report.iterations << " with the continuation (after step "
+                  << report.continuation_start << ")" << std::endl;
+        // Plain steps crawl (min 44, FB 47); the smoothing takes 20 and
+        // 24 steps, the interior-point method 17 and 17.
+        EXPECT_GE(plain_report.iterations, 35u) << name;
+        EXPECT_LE(report.iterations,
+                  method == VI::ContinuationMethod::interior_point ? 19u :
+                  type == ComplementarityFunction::Type::min       ? 22u :
+                                                                     26u)
+          << name;
+      }
 }
 
 
@@ -517,6 +588,7 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
       parameters.max_iterations = 30;
       if (script == Script::adaptive_crawl)
         parameters.strategy = VI::Strategy::adaptive;
+      parameters.continuation_method = VI::ContinuationMethod::smoothing;
       const VI::SemismoothNewton<Vector<double>>::AdditionalData data(
         parameters,
         ComplementarityFunction(ComplementarityFunction::Type::min));

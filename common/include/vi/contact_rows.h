@@ -102,11 +102,47 @@ namespace VI
     /// doc/reference.md, "Continuation").
     static constexpr double path_stiffness_factor = 200.;
 
-    /// The smoothing parameter mu of the rows (0: the rows of C).
-    double
-    smoothing() const
+    /**
+     * The rows of the interior-point continuation
+     * (SemismoothNewton::InteriorPointRows), with the scales U, B of
+     * set_smoothing() frozen at X: the row of node i is
+     *
+     *   U (x_i y_i - t_i) / (x_i + y_i),   x_i = a_i / U,  y_i = b_i / B,
+     *
+     * whose Newton step is that of x_i y_i = t_i (the division, evaluated
+     * where the Jacobian is, only gives the row the size of a gap row:
+     * (y, x) / (x + y) with entries between 0 and 1, as min's and
+     * Fischer-Burmeister's). enter_interior_point() puts every pair on
+     * x y = mu2 (see SemismoothNewton::InteriorPointRows::enter) by moving
+     * X1 and X2 apart or together by the same amount and setting X3.
+     */
+    void
+    enter_interior_point(dealii::TrilinosWrappers::MPI::Vector &X,
+                         const double                           mu2,
+                         const double                           gap_stiffness);
+
+    /// t_i = target - dx_i dy_i, or target if dX is null.
+    void
+    set_interior_point_targets(const dealii::TrilinosWrappers::MPI::Vector *dX,
+                               const double target);
+
+    /// {the largest t with x + t dx, y + t dy >= 0 at every row, the mean
+    /// of (x + s dx)(y + s dy)} over all processes.
+    std::array<double, 2>
+    step_to_boundary(const dealii::TrilinosWrappers::MPI::Vector &X,
+                     const dealii::TrilinosWrappers::MPI::Vector &dX,
+                     const double                                 s) const;
+
+    /// Back to the rows of C.
+    void
+    leave_interior_point();
+
+    /// Whether the rows follow the central path (smoothed or interior-point
+    /// rows), which the estimators of C do not see.
+    bool
+    on_path() const
     {
-      return mu;
+      return mu > 0 || interior_point;
     }
 
     /**
@@ -192,6 +228,16 @@ namespace VI
     contact_set(const dealii::TrilinosWrappers::MPI::Vector &X,
                 dealii::TrilinosWrappers::MPI::Vector       &indicator) const;
 
+    /**
+     * Give `newton` the rows' continuation, both methods: set_smoothing()
+     * and the interior-point rows, with the gap stiffness of
+     * set_smoothing(). The rows must outlive the solve.
+     */
+    void
+    attach_continuation(
+      SemismoothNewton<dealii::TrilinosWrappers::MPI::Vector> &newton,
+      const double                                             gap_stiffness);
+
   private:
     /// U = max_i max(|X1_i|, |X2_i|) and B = max(max_i |X3_i|,
     /// multiplier_scale) over all processes (see evaluate()).
@@ -207,6 +253,16 @@ namespace VI
     /// The smoothing parameter (0: none) and the frozen scales U, B
     /// (1 without smoothing, so that the rows are C(a, b) bit for bit).
     double mu = 0., U = 1., B = 1.;
+
+    /// Whether the rows are those of the interior-point method, and their
+    /// targets t_i (one per node of nodes()).
+    bool                interior_point = false;
+    std::vector<double> targets;
+
+    /// U, B of the path at X (set_smoothing()).
+    void
+    freeze_scales(const dealii::TrilinosWrappers::MPI::Vector &X,
+                  const double                                 gap_stiffness);
 
     /// Whether the linearisation point has every row at the origin
     /// (set_linearisation_point()).

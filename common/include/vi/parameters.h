@@ -4,6 +4,7 @@
 #include <deal.II/base/types.h>
 
 #include <vi/complementarity.h>
+#include <vi/semismooth_newton.h>
 
 #include <string>
 #include <vector>
@@ -223,16 +224,17 @@ namespace VI
   {
     ComplementarityFunction::Type c_function =
       ComplementarityFunction::Type::min;
-    Strategy     strategy         = Strategy::exact;
-    double       gamma_lin        = 0.3;
-    double       gamma_alg        = 0.3;
-    double       forcing_term     = 1e-2;
-    unsigned int max_iterations   = 50;
-    double       tolerance        = 1e-10;
-    unsigned int watchdog_steps   = 8; ///< step-twophase only
-    bool         continuation     = true;
-    bool         nested_iteration = true;
-    InitialGuess initial_guess    = InitialGuess::zero;
+    Strategy           strategy            = Strategy::exact;
+    double             gamma_lin           = 0.3;
+    double             gamma_alg           = 0.3;
+    double             forcing_term        = 1e-2;
+    unsigned int       max_iterations      = 50;
+    double             tolerance           = 1e-10;
+    unsigned int       watchdog_steps      = 8; ///< step-twophase only
+    bool               continuation        = true;
+    ContinuationMethod continuation_method = ContinuationMethod::interior_point;
+    bool               nested_iteration    = true;
+    InitialGuess       initial_guess       = InitialGuess::zero;
 
     /// The stopping tests of the adaptive strategy [DMV20]: the algebraic
     /// error is small enough when eta_alg <= gamma_alg max(eta_disc,

@@ -1,11 +1,20 @@
 #pragma once
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
 
 namespace VI
 {
+  /// Nonlinear solver/Continuation method: how Newton follows the central
+  /// path x y = mu^2 of the complementarity pairs once the active set stalls.
+  enum class ContinuationMethod
+  {
+    interior_point, ///< primal-dual, Mehrotra's predictor-corrector
+    smoothing,      ///< semismooth Newton on the smoothed C-function C_mu
+  };
+
   class ComplementarityFunction;
   struct NonlinearSolverParameters;
 
@@ -110,18 +119,25 @@ namespace VI
    * ContactRows::set_linearisation_point) covers more than the contact set
    * and loses one ring of nodes per step (O(1/h) steps), since
    * each step only sees the multiplier change sign next to the free nodes. No
-   * line search can help, the direction itself is too local. When the problem
-   * provides set_smoothing(), a stalled active set (see
-   * AdditionalData::stall_ratio) starts a continuation instead: Newton follows
-   * the central path of the smoothed C-function C_mu
-   * (ComplementarityFunction::smoothed_value), whose Jacobian couples the gap
-   * and the multiplier at every node where both are below mu, so that a step
-   * moves the contact zone by a distance of order one, not a mesh width. mu
-   * falls with the length of each step (see solve()), a nonmonotone line search
-   * on 1/2 |R_mu|^2 keeps the steps safe, and mu stops at half the
-   * tolerance, where every point of the path solves the unsmoothed system to
-   * the tolerance (|C| <= mu there; doc/reference.md, "Continuation"). Where
-   * plain Newton converges, nothing of this runs.
+   * line search can help, the direction itself is too local. A stalled
+   * active set (see AdditionalData::stall_ratio) starts a continuation
+   * instead, along the central path x_i y_i = mu^2 of the scaled pairs
+   * (gap, multiplier), on which every row couples both: a step moves the
+   * contact zone by a distance of order one, not a mesh width. Two methods
+   * follow it (AdditionalData::continuation_method):
+   * - the interior-point method (default; the problem provides
+   *   interior_point): x, y > 0 throughout, each step Mehrotra's
+   *   predictor-corrector pair of solves with one Jacobian, the centring
+   *   chosen by how far the predictor gets (see interior_point_phase());
+   *   it ends when the residuals of C are below the tolerance;
+   * - the smoothing (the problem provides set_smoothing()): semismooth
+   *   Newton on the smoothed C-function C_mu (ComplementarityFunction::
+   *   smoothed_value), mu lowered with the length of each step (see
+   *   solve()), a nonmonotone line search on 1/2 |R_mu|^2, and mu stopped at
+   *   half the tolerance, where every point of the path solves the
+   *   unsmoothed system to the tolerance (|C| <= mu there).
+   * doc/reference.md, "Continuation", says why the first is the default.
+   * Where plain Newton converges, nothing of this runs.
    *
    * The class knows nothing of meshes or finite elements: a problem plugs in
    * through the three callbacks below, in the manner of deal.II's interfaces
@@ -207,9 +223,24 @@ namespace VI
       double                        crawl_pace           = 0.75;
       unsigned int                  cycle_steps          = 6;
       /// Whether a stalled active set starts the continuation (if the
-      /// problem provides set_smoothing). From `Nonlinear solver`: its
-      /// `Continuation`.
-      bool continuation = true;
+      /// problem provides the hooks of continuation_method). From
+      /// `Nonlinear solver`: its `Continuation` and `Continuation method`.
+      bool               continuation = true;
+      ContinuationMethod continuation_method =
+        ContinuationMethod::interior_point;
+      /// The interior-point method starts at mu^2 = the square of this
+      /// factor times the complementarity residual: every pair is put on
+      /// x y = mu^2, keeping its larger member. Started at the residual
+      /// itself (factor 1), the wrongly active rows sit so close to the
+      /// boundary that the first steps are cut to a few percent (HHO disk
+      /// on 245504 unknowns, with a fixed fraction_to_boundary: 32 steps
+      /// against 25; factor 100: 25).
+      double interior_point_start = 10.;
+      /// Each interior-point step goes at least this fraction of the way to
+      /// the boundary x = 0 or y = 0 of the first pair it would cross, and
+      /// 1 - mu of it once that is larger (superlinear convergence at the
+      /// end).
+      double fraction_to_boundary = 0.99;
       /// Factor by which a full step of the continuation reduces mu.
       double smoothing_reduction = 0.1;
       /// mu stays above this factor times the smoothed residual.
@@ -258,6 +289,34 @@ namespace VI
      * stalled active set by the continuation described above.
      */
     std::function<void(const VectorType &X, double mu)> set_smoothing;
+
+    /**
+     * Optional: what the interior-point continuation needs of the
+     * complementarity rows, each pair taken in scales U of the gap and B of
+     * the multiplier frozen when it starts (x = a / U, y = b / B, as
+     * set_smoothing does).
+     */
+    struct InteriorPointRows
+    {
+      /// Freeze the scales and put every pair of X on x y = mu2, keeping
+      /// its larger member (the smaller becomes mu2 / larger, the larger at
+      /// least sqrt(mu2)); from now on residual() and setup_jacobian() use
+      /// the rows x y - t_i (with target t_i = 0 until set_targets()),
+      /// divided by x + y at the point of evaluation.
+      std::function<void(VectorType &X, double mu2)> enter;
+      /// t_i = target - dx_i dy_i (Mehrotra's corrector), or t_i = target
+      /// if dX is null.
+      std::function<void(const VectorType *dX, double target)> set_targets;
+      /// {the largest t with x + t dx >= 0 and y + t dy >= 0 for all pairs
+      /// (+inf if none), the mean of (x + s dx)(y + s dy)}
+      std::function<std::array<double, 2>(const VectorType &X,
+                                          const VectorType &dX,
+                                          double            s)>
+        step_to_boundary;
+      /// Back to the rows of C.
+      std::function<void()> leave;
+    };
+    InteriorPointRows interior_point;
 
     /// Optional: called after every accepted step (progress output).
     std::function<void(const NewtonStep &)> monitor;
@@ -356,6 +415,23 @@ namespace VI
 
     bool
     converged(const ResidualNorms &norms) const;
+
+    /// Whether a stalled active set can start the continuation: the
+    /// problem provides the rows of the chosen method.
+    bool
+    can_continue() const;
+
+    /// The interior-point continuation from the stalled iterate X, with
+    /// R and norms at X: its steps are k + 1, k + 2, ... until the residuals
+    /// of C are below the tolerance or the problem's criterion is met;
+    /// X, R and norms are then those of its last iterate, with the rows of
+    /// C again.
+    void
+    interior_point_phase(VectorType    &X,
+                         VectorType    &R,
+                         ResidualNorms &norms,
+                         NewtonReport  &report,
+                         unsigned int   k) const;
 
     [[noreturn]] void
     fail(const std::string &reason) const;
