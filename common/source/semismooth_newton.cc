@@ -196,19 +196,9 @@ namespace VI
                "iterate)");
         if (converged(norms) || criterion_met)
           break;
-        if (k > data.max_iterations)
-          fail("no convergence in " + std::to_string(data.max_iterations) +
-               " iterations (relative residuals: " +
-               norms.describe("equations", data.tolerance) + ")");
-
-        setup_jacobian(X);
-        NewtonStep step;
-        if (active_set)
-          {
-            step.has_active_set = true;
-            step.active_set     = active_set(X, k == 1);
-          }
-        rhs = R;
+        check_iteration_limit(k, norms);
+        NewtonStep step = linearise(X, k == 1);
+        rhs             = R;
         rhs *= -1.;
         const unsigned int linear_iterations = solve_with_jacobian(rhs, dX);
         if (!std::isfinite(dX.l2_norm()))
@@ -297,6 +287,35 @@ namespace VI
 
 
   template <typename VectorType>
+  void
+  SemismoothNewton<VectorType>::check_iteration_limit(
+    const unsigned int   k,
+    const ResidualNorms &norms) const
+  {
+    if (k > data.max_iterations)
+      fail("no convergence in " + std::to_string(data.max_iterations) +
+           " iterations (relative residuals: " +
+           norms.describe("equations", data.tolerance) + ")");
+  }
+
+
+  template <typename VectorType>
+  NewtonStep
+  SemismoothNewton<VectorType>::linearise(const VectorType &X,
+                                          const bool        first) const
+  {
+    setup_jacobian(X);
+    NewtonStep step;
+    if (active_set)
+      {
+        step.has_active_set = true;
+        step.active_set     = active_set(X, first);
+      }
+    return step;
+  }
+
+
+  template <typename VectorType>
   bool
   SemismoothNewton<VectorType>::can_continue() const
   {
@@ -350,17 +369,8 @@ namespace VI
         if (!norms.is_finite() || !(mu2 > 0))
           fail("the interior-point iterate is not a number at iteration " +
                std::to_string(k));
-        if (++k > data.max_iterations)
-          fail("no convergence in " + std::to_string(data.max_iterations) +
-               " iterations (relative residuals: " +
-               norms.describe("equations", data.tolerance) + ")");
-        setup_jacobian(X);
-        NewtonStep step;
-        if (active_set)
-          {
-            step.has_active_set = true;
-            step.active_set     = active_set(X, false);
-          }
+        check_iteration_limit(++k, norms);
+        NewtonStep step = linearise(X, false);
         // The predictor aims at x y = 0. How far it gets before a pair
         // leaves the positive quadrant says how much centring the corrector
         // needs: sigma = (its mean product / mu2)^3 (Mehrotra), small where

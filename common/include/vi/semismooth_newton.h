@@ -416,6 +416,17 @@ namespace VI
     bool
     converged(const ResidualNorms &norms) const;
 
+    /// Fails if step k would exceed the iteration limit.
+    void
+    check_iteration_limit(const unsigned int   k,
+                          const ResidualNorms &norms) const;
+
+    /// setup_jacobian(X), and the record of the step from X with the
+    /// active set of the new Jacobian (compared with the last unless
+    /// `first`).
+    NewtonStep
+    linearise(const VectorType &X, const bool first) const;
+
     /// Whether a stalled active set can start the continuation: the
     /// problem provides the rows of the chosen method.
     bool
