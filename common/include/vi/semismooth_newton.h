@@ -232,9 +232,7 @@ namespace VI
       /// factor times the complementarity residual: every pair is put on
       /// x y = mu^2, keeping its larger member. Started at the residual
       /// itself (factor 1), the wrongly active rows sit so close to the
-      /// boundary that the first steps are cut to a few percent (HHO disk
-      /// on 245504 unknowns, with a fixed fraction_to_boundary: 32 steps
-      /// against 25; factor 100: 25).
+      /// boundary that the first steps are cut to a few percent.
       double interior_point_start = 10.;
       /// Each interior-point step goes at least this fraction of the way to
       /// the boundary x = 0 or y = 0 of the first pair it would cross, and
