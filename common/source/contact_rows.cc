@@ -196,6 +196,31 @@ namespace VI
   }
 
 
+  void
+  ContactRows::solve_interior_point_rows(
+    const TrilinosWrappers::MPI::Vector &X,
+    TrilinosWrappers::MPI::Vector       &dX) const
+  {
+    double *dx_all = dX.begin();
+    for (std::size_t n = 0; n < positions.size(); ++n)
+      {
+        const std::size_t k = positions[n];
+        const auto [a, b]   = pair_at(X.begin(), k);
+        const auto [da, db] = pair_at(dx_all, k);
+        const double x = a / U, y = b / B, dx = da / U, dy = db / B;
+        const double rhs = targets[n] - x * y;
+        if (x >= y)
+          dx_all[n_fields * k + 2] = B * (rhs - y * dx) / x;
+        else
+          {
+            const double shift = 0.5 * (U * (rhs - x * dy) / y - da);
+            dx_all[n_fields * k] += shift;
+            dx_all[n_fields * k + 1] -= shift;
+          }
+      }
+  }
+
+
   std::array<double, 2>
   ContactRows::step_to_boundary(const TrilinosWrappers::MPI::Vector &X,
                                 const TrilinosWrappers::MPI::Vector &dX,
@@ -236,6 +261,9 @@ namespace VI
     };
     rows.set_targets = [this](const Vector *dX, const double target) {
       set_interior_point_targets(dX, target);
+    };
+    rows.solve_rows = [this](const Vector &X, Vector &dX) {
+      solve_interior_point_rows(X, dX);
     };
     rows.step_to_boundary =
       [this](const Vector &X, const Vector &dX, const double s) {

@@ -324,8 +324,8 @@ namespace VI
     if (data.continuation_method == ContinuationMethod::smoothing)
       return bool(set_smoothing);
     const InteriorPointRows &rows = interior_point;
-    return rows.enter && rows.set_targets && rows.step_to_boundary &&
-           rows.leave;
+    return rows.enter && rows.set_targets && rows.solve_rows &&
+           rows.step_to_boundary && rows.leave;
   }
 
 
@@ -358,6 +358,7 @@ namespace VI
       rhs = R;
       rhs *= -1.;
       const unsigned int iterations = solve_with_jacobian(rhs, direction);
+      rows.solve_rows(X, direction);
       if (!std::isfinite(direction.l2_norm()))
         fail("the interior-point direction is not a number at iteration " +
              std::to_string(k) + " (singular Jacobian?)");

@@ -126,6 +126,14 @@ namespace VI
     set_interior_point_targets(const dealii::TrilinosWrappers::MPI::Vector *dX,
                                const double target);
 
+    /// Set the increment of each pair's smaller member from its row,
+    /// dy = (t - x y - y dx) / x where x >= y, dx = (t - x y - x dy) / y
+    /// (through X1 and X2, as enter_interior_point()) elsewhere: an error
+    /// r of the row becomes one of at most 2 r / U in the smaller member.
+    void
+    solve_interior_point_rows(const dealii::TrilinosWrappers::MPI::Vector &X,
+                              dealii::TrilinosWrappers::MPI::Vector &dX) const;
+
     /// {the largest t with x + t dx, y + t dy >= 0 at every row, the mean
     /// of (x + s dx)(y + s dy)} over all processes.
     std::array<double, 2>

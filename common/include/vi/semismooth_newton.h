@@ -305,6 +305,12 @@ namespace VI
       /// t_i = target - dx_i dy_i (Mehrotra's corrector), or t_i = target
       /// if dX is null.
       std::function<void(const VectorType *dX, double target)> set_targets;
+      /// Make each pair's linearised row y dx + x dy = t - x y hold exactly
+      /// in dX, by the increment of its smaller member: an inexact solve's
+      /// error then stays in the other rows, where it is of the size of
+      /// the forcing term, and not in a row of a pair near the boundary,
+      /// where it would block the step.
+      std::function<void(const VectorType &X, VectorType &dX)> solve_rows;
       /// {the largest t with x + t dx >= 0 and y + t dy >= 0 for all pairs
       /// (+inf if none), the mean of (x + s dx)(y + s dy)}
       std::function<std::array<double, 2>(const VectorType &X,
