@@ -275,9 +275,9 @@ namespace VI
     // system, and Newton would stall on it. GMRES then stops at the forcing
     // term of the inexact strategy, and the estimators judge only the Newton
     // iterates.
-    const bool smoothed =
+    const bool path_step =
       rows.on_path() && monitor && nonlinear.strategy == Strategy::adaptive;
-    if (smoothed)
+    if (path_step)
       settings.relative_tolerance =
         std::max(settings.relative_tolerance, nonlinear.forcing_term);
 
@@ -301,7 +301,7 @@ namespace VI
     // On the path no estimate watches GMRES (above).
     Gmres<Vector>::Monitor  watch;
     Gmres<Vector>::Schedule checks;
-    if (!smoothed)
+    if (!path_step)
       {
         watch = monitor;
         if (linear.predict_checks)
@@ -310,7 +310,7 @@ namespace VI
     dX = 0;
     const LinearSolveReport report =
       Gmres<Vector>(settings).solve(A, P, dX, weighted_b, watch, checks);
-    if (accepted_update && !smoothed)
+    if (accepted_update && !path_step)
       accepted_update(dX);
     return report.iterations;
   }
