@@ -14,15 +14,17 @@ guess, with the continuation (the default):
             also one refinement after bench/cold_start.py --method hho
   adaptive  step-membranes, Q1, the adaptive strategy with the contact AMG
             and the estimators that stop it
+  inexact   step-membranes, Q1, the inexact strategy (GMRES + contact AMG
+            to the forcing term), no estimators
 
   seed-smooth  parameters/membranes-seed-smooth.prm
   disk         parameters/membranes-disk.prm (its Q2 scene in Q1)
   L-shape      parameters/membranes-l-shape.prm
 
-Two runs at a time, one thread each: about 45 minutes on two cores, up to
+Two runs at a time, one thread each: about 50 minutes on two cores, up to
 5 GB per run. Writes doc/data/cold_start_million.{csv,md}. Usage, from the
 repository root after ./demo.sh or ./test.sh:
-  bench/cold_start_million.py [--methods=fem,sipg,hho,adaptive] [--reuse]
+  bench/cold_start_million.py [--methods=fem,sipg,hho,adaptive,inexact] [--reuse]
 --reuse takes the runs whose summary.json the last run left in
 output/bench-cold-start-million. STEP_MEMBRANES and STEP_HHO name other
 binaries.
@@ -35,16 +37,19 @@ from vi_bench import ROOT, cold_start_settings, option, program, run_kept, write
 
 OUT = os.path.join(ROOT, "output", "bench-cold-start-million")
 REUSE = "--reuse" in sys.argv
-METHODS = option("methods", "fem,sipg,hho,adaptive").split(",")
+METHODS = option("methods", "fem,sipg,hho,adaptive,inexact").split(",")
 
 # (scene, parameter file, refinements per method: about 1e6 unknowns per
 # field; HHO first one refinement after its table in bench/cold_start.py)
 SCENES = [("seed-smooth", "membranes-seed-smooth.prm",
-           {"fem": [10], "sipg": [9], "hho": [8, 9], "adaptive": [10]}),
+           {"fem": [10], "sipg": [9], "hho": [8, 9], "adaptive": [10],
+            "inexact": [10]}),
           ("disk", "membranes-disk.prm",
-           {"fem": [8], "sipg": [7], "hho": [6, 7], "adaptive": [8]}),
+           {"fem": [8], "sipg": [7], "hho": [6, 7], "adaptive": [8],
+            "inexact": [8]}),
           ("L-shape", "membranes-l-shape.prm",
-           {"fem": [9], "sipg": [8], "hho": [7, 8], "adaptive": [9]})]
+           {"fem": [9], "sipg": [8], "hho": [7, 8], "adaptive": [9],
+            "inexact": [9]})]
 
 
 def settings(method, refinements, c_function):
@@ -59,6 +64,9 @@ def settings(method, refinements, c_function):
     if method == "adaptive":
         s.update({"Nonlinear solver/Strategy": "adaptive",
                   "Estimators/Enabled": "true"})
+    elif method == "inexact":
+        s.update({"Nonlinear solver/Strategy": "inexact",
+                  "Estimators/Enabled": "false"})
     else:
         s.update({"Nonlinear solver/Strategy": "exact",
                   "Discretization/Method": method,
