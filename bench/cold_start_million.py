@@ -21,7 +21,7 @@ guess, with the continuation (the default):
   disk         parameters/membranes-disk.prm (its Q2 scene in Q1)
   L-shape      parameters/membranes-l-shape.prm
 
-Two runs at a time, one thread each: about 50 minutes on two cores, up to
+Two runs at a time, one thread each: about an hour on two cores, up to
 5 GB per run. Writes doc/data/cold_start_million.{csv,md}. Usage, from the
 repository root after ./demo.sh or ./test.sh:
   bench/cold_start_million.py [--methods=fem,sipg,hho,adaptive,inexact] [--reuse]
