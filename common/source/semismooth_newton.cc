@@ -47,6 +47,7 @@ namespace VI
     // crawl_steps).
     if (parameters.strategy == Strategy::adaptive)
       crawl_steps = adaptive_crawl_steps;
+    inexact_stall = parameters.strategy != Strategy::exact;
   }
 
 
@@ -103,39 +104,41 @@ namespace VI
           return false;
       return true;
     };
+    if (!switching(data.crawl_steps))
+      return false;
+    // The window of `average_steps` steps that ends at step `last` crawls:
+    // the residual fell by less than 1 / stall_ratio in each of its steps,
+    // or by less than that in all of them (a step at which a ring happens
+    // to close does not hide a crawl; a cycle does not fall at all) ...
     const auto r = [&steps](const std::size_t n) {
       return steps[n].residual.complementarity;
     };
-
-    if (switching(data.crawl_steps))
-      {
-        bool crawl = true;
-        for (std::size_t n = steps.size() - data.crawl_steps; n < steps.size();
-             ++n)
-          crawl = crawl && r(n) >= data.stall_ratio * r(n - 1);
-        // ... while the fronts keep their pace: a ring crawl switches about
-        // as many rows each step, converging steps ever fewer. The last two
-        // steps only: the first after the penetration set frees a wider
-        // band, and rings on unstructured faces vary in length.
-        const auto switched = [&steps](const std::size_t n) {
-          return double(steps[n].active_set.switched);
-        };
-        crawl = crawl && switched(steps.size() - 1) >=
-                           data.crawl_pace * switched(steps.size() - 2);
-        if (crawl)
-          return true;
-      }
-    if (!switching(data.cycle_steps))
-      return false;
-    const std::size_t first       = steps.size() - data.cycle_steps;
-    double            best_before = std::numeric_limits<double>::infinity(),
-           best_since             = best_before;
-    for (std::size_t n = 0; n < steps.size(); ++n)
-      if (n < first)
-        best_before = std::min(best_before, r(n));
-      else
-        best_since = std::min(best_since, r(n));
-    return best_since >= data.stall_ratio * best_before;
+    const auto crawls = [&](const std::size_t last) {
+      const std::size_t first     = last - data.average_steps;
+      const bool        unhalved  = r(last) >= data.stall_ratio * r(first);
+      bool              slow_each = true;
+      for (std::size_t n = first + 1; n <= last; ++n)
+        slow_each = slow_each && r(n) >= data.stall_ratio * r(n - 1);
+      // ... while the fronts keep their pace: a ring crawl switches about
+      // as many rows each step, converging steps ever fewer. The last two
+      // steps only: the first after the penetration set frees a wider
+      // band, and rings on unstructured faces vary in length. With inexact
+      // directions an unhalved residual stalls whatever the pace
+      // (AdditionalData::inexact_stall).
+      const bool keeps_pace =
+        double(steps[last].active_set.switched) >=
+        data.crawl_pace * double(steps[last - 1].active_set.switched);
+      return (unhalved && (keeps_pace || data.inexact_stall)) ||
+             (slow_each && keeps_pace);
+    };
+    // A crawl lasts crawl_steps steps: every window in them crawls.
+    for (std::size_t last =
+           steps.size() - 1 - (data.crawl_steps - data.average_steps);
+         last < steps.size();
+         ++last)
+      if (!crawls(last))
+        return false;
+    return true;
   }
 
 

@@ -624,24 +624,28 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
   // A scripted iteration, each step switching rows. Its complementarity
   // residual crawls (0.47, 0.33, 0.23, ...: a factor 0.7 a step, as a ring
   // crawl does), cycles (0.47, 0.22, 0.47, ...: as inexact directions made
-  // it on the L-shape; no step crawls, since 0.22 is less than half of
-  // 0.47, but the smallest residual stops falling), or converges
+  // it on the L-shape; over three steps it does not fall), stagnates (a
+  // factor 0.9 a step while the steps switch half as many rows each time,
+  // as the inexact strategy's steps that leave a ring's residual in place
+  // do), converges
   // superlinearly (a factor 10 a step), or settles: it crawls, but
   // switches half as many rows each step, and the seventh step finds the
-  // active set. The first two start the continuation, after crawl_steps and
-  // cycle_steps steps; on its path the script converges. The next two
-  // converge by themselves. The last crawls under the adaptive strategy,
-  // whose continuation waits adaptive_crawl_steps steps.
+  // active set. The first three start the continuation after crawl_steps
+  // steps; on its path the script converges. The next two converge by
+  // themselves. The last crawls under the adaptive strategy, whose
+  // continuation waits adaptive_crawl_steps steps.
   enum class Script
   {
     crawl,
     cycle,
+    stagnate,
     converge,
     settle,
     adaptive_crawl
   };
   for (const Script script : {Script::crawl,
                               Script::cycle,
+                              Script::stagnate,
                               Script::converge,
                               Script::settle,
                               Script::adaptive_crawl})
@@ -650,6 +654,8 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
       parameters.max_iterations = 30;
       if (script == Script::adaptive_crawl)
         parameters.strategy = VI::Strategy::adaptive;
+      if (script == Script::stagnate)
+        parameters.strategy = VI::Strategy::inexact;
       parameters.continuation_method = VI::ContinuationMethod::smoothing;
       const VI::SemismoothNewton<Vector<double>>::AdditionalData data(
         parameters,
@@ -665,6 +671,7 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
           script == Script::crawl || script == Script::adaptive_crawl ?
                      0.47 * std::pow(0.7, evaluations) :
           script == Script::cycle    ? (evaluations % 2 ? 0.22 : 0.47) :
+          script == Script::stagnate ? 0.47 * std::pow(0.9, evaluations) :
           script == Script::converge ? 0.47 * std::pow(0.1, evaluations) :
           evaluations < 7            ? 0.47 * std::pow(0.7, evaluations) :
                                        0.;
@@ -681,8 +688,11 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
       unsigned int linearisations = 0;
       newton.active_set           = [&](const Vector<double> &, const bool) {
         ++linearisations;
-        return VI::ActiveSetChange{
-          1000, script == Script::settle ? 640u >> linearisations : 3u};
+        return VI::ActiveSetChange{1000,
+                                   script == Script::settle ||
+                                       script == Script::stagnate ?
+                                               640u >> linearisations :
+                                               3u};
       };
       newton.set_smoothing = [&](const Vector<double> &, const double mu) {
         smoothed = smoothed || mu > 0;
@@ -690,11 +700,12 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
       Vector<double>         X(2);
       const VI::NewtonReport report = newton.solve(X);
       EXPECT_EQ(report.continuation_start,
-                script == Script::crawl ? data.crawl_steps + 1 :
-                script == Script::cycle ? data.cycle_steps + 1 :
+                script == Script::crawl || script == Script::cycle ||
+                    script == Script::stagnate ?
+                  data.crawl_steps + 1 :
                 script == Script::adaptive_crawl ?
-                                          data.adaptive_crawl_steps + 1 :
-                                          0u);
+                  data.adaptive_crawl_steps + 1 :
+                  0u);
       if (script == Script::settle)
         {
           EXPECT_EQ(report.iterations, 7u);
