@@ -104,41 +104,54 @@ namespace VI
           return false;
       return true;
     };
-    if (!switching(data.crawl_steps))
-      return false;
-    // The window of `average_steps` steps that ends at step `last` crawls:
-    // the residual fell by less than 1 / stall_ratio in each of its steps,
-    // or by less than that in all of them (a step at which a ring happens
-    // to close does not hide a crawl; a cycle does not fall at all) ...
     const auto r = [&steps](const std::size_t n) {
       return steps[n].residual.complementarity;
     };
+    // The window of `average_steps` steps that ends at step `last` crawls:
+    // the residual fell by less than 1 / stall_ratio in each of its steps,
+    // while the fronts keep their pace (a ring crawl switches about as many
+    // rows each step, converging steps ever fewer; the last two steps
+    // only: the first after the penetration set frees a wider band, and
+    // rings on unstructured faces vary in length). With inexact directions
+    // also where the residual did not fall by that factor over the whole
+    // window, whatever its steps and pace (AdditionalData::inexact_stall).
     const auto crawls = [&](const std::size_t last) {
       const std::size_t first     = last - data.average_steps;
-      const bool        unhalved  = r(last) >= data.stall_ratio * r(first);
       bool              slow_each = true;
       for (std::size_t n = first + 1; n <= last; ++n)
         slow_each = slow_each && r(n) >= data.stall_ratio * r(n - 1);
-      // ... while the fronts keep their pace: a ring crawl switches about
-      // as many rows each step, converging steps ever fewer. The last two
-      // steps only: the first after the penetration set frees a wider
-      // band, and rings on unstructured faces vary in length. With inexact
-      // directions an unhalved residual stalls whatever the pace
-      // (AdditionalData::inexact_stall).
       const bool keeps_pace =
         double(steps[last].active_set.switched) >=
         data.crawl_pace * double(steps[last - 1].active_set.switched);
-      return (unhalved && (keeps_pace || data.inexact_stall)) ||
-             (slow_each && keeps_pace);
+      return (slow_each && keeps_pace) ||
+             (data.inexact_stall && r(last) >= data.stall_ratio * r(first));
     };
     // A crawl lasts crawl_steps steps: every window in them crawls.
-    for (std::size_t last =
-           steps.size() - 1 - (data.crawl_steps - data.average_steps);
-         last < steps.size();
-         ++last)
-      if (!crawls(last))
-        return false;
-    return true;
+    if (switching(data.crawl_steps))
+      {
+        bool crawl = true;
+        for (std::size_t last =
+               steps.size() - 1 - (data.crawl_steps - data.average_steps);
+             last < steps.size();
+             ++last)
+          crawl = crawl && crawls(last);
+        if (crawl)
+          return true;
+      }
+    // With exact directions, a cycle: over `cycle_steps` steps the smallest
+    // residual stays above `stall_ratio` times the smallest before them.
+    // (With inexact ones the unhalved window above catches it.)
+    if (data.inexact_stall || !switching(data.cycle_steps))
+      return false;
+    const std::size_t first       = steps.size() - data.cycle_steps;
+    double            best_before = std::numeric_limits<double>::infinity(),
+           best_since             = best_before;
+    for (std::size_t n = 0; n < steps.size(); ++n)
+      if (n < first)
+        best_before = std::min(best_before, r(n));
+      else
+        best_since = std::min(best_since, r(n));
+    return best_since >= data.stall_ratio * best_before;
   }
 
 

@@ -624,16 +624,17 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
   // A scripted iteration, each step switching rows. Its complementarity
   // residual crawls (0.47, 0.33, 0.23, ...: a factor 0.7 a step, as a ring
   // crawl does), cycles (0.47, 0.22, 0.47, ...: as inexact directions made
-  // it on the L-shape; over three steps it does not fall), stagnates (a
-  // factor 0.9 a step while the steps switch half as many rows each time,
-  // as the inexact strategy's steps that leave a ring's residual in place
-  // do), converges
+  // it on the L-shape; no step crawls, since 0.22 is less than half of
+  // 0.47, but the smallest residual stops falling), stagnates under the
+  // inexact strategy (a factor 0.9 a step while the steps switch half as
+  // many rows each time, as inexact steps that leave a ring's residual in
+  // place do), converges
   // superlinearly (a factor 10 a step), or settles: it crawls, but
   // switches half as many rows each step, and the seventh step finds the
-  // active set. The first three start the continuation after crawl_steps
-  // steps; on its path the script converges. The next two converge by
-  // themselves. The last crawls under the adaptive strategy, whose
-  // continuation waits adaptive_crawl_steps steps.
+  // active set. The first three start the continuation, after crawl_steps,
+  // cycle_steps and crawl_steps steps; on its path the script converges. The
+  // next two converge by themselves. The last crawls under the adaptive
+  // strategy, whose continuation waits adaptive_crawl_steps steps.
   enum class Script
   {
     crawl,
@@ -700,12 +701,12 @@ TEST(SemismoothNewton, ContinuationStartsWhenTheActiveSetCrawlsOrCycles)
       Vector<double>         X(2);
       const VI::NewtonReport report = newton.solve(X);
       EXPECT_EQ(report.continuation_start,
-                script == Script::crawl || script == Script::cycle ||
-                    script == Script::stagnate ?
+                script == Script::crawl || script == Script::stagnate ?
                   data.crawl_steps + 1 :
+                script == Script::cycle ? data.cycle_steps + 1 :
                 script == Script::adaptive_crawl ?
-                  data.adaptive_crawl_steps + 1 :
-                  0u);
+                                          data.adaptive_crawl_steps + 1 :
+                                          0u);
       if (script == Script::settle)
         {
           EXPECT_EQ(report.iterations, 7u);

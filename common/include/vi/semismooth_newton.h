@@ -184,26 +184,26 @@ namespace VI
       /// Used in failure messages, e.g. "semismooth Newton-min".
       std::string name = "semismooth Newton";
       /// The active set stalls when its steps keep switching rows without
-      /// converging: in each of its last `crawl_steps` steps it switched
-      /// rows, and in each window of `average_steps` steps among them the
-      /// complementarity residual fell by less than 1 / `stall_ratio` in
-      /// every step or in all of them together (superlinear convergence
-      /// shrinks it by far more; a ring crawl moves the contact zone by one
-      /// mesh width a step; a step at which a ring happens to close does
-      /// not hide a crawl: HHO P3 from zero on seed-smooth's 1024 cells, 26
-      /// Newton steps with every step slow, 24 with the window), and the
-      /// last step switched at least `crawl_pace` times as many rows as the
-      /// one before (a ring is about as long as the last, while a
-      /// converging iteration switches ever fewer rows even where its
-      /// max-norm residual falls slowly) or, with `inexact_stall`, the
-      /// residual has not halved over the window. The pace spares the runs
-      /// that converge by themselves: seed-smooth from the data on 256 x
-      /// 256 cells switches 680, 632, 424, 200 rows, then converges in 7
-      /// steps, where the continuation took 12. The window's factor is not
-      /// looser: ring crawls on coarse meshes end by themselves (HHO P1
-      /// from zero on seed-smooth's 1024 cells falls by 3.9 over three
-      /// steps and converges in 13 steps, 17 when a factor 4 starts the
-      /// continuation).
+      /// converging. A crawl: in each of the last `crawl_steps` steps it
+      /// switched rows, and in each window of `average_steps` steps among
+      /// them the complementarity residual fell by less than 1 /
+      /// `stall_ratio` in every step (superlinear convergence shrinks it by
+      /// far more; a ring crawl moves the contact zone by one mesh width a
+      /// step) and the last step switched at least `crawl_pace` times as
+      /// many rows as the one before (a ring is about as long as the last,
+      /// while a converging iteration switches ever fewer rows even where
+      /// its max-norm residual falls slowly). Three steps: six cost
+      /// seed-smooth's cold start on 256 x 256 cells eight more
+      /// Fischer-Burmeister steps (measured with the residual's scale of
+      /// the multiplier on the path). The pace spares the runs that
+      /// converge by themselves: from the data on the same mesh, 680, 632,
+      /// 424, 200 switched rows, then convergence in 7 steps, where the
+      /// continuation took 12. Not all of them: the disk from the data on
+      /// 49409 nodes switches 984, 944, 904 rows and would converge in 6
+      /// steps, but takes 10. With exact directions also a cycle: over
+      /// `cycle_steps` steps the smallest residual stays above
+      /// `stall_ratio` times the smallest before them. With inexact ones,
+      /// see `inexact_stall`.
       /// Under the adaptive strategy (AdditionalData(parameters, C)) a
       /// crawl must last `adaptive_crawl_steps` steps (four windows): its
       /// estimators often end the crawl first, where its error is below the
@@ -218,18 +218,23 @@ namespace VI
       unsigned int                  average_steps        = 3;
       unsigned int                  crawl_steps          = 3;
       double                        crawl_pace           = 0.75;
-      /// Whether a window whose residual has not halved stalls whatever
-      /// the pace (the inexact and adaptive strategies): inexact
-      /// directions can leave a ring's residual in place while the
-      /// switched rows fall (inexact, 1e6 unknowns per field: 211107,
-      /// 31060, 4682 rows at a residual of 3.4e-4, 3.2e-4, 3.1e-4: the
-      /// continuation starts after step 5 instead of 7), or make the active set
-      /// cycle with switched rows that vary (adaptive, `cold-start-adaptive`:
-      /// 2117, 1870, 2335, 1123, 884 rows: with the pace alone the continuation
-      /// does not start, and the estimators stop Newton after 12 steps
-      /// instead of 11, with effectivity 1.51 instead of 1.27). Exact
-      /// directions settle so: HHO P1 on free edges, 192, 49, 40, 18 rows
-      /// at 9.2e-7, 7.8e-7, 3.5e-7, 6.1e-7, converges in the next step.
+      unsigned int                  cycle_steps          = 6;
+      /// Whether a window whose residual has not fallen by 1 / stall_ratio
+      /// also crawls, whatever its steps and pace (the inexact and adaptive
+      /// strategies). Inexact directions can leave a ring's residual in
+      /// place while the switched rows fall (inexact, 1e6 unknowns per
+      /// field: 211107, 31060, 4682 rows at a residual of 3.4e-4, 3.2e-4,
+      /// 3.1e-4: the continuation starts after step 5 instead of 7), make
+      /// the residual jump
+      /// within the window (`cold-start-inexact`: 9.9e-3, 2.1e-2, 9.8e-3;
+      /// 24 steps instead of 26), or make the active set cycle with
+      /// switched rows that vary (`cold-start-adaptive`: 2117, 1870, 2335,
+      /// 1123 rows; the cycle test of exact directions waits a step
+      /// longer). Exact directions converge so: HHO P4 with nested
+      /// iteration on 256 cells, 372, 328, 282 rows at 3.4e-5, 1.2e-5,
+      /// 1.9e-5, converges in 11 steps, 20 with the window; HHO P1 on free
+      /// edges, 49, 40, 18 rows at 7.8e-7, 3.5e-7, 6.1e-7, in the next
+      /// step.
       bool inexact_stall = false;
       /// Whether a stalled active set starts the continuation (if the
       /// problem provides the hooks of continuation_method). From
