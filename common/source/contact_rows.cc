@@ -197,6 +197,27 @@ namespace VI
 
 
   void
+  ContactRows::centre_interior_point_targets(
+    const TrilinosWrappers::MPI::Vector &X,
+    const TrilinosWrappers::MPI::Vector &dX,
+    const double                         s,
+    const double                         target)
+  {
+    const double low = 0.1 * target, high = 10. * target;
+    for (std::size_t n = 0; n < positions.size(); ++n)
+      {
+        const auto [a, b]   = pair_at(X.begin(), positions[n]);
+        const auto [da, db] = pair_at(dX.begin(), positions[n]);
+        const double v      = (a / U + s * da / U) * (b / B + s * db / B);
+        if (v < low)
+          targets[n] += low - v;
+        else if (v > high)
+          targets[n] += std::max(high - v, -high);
+      }
+  }
+
+
+  void
   ContactRows::solve_interior_point_rows(
     const TrilinosWrappers::MPI::Vector &X,
     TrilinosWrappers::MPI::Vector       &dX) const
@@ -261,6 +282,12 @@ namespace VI
     };
     rows.set_targets = [this](const Vector *dX, const double target) {
       set_interior_point_targets(dX, target);
+    };
+    rows.centre = [this](const Vector &X,
+                         const Vector &dX,
+                         const double  s,
+                         const double  target) {
+      centre_interior_point_targets(X, dX, s, target);
     };
     rows.solve_rows = [this](const Vector &X, Vector &dX) {
       solve_interior_point_rows(X, dX);

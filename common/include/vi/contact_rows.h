@@ -126,6 +126,16 @@ namespace VI
     set_interior_point_targets(const dealii::TrilinosWrappers::MPI::Vector *dX,
                                const double target);
 
+    /// Gondzio's centrality correction: add to t_i what moves the product
+    /// (x_i + s dx_i)(y_i + s dy_i) into [target / 10, 10 target] (a pair
+    /// above it at most by 10 target).
+    void
+    centre_interior_point_targets(
+      const dealii::TrilinosWrappers::MPI::Vector &X,
+      const dealii::TrilinosWrappers::MPI::Vector &dX,
+      const double                                 s,
+      const double                                 target);
+
     /// Set the increment of each pair's smaller member from its row,
     /// dy = (t - x y - y dx) / x where x >= y, dx = (t - x y - x dy) / y
     /// (through X1 and X2, as enter_interior_point()) elsewhere: an error
