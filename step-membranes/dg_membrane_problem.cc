@@ -205,10 +205,14 @@ namespace StepMembranes
         DoFTools::make_hanging_node_constraints(continuous_dof_handler,
                                                 continuous_hanging_nodes);
         continuous_hanging_nodes.close();
+        // (on the rule of the dG problem, which keeps p + 3 points with
+        // either flux degree: its face and lifting terms are not in the
+        // count of FluxReconstruction::quadrature_points for k = p - 1)
         flux_reconstruction = std::make_unique<VI::FluxReconstruction<dim>>(
           *mapping,
           parameters.estimators.flux_degree_for(fe.degree),
-          fe.degree);
+          fe.degree,
+          VI::FluxReconstruction<dim>::quadrature_points(fe.degree));
         flux_reconstruction->reinit(continuous_dof_handler,
                                     domain.free_boundary_ids());
         lifting = std::make_unique<VI::JumpLifting<dim>>(*mapping,

@@ -402,13 +402,18 @@ namespace StepMembranes
   {
     if (parameters.reference_poisson_solve)
       {
-        VI::Json reference = VI::Json::array();
+        // (with the Gauss rule a Poisson code takes for Q_p, p + 1 points
+        // per direction, exact for its stiffness on parallelograms; not
+        // the estimators' rule of the contact problem, which for RT_p has
+        // p + 3)
+        const QGauss<dim> poisson_quadrature(fe.degree + 1);
+        VI::Json          reference = VI::Json::array();
         for (unsigned int a = 0; a < 2; ++a)
           {
             const PoissonCost cost =
               reference_poisson_solve(*mapping,
                                       dof_handler,
-                                      quadrature,
+                                      poisson_quadrature,
                                       a == 0 ? data.mu1 : data.mu2,
                                       a == 0 ? *data.f1 : *data.f2,
                                       a == 0 ? *data.g1 : *data.g2,

@@ -23,6 +23,8 @@ namespace StepMembranes
       : StationaryProblem("step-membranes", parameters, prm, comm)
       , Discretisation(VI::Domain(parameters.mesh, parameters.problem.boundary),
                        parameters.discretization.degree,
+                       parameters.estimators.flux_degree_for(
+                         parameters.discretization.degree),
                        comm)
       , parameters(parameters)
       , data(VI::make_membrane_data<dim>(parameters.problem,

@@ -33,7 +33,9 @@ namespace StepMembranes
    *
    * on the mesh and the DoFHandler of the contact problem, solved as a user
    * of deal.II and Trilinos would: constraints (hanging nodes and Dirichlet
-   * data), sparsity pattern, assembly through the constraints, AMG (Trilinos
+   * data), sparsity pattern, assembly through the constraints (with
+   * `quadrature`: the caller passes Gauss with p + 1 points per direction,
+   * the rule such a code takes), AMG (Trilinos
    * ML, the settings of the contact preconditioner) and CG to a residual
    * 1e-8 times that of the zero vector. As in the contact problem, the cell
    * integrals run on all threads (f must be safe to evaluate from several

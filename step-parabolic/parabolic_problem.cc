@@ -140,6 +140,8 @@ namespace StepParabolic
                                           const MPI_Comm    comm)
       : Discretisation(VI::Domain(parameters.mesh, parameters.problem.boundary),
                        parameters.discretization.degree,
+                       parameters.estimators.flux_degree_for(
+                         parameters.discretization.degree),
                        comm)
       , parameters(parameters)
       , prm(prm)

@@ -37,14 +37,19 @@ namespace VI
   FluxReconstruction<dim>::FluxReconstruction(
     const Mapping<dim> &mapping,
     const unsigned int  degree,
-    const unsigned int  potential_degree)
+    const unsigned int  potential_degree,
+    const unsigned int  n_points)
       : mapping(mapping)
       , fe_flux(degree)
       , fe_divergence(degree)
       , fe_hat(1)
-      , quadrature(quadrature_points(
-          potential_degree == numbers::invalid_unsigned_int ? degree :
-                                                              potential_degree))
+      , quadrature(n_points != numbers::invalid_unsigned_int ?
+                     n_points :
+                     quadrature_points(potential_degree ==
+                                           numbers::invalid_unsigned_int ?
+                                         degree :
+                                         potential_degree,
+                                       degree))
   {
     AssertThrow(potential_degree == numbers::invalid_unsigned_int ||
                   potential_degree >= degree,
@@ -106,9 +111,16 @@ namespace VI
 
   template <int dim>
   unsigned int
-  FluxReconstruction<dim>::quadrature_points(const unsigned int degree)
+  FluxReconstruction<dim>::quadrature_points(
+    const unsigned int potential_degree,
+    const unsigned int flux_degree)
   {
-    return degree + 3 + (degree + 3) % 2;
+    const unsigned int p = potential_degree;
+    const unsigned int n =
+      (flux_degree != numbers::invalid_unsigned_int && flux_degree < p) ?
+        p + 1 :
+        p + 3;
+    return n + n % 2;
   }
 
 

@@ -29,9 +29,11 @@ namespace VI
 
 
   template <int dim>
-  MembraneDiscretisation<dim>::MembraneDiscretisation(const Domain      &domain,
-                                                      const unsigned int degree,
-                                                      const MPI_Comm     comm)
+  MembraneDiscretisation<dim>::MembraneDiscretisation(
+    const Domain      &domain,
+    const unsigned int degree,
+    const unsigned int flux_degree,
+    const MPI_Comm     comm)
       : comm(comm)
       , domain(domain)
       , triangulation(comm)
@@ -40,7 +42,8 @@ namespace VI
           dynamic_cast<const MappingQ<dim> &>(*geometry_mapping).get_degree()))
       , fe(degree)
       , dof_handler(triangulation)
-      , quadrature(FluxReconstruction<dim>::quadrature_points(degree))
+      , quadrature(
+          FluxReconstruction<dim>::quadrature_points(degree, flux_degree))
   {
   }
 

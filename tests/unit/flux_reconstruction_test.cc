@@ -223,7 +223,7 @@ namespace
     // (otherwise the patch problems are only compatible up to the
     // difference of the two quadratures on non-affine cells).
     const QGauss<2> quadrature(
-      VI::FluxReconstruction<2>::quadrature_points(degree));
+      VI::FluxReconstruction<2>::quadrature_points(degree, flux_degree));
     FEValues<2>            values(mapping,
                        space.fe,
                        quadrature,
@@ -345,6 +345,21 @@ TEST_P(FluxReconstructionTest, LowerDegreeFluxesAreEquilibratedInTheirMoments)
     equilibration_defect(degree, degree - 1, distorted, hanging);
   EXPECT_TRUE(std::isfinite(defect)) << "a patch problem was not solvable";
   EXPECT_LT(defect, 1e-10) << "p = " << degree << ", RT_" << degree - 1;
+}
+
+
+// The rule's size: p + 3 points per direction with RT_p, p + 1 with
+// RT_(p-1), both rounded up to even (no point on a midline).
+TEST(FluxReconstructionQuadrature, PointsFollowTheDegrees)
+{
+  using FR = VI::FluxReconstruction<2>;
+  EXPECT_EQ(FR::quadrature_points(1), 4u);
+  EXPECT_EQ(FR::quadrature_points(1, 1), 4u);
+  EXPECT_EQ(FR::quadrature_points(2), 6u);
+  EXPECT_EQ(FR::quadrature_points(3, 3), 6u);
+  EXPECT_EQ(FR::quadrature_points(1, 0), 2u);
+  EXPECT_EQ(FR::quadrature_points(2, 1), 4u);
+  EXPECT_EQ(FR::quadrature_points(3, 2), 4u);
 }
 
 

@@ -127,27 +127,41 @@ namespace VI
     /**
      * Fluxes in RT_k x Q_k with k = `degree`, equilibrating the data of a
      * potential of degree `potential_degree` (>= k; by default k), whose
-     * quadrature (quadrature_points(potential_degree)) they share. With k =
-     * p - 1 < p the patch problems are smaller and div sigma = Pi_(p-1) of
-     * the source: still an equilibrated flux, the projection's remainder
-     * going to the residual estimator.
+     * quadrature they share: Gauss with `n_points` per direction, by
+     * default quadrature_points(potential_degree, degree). With k = p - 1 <
+     * p the patch problems are smaller and div sigma = Pi_(p-1) of the
+     * source: still an equilibrated flux, the projection's remainder going
+     * to the residual estimator.
      */
-    FluxReconstruction(const dealii::Mapping<dim> &mapping,
-                       const unsigned int          degree,
-                       const unsigned int          potential_degree =
-                         dealii::numbers::invalid_unsigned_int);
+    FluxReconstruction(
+      const dealii::Mapping<dim> &mapping,
+      const unsigned int          degree,
+      const unsigned int          potential_degree =
+        dealii::numbers::invalid_unsigned_int,
+      const unsigned int n_points = dealii::numbers::invalid_unsigned_int);
 
     /**
-     * Gauss points per direction of the quadrature used for degree p: at
-     * least p + 3 (exact for the patch matrices on affine cells, accurate for
-     * data of degree p times hats), and even. An even rule has no point on
-     * the midlines of the cell, nor on the other lines of Gauss-Lobatto
-     * nodes; there the positive and negative parts of finite element
-     * functions that vanish on a line of nodes would depend on round-off.
-     * The load vector of the problem must be integrated with the same rule.
+     * Gauss points per direction of the quadrature for a potential of
+     * degree p and fluxes in RT_k (by default k = p), rounded up to an even
+     * number. An even rule has no point on the midlines of the cell, nor on
+     * the other lines of Gauss-Lobatto nodes; there the positive and
+     * negative parts of finite element functions that vanish on a line of
+     * nodes would depend on round-off. The load vector of the problem must
+     * be integrated with the same rule.
+     *
+     * k = p: at least p + 3, exact for the patch matrices and right-hand
+     * sides on affine cells and accurate for data of degree p times hats.
+     * k = p - 1: at least p + 1, which on affine cells is exact for every
+     * polynomial integrand of the problem and of the estimate: the
+     * stiffness and |grad u_h + sigma|^2 (degree 2p per direction), the
+     * Raviart-Thomas mass (2k + 2 = 2p), (psi_a grad u_h, tau) (1 + p + k +
+     * 1 = 2p + 1) and data of degree p times hats against Q_k (2p). For Q1
+     * with RT_0 that is 2 x 2 points instead of 4 x 4.
      */
     static unsigned int
-    quadrature_points(const unsigned int degree);
+    quadrature_points(
+      const unsigned int potential_degree,
+      const unsigned int flux_degree = dealii::numbers::invalid_unsigned_int);
     ~FluxReconstruction();
 
     /**

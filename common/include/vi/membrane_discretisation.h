@@ -86,9 +86,11 @@ namespace VI
     using CellIterator = typename dealii::DoFHandler<dim>::active_cell_iterator;
 
     /// Q_degree on `domain` (its mapping of the same degree), clamped where
-    /// the domain says.
+    /// the domain says, its fluxes in RT_flux_degree: the two degrees choose
+    /// the quadrature (FluxReconstruction::quadrature_points).
     MembraneDiscretisation(const Domain      &domain,
                            const unsigned int degree,
+                           const unsigned int flux_degree,
                            const MPI_Comm     comm);
 
     /// The coarse mesh of the domain, refined `refinements` times.
