@@ -115,11 +115,9 @@ namespace VI
     const unsigned int potential_degree,
     const unsigned int flux_degree)
   {
-    const unsigned int p = potential_degree;
+    // (flux_degree = invalid_unsigned_int, the default, is never < p)
     const unsigned int n =
-      (flux_degree != numbers::invalid_unsigned_int && flux_degree < p) ?
-        p + 1 :
-        p + 3;
+      potential_degree + (flux_degree < potential_degree ? 1 : 3);
     return n + n % 2;
   }
 
